@@ -1,0 +1,248 @@
+"""ThermalSystem: the semi-discrete heat equation, affine in named parameters.
+
+    C(p) dT/dt + K(p) T = F(p),        T(0) = T0(p),        T = T_D(p) on Dirichlet nodes,
+
+with every operator an affine sum of fixed sparse matrices (or vectors) times scalar
+coefficients of the parameters (seed 001 eq. 3, DESIGN.md).  Parameters are named
+``"<phase>.<property>"`` (``"fibre.k"``, ``"fibre.c"``, ``"fibre.k_x"``) or
+``"<face>.<property>"`` (``"z1.h"``, ``"z0.flux"``, ``"x1.T"``); the uniform initial
+temperature is ``"initial.T"``.
+
+A coefficient is a product of parameters times a constant (``h * T_ext``), or the
+harmonic mean of two conductivities times a constant (DEM bonds between two phases,
+seed 000 eq. 14).  Reduced models keep the same coefficients with projected matrices.
+
+Units are SI: W/(m K), J/(m^3 K), W/m^2, W/(m^2 K), K (or degC: the equation is linear).
+Only the terms a scene calls for are present: a steady system has ``capacity is None``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+
+from aromm.errors import InputError
+
+FloatArray = npt.NDArray[np.float64]
+ParamValues = Mapping[str, "float | npt.ArrayLike"]
+
+
+@dataclass(frozen=True)
+class Coefficient:
+    """Scalar coefficient ``scale * prod(params)`` or ``scale * 2 a b / (a + b)``.
+
+    Called with parameter values it returns an array, so a whole swarm of parameter
+    sets (arrays of equal length) is evaluated at once.
+    """
+
+    params: tuple[str, ...] = ()
+    kind: Literal["product", "harmonic"] = "product"
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.kind == "harmonic" and len(self.params) != 2:
+            raise ValueError("a harmonic coefficient takes exactly two parameters")
+
+    def __call__(self, values: ParamValues) -> FloatArray:
+        try:
+            args = [np.asarray(values[name], dtype=float) for name in self.params]
+        except KeyError as err:
+            raise InputError(
+                f"parameter {err.args[0]!r} is needed by the system but was not given; "
+                f"given: {sorted(values)}"
+            ) from None
+        if self.kind == "product":
+            out = np.asarray(self.scale, dtype=float)
+            for a in args:
+                out = out * a
+            return out
+        a, b = args
+        return np.asarray(self.scale * 2.0 * a * b / (a + b))
+
+    def describe(self) -> str:
+        """Readable form, e.g. ``2*fibre.k*gas.k/(fibre.k+gas.k)`` or ``z1.h*z1.T_ext``."""
+        if self.kind == "harmonic":
+            a, b = self.params
+            body = f"2*{a}*{b}/({a}+{b})"
+        else:
+            body = "*".join(self.params) or "1"
+        return body if self.scale == 1.0 else f"{self.scale:g}*{body}"
+
+
+@dataclass(frozen=True)
+class Term:
+    """One named affine term: ``coefficient(p) * operator`` (a sparse matrix or a vector)."""
+
+    name: str
+    coefficient: Coefficient
+    operator: sp.csr_array | FloatArray
+
+
+@dataclass(frozen=True)
+class Affine:
+    """An affine sum of terms; evaluates to a sparse matrix or a vector for one parameter set."""
+
+    terms: tuple[Term, ...] = ()
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(t.name for t in self.terms)
+
+    @property
+    def parameters(self) -> frozenset[str]:
+        return frozenset(p for t in self.terms for p in t.coefficient.params)
+
+    def __bool__(self) -> bool:
+        return bool(self.terms)
+
+    def __getitem__(self, name: str) -> Term:
+        for t in self.terms:
+            if t.name == name:
+                return t
+        raise KeyError(f"no term {name!r}; terms are {self.names}")
+
+    def evaluate(self, values: ParamValues) -> sp.csr_array | FloatArray:
+        """Sum of ``coefficient * operator`` for one parameter set (scalar values)."""
+        if not self.terms:
+            raise ValueError("empty affine sum")
+        total: sp.csr_array | FloatArray | None = None
+        for t in self.terms:
+            part = float(t.coefficient(values)) * t.operator
+            total = part if total is None else total + part
+        assert total is not None
+        return sp.csr_array(total) if sp.issparse(total) else np.asarray(total)
+
+
+@dataclass(frozen=True)
+class Dirichlet:
+    """Fixed temperature ``values[param]`` (K) on the nodes ``dofs`` (a face, or a set of particles)."""
+
+    name: str
+    dofs: npt.NDArray[np.int64]
+    param: str
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Where the unknowns sit, for export: points (n, 3) in m and cells of one meshio type."""
+
+    points: FloatArray
+    cells: npt.NDArray[np.int64]
+    cell_type: str
+    cell_data: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class TimeGrid:
+    """Uniform output grid ``dt, 2 dt, ..., end`` (s)."""
+
+    end: float
+    dt: float
+
+    @property
+    def times(self) -> FloatArray:
+        n = int(round(self.end / self.dt))
+        return self.dt * np.arange(1, n + 1, dtype=float)
+
+
+@dataclass(frozen=True)
+class ThermalSystem:
+    """``C(p) dT/dt + K(p) T = F(p)`` with observation rows ``E`` (face means).
+
+    ``capacity`` is empty for a steady system; ``observation`` maps an output name
+    (a face) to a row vector ``e`` with ``e @ T`` the output (e.g. the face-mean
+    temperature, so ``e`` sums to one).  ``parameters`` holds the scene's values,
+    which callers override by name.
+    """
+
+    n: int
+    conductance: Affine
+    capacity: Affine = Affine()
+    load: Affine = Affine()
+    dirichlet: tuple[Dirichlet, ...] = ()
+    observation: Mapping[str, FloatArray] = field(default_factory=dict)
+    parameters: Mapping[str, float] = field(default_factory=dict)
+    time: TimeGrid | None = None
+    geometry: Geometry | None = None
+
+    @property
+    def is_steady(self) -> bool:
+        return not self.capacity
+
+    @property
+    def term_names(self) -> tuple[str, ...]:
+        return self.capacity.names + self.conductance.names + self.load.names
+
+    @property
+    def parameter_names(self) -> frozenset[str]:
+        names = self.capacity.parameters | self.conductance.parameters | self.load.parameters
+        return names | {d.param for d in self.dirichlet} | {"initial.T"}
+
+    def values(self, overrides: ParamValues | None = None) -> dict[str, object]:
+        """The scene's parameter values updated by ``overrides``; unknown names are refused."""
+        out: dict[str, object] = dict(self.parameters)
+        out.setdefault("initial.T", 0.0)
+        for name, value in (overrides or {}).items():
+            if name not in self.parameter_names:
+                raise InputError(
+                    f"unknown parameter {name!r}; this system has {sorted(self.parameter_names)}"
+                )
+            out[name] = value
+        return out
+
+    def observation_matrix(self) -> tuple[tuple[str, ...], FloatArray]:
+        names = tuple(self.observation)
+        if not names:
+            return (), np.zeros((0, self.n))
+        return names, np.vstack([self.observation[k] for k in names])
+
+    def fingerprint(self) -> str:
+        """Content hash of every operator, Dirichlet set and observation row (for caches)."""
+        h = hashlib.sha256()
+        h.update(str(self.n).encode())
+        for group in (self.capacity, self.conductance, self.load):
+            for t in group.terms:
+                h.update(t.name.encode())
+                h.update(t.coefficient.describe().encode())
+                op = t.operator
+                if sp.issparse(op):
+                    csr = sp.csr_array(op)
+                    csr.sort_indices()
+                    for arr in (csr.indptr, csr.indices, csr.data):
+                        h.update(np.ascontiguousarray(arr).tobytes())
+                else:
+                    h.update(np.ascontiguousarray(op, dtype=float).tobytes())
+        for d in self.dirichlet:
+            h.update(d.name.encode() + d.param.encode())
+            h.update(np.ascontiguousarray(d.dofs).tobytes())
+        for name, row in self.observation.items():
+            h.update(name.encode())
+            h.update(np.ascontiguousarray(row, dtype=float).tobytes())
+        return h.hexdigest()[:20]
+
+
+@dataclass(frozen=True)
+class Observables:
+    """Outputs of a simulation: times ``t`` (s) and face-mean temperatures (degC) per face.
+
+    A steady simulation has ``t == [0.]`` and ``steady`` set.  ``fields`` holds full
+    temperature fields (rows at ``t``) only when asked for.
+    """
+
+    t: FloatArray
+    mean_T: Mapping[str, FloatArray]
+    steady: bool = False
+    fields: FloatArray | None = None
+
+    def to_json(self) -> dict[str, object]:
+        return {"t": self.t.tolist(), "mean_T": {k: np.asarray(v).tolist() for k, v in self.mean_T.items()}}
+
+    def as_array(self) -> FloatArray:
+        """Outputs stacked as (len(t), n_faces) in the order of ``mean_T``."""
+        return np.column_stack([np.asarray(v) for v in self.mean_T.values()])

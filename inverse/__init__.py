@@ -1,0 +1,1 @@
+"""inverse: identification of phase properties from measurements (seed 001 section 4)."""
