@@ -1,0 +1,32 @@
+"""The ``aromm`` command line: JSON on stdout with ``--json``, tables otherwise, progress on stderr.
+
+Exit codes (DESIGN.md): 0 success, 2 bad input (message on stderr), 1 numerical failure.
+Each group of subcommands lives in its own module and is registered below.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from aromm.cli.common import run_guarded
+
+from aromm.cli import forward
+
+COMMANDS: list[click.Command] = [*forward.COMMANDS]
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="aromm")
+def cli() -> None:
+    """Thermal properties of the phases of heterogeneous materials (AROMM)."""
+
+
+for _command in COMMANDS:
+    cli.add_command(_command)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the console script; returns the exit code."""
+    return run_guarded(cli, argv if argv is not None else sys.argv[1:])

@@ -1,0 +1,59 @@
+"""Helpers shared by the subcommands: error mapping, JSON output, progress bars."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Iterable, Iterator
+from typing import Any, TypeVar
+
+import click
+import numpy as np
+from tqdm import tqdm
+
+from aromm.errors import InputError, NumericalError
+
+T = TypeVar("T")
+
+
+def run_guarded(cli: click.Group, argv: list[str]) -> int:
+    """Run the click group; bad input -> exit 2, numerical failure -> exit 1, both with a message."""
+    try:
+        cli.main(args=argv, prog_name="aromm", standalone_mode=False)
+    except click.exceptions.Exit as done:
+        return int(done.exit_code)
+    except click.ClickException as err:
+        err.show()
+        return 2
+    except click.exceptions.Abort:
+        click.echo("aborted", err=True)
+        return 1
+    except InputError as err:
+        click.echo(f"aromm: error: {err}", err=True)
+        return 2
+    except NumericalError as err:
+        click.echo(f"aromm: numerical failure: {err}", err=True)
+        return 1
+    except OSError as err:
+        click.echo(f"aromm: error: {err}", err=True)
+        return 2
+    return 0
+
+
+def _default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def echo_json(payload: Any) -> None:
+    """Write one JSON document on stdout (numpy arrays and scalars converted)."""
+    click.echo(json.dumps(payload, default=_default, indent=None))
+
+
+def progress(items: Iterable[T], total: int | None = None, desc: str = "", quiet: bool = False) -> Iterator[T]:
+    """A tqdm progress bar on stderr, off when ``quiet`` or when stderr is not a terminal."""
+    yield from tqdm(items, total=total, desc=desc, file=sys.stderr, disable=quiet or not sys.stderr.isatty(),
+                    leave=False)
