@@ -67,11 +67,11 @@ def check_residual(a: sp.csr_array, x: FloatArray, b: FloatArray, rtol: float, m
     """Raise NumericalError when ``||A x - b|| > rtol ||b||`` or x is not finite."""
     if not np.all(np.isfinite(x)):
         raise NumericalError(f"linear solver {method!r} returned non-finite values (singular matrix?)")
-    r = np.linalg.norm(a @ x - b)
-    nb = np.linalg.norm(b)
-    if r > rtol * max(nb, np.finfo(float).tiny):
+    r = float(np.linalg.norm(a @ x - b))
+    nb = max(float(np.linalg.norm(b)), 1e-300)
+    if r > rtol * nb:
         raise NumericalError(
-            f"linear solver {method!r}: relative residual {r / max(nb, 1e-300):.2e} exceeds {rtol:.0e}"
+            f"linear solver {method!r}: relative residual {r / nb:.2e} exceeds {rtol:.0e}"
             " (matrix singular or badly conditioned: is some part of the body insulated from every"
             " fixed temperature or exchange?)"
         )
@@ -82,7 +82,7 @@ def factorize(a: sp.spmatrix | sp.sparray, method: str = "auto", rtol: float = D
     a = sp.csr_array(a)
     name = resolve_method(method)
     if a.shape[0] == 0:
-        return Factorization(a, name, lambda b: np.zeros_like(b), rtol)
+        return Factorization(a, name, np.zeros_like, rtol)
     if name == "cholmod":
         return Factorization(a, name, _cholmod(a), rtol)
     if name == "splu":

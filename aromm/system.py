@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from aromm.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
-ParamValues = Mapping[str, "float | npt.ArrayLike"]
+ParamValues = Mapping[str, npt.ArrayLike]
 
 
 @dataclass(frozen=True)
@@ -147,7 +147,7 @@ class TimeGrid:
 
     @property
     def times(self) -> FloatArray:
-        n = int(round(self.end / self.dt))
+        n = round(self.end / self.dt)
         return self.dt * np.arange(1, n + 1, dtype=float)
 
 
@@ -184,9 +184,9 @@ class ThermalSystem:
         names = self.capacity.parameters | self.conductance.parameters | self.load.parameters
         return names | {d.param for d in self.dirichlet} | {"initial.T"}
 
-    def values(self, overrides: ParamValues | None = None) -> dict[str, object]:
+    def values(self, overrides: ParamValues | None = None) -> dict[str, npt.ArrayLike]:
         """The scene's parameter values updated by ``overrides``; unknown names are refused."""
-        out: dict[str, object] = dict(self.parameters)
+        out: dict[str, npt.ArrayLike] = dict(self.parameters)
         out.setdefault("initial.T", 0.0)
         for name, value in (overrides or {}).items():
             if name not in self.parameter_names:
