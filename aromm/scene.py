@@ -1,0 +1,294 @@
+"""Scene files (TOML, DESIGN.md "Scene file"): load and validate into frozen objects.
+
+Every refusal raises :class:`~aromm.errors.InputError` whose message names the file,
+the key and what is allowed; the command line turns it into exit code 2.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aromm import microstructure
+from aromm.errors import InputError
+from aromm.fem import FACES, FaceSpec, PhaseSpec, assemble_voxels, parameter_values
+from aromm.system import ThermalSystem, TimeGrid
+
+SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source")
+GENERATORS = ("wood", "sphere_in_cube", "simple_cubic", "laminate")
+PHASE_KEYS = ("label", "k", "c")
+FACE_KEYS = ("flux", "h", "T_ext", "T")
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A validated scene: voxel labels (indexed [x, y, z]), phases, face conditions, time grid, outputs."""
+
+    labels: np.ndarray
+    voxel_size: tuple[float, float, float]
+    phases: tuple[PhaseSpec, ...]
+    boundary: tuple[FaceSpec, ...] = ()
+    initial_T: float = 0.0
+    time: TimeGrid | None = None
+    outputs: tuple[str, ...] = ()
+    interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    path: Path | None = None
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Named parameter values of this scene (``"fibre.k"``, ``"z1.h"``, ``"initial.T"``...)."""
+        return parameter_values(self.phases, self.boundary, self.initial_T, self.time is not None)
+
+    @property
+    def size(self) -> tuple[float, float, float]:
+        """Edge lengths of the box (m)."""
+        nx, ny, nz = self.labels.shape
+        return (nx * self.voxel_size[0], ny * self.voxel_size[1], nz * self.voxel_size[2])
+
+    def volume_fractions(self) -> dict[str, float]:
+        return {ph.name: float(np.mean(self.labels == ph.label)) for ph in self.phases}
+
+    def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
+                      time: TimeGrid | None = None) -> Scene:
+        """The same material under other face conditions (used by homogenisation and measurements)."""
+        return replace(self, boundary=boundary, outputs=outputs, time=time)
+
+
+def assemble(scene: Scene) -> ThermalSystem:
+    """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for."""
+    if scene.interfaces:
+        raise InputError(
+            f"{_where(scene.path)}[interfaces]: contact resistance needs a conforming mesh; voxel images have"
+            " no interface surface to put it on"
+        )
+    return assemble_voxels(scene.labels, scene.voxel_size, scene.phases, scene.boundary,
+                           time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs)
+
+
+def _where(path: Path | None) -> str:
+    return f"{path}: " if path is not None else "scene: "
+
+
+class _Reader:
+    """Typed access to a TOML table with messages naming the file and the dotted key."""
+
+    def __init__(self, path: Path | None) -> None:
+        self.path = path
+
+    def fail(self, key: str, message: str) -> InputError:
+        return InputError(f"{_where(self.path)}{key}: {message}")
+
+    def table(self, data: Mapping[str, Any], key: str, allowed: tuple[str, ...] | None,
+              name: str | None = None) -> dict[str, Any]:
+        """The sub-table ``data[name]`` (default: last part of the dotted ``key``), keys checked."""
+        value = data.get(name if name is not None else key.rsplit(".", 1)[-1], {})
+        if not isinstance(value, dict):
+            raise self.fail(key, f"must be a table, got {type(value).__name__}")
+        if allowed is not None:
+            unknown = sorted(set(value) - set(allowed))
+            if unknown:
+                raise self.fail(key, f"unknown key(s) {unknown}; allowed: {', '.join(allowed)}")
+        return value
+
+    def number(self, value: Any, key: str, positive: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise self.fail(key, f"must be a finite number, got {value!r}")
+        if positive and value <= 0:
+            raise self.fail(key, f"must be > 0, got {value!r}")
+        return float(value)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a TOML scene file (DESIGN.md).
+
+    Paths inside the file are relative to the file.  Refused with :class:`InputError`:
+    unknown sections, keys or faces; missing or unreadable images; phase labels absent
+    from the image or image labels with no phase; non-positive or non-finite k or c;
+    a face given two conditions; ``dt <= 0`` or ``end < dt``; non-3-D images; bad voxel_size.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: scene file not found")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise InputError(f"{path}: not a valid TOML file ({err})") from None
+    return scene_from_dict(data, path)
+
+
+def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
+    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths."""
+    r = _Reader(path)
+    unknown = sorted(set(data) - set(SECTIONS))
+    if unknown:
+        raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
+    labels, voxel_size = _geometry(r, r.table(data, "geometry", None), path)
+    phases = _phases(r, data, labels)
+    boundary = _boundary(r, data)
+    initial = r.table(data, "initial", ("T",))
+    initial_T = r.number(initial.get("T", 0.0), "initial.T")
+    time = _time(r, data)
+    if time is not None:
+        for ph in phases:
+            if ph.c is None:
+                raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
+    outputs = _outputs(r, data)
+    interfaces = _interfaces(r, data, {ph.name for ph in phases})
+    return Scene(labels, voxel_size, phases, boundary, initial_T, time, outputs, interfaces, path)
+
+
+def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.ndarray, tuple[float, float, float]]:
+    if not geo:
+        raise r.fail("geometry", "missing: give image = \"file\" or generator = \"name\" with voxel_size")
+    if ("image" in geo) == ("generator" in geo):
+        raise r.fail("geometry", "give exactly one of image or generator")
+    file_voxel: tuple[float, float, float] | None = None
+    if "image" in geo:
+        unknown = sorted(set(geo) - {"image", "voxel_size", "shape", "dtype"})
+        if unknown:
+            raise r.fail(f"geometry.{unknown[0]}", "unknown key; allowed: image, voxel_size, shape, dtype")
+        image = Path(str(geo["image"]))
+        if not image.is_absolute() and path is not None:
+            image = path.parent / image
+        if not image.exists():
+            raise r.fail("geometry.image", f"file not found: {image}")
+        shape = geo.get("shape")
+        labels, vs = microstructure.load_image(image, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
+        file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
+    else:
+        name = geo["generator"]
+        if name not in GENERATORS:
+            raise r.fail("geometry.generator", f"unknown generator {name!r}; allowed: {', '.join(GENERATORS)}")
+        options = {k: v for k, v in geo.items() if k not in ("generator", "voxel_size", "seed")}
+        accepted = inspect.signature(getattr(microstructure, name)).parameters
+        if "voxel_size" in accepted and "voxel_size" in geo:
+            options["voxel_size"] = geo["voxel_size"]
+        if "rng" in accepted:
+            options["rng"] = np.random.default_rng(int(geo.get("seed", 0)))
+        try:
+            labels = getattr(microstructure, name)(**options)
+        except TypeError as err:
+            raise r.fail("geometry", f"bad options for generator {name!r}: {err}") from None
+    labels = np.asarray(labels)
+    if labels.ndim != 3:
+        raise r.fail("geometry.image", f"the image must be 3-D, got shape {labels.shape}")
+    if "voxel_size" in geo:
+        voxel = _voxel_triple(r, geo["voxel_size"], "geometry.voxel_size")
+    elif file_voxel is not None:
+        voxel = file_voxel
+    else:
+        raise r.fail("geometry.voxel_size", "missing: give the voxel edge in m, a number or [dx, dy, dz]")
+    return labels, voxel
+
+
+def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float]:
+    values = [value] * 3 if not isinstance(value, list | tuple | np.ndarray) else list(np.ravel(value))
+    if len(values) != 3:
+        raise r.fail(key, f"must be a number or three numbers [dx, dy, dz] in m, got {value!r}")
+    dx, dy, dz = (r.number(v, key, positive=True) for v in values)
+    return (dx, dy, dz)
+
+
+def _phases(r: _Reader, data: Mapping[str, Any], labels: np.ndarray) -> tuple[PhaseSpec, ...]:
+    table = r.table(data, "phases", None)
+    if not table:
+        raise r.fail("phases", "missing: give at least one [phases.<name>] with label, k (and c)")
+    sources = r.table(data, "source", None)
+    phases = []
+    present = set(np.unique(labels).tolist())
+    for name in table:
+        key = f"phases.{name}"
+        spec = r.table(table, key, PHASE_KEYS, name)
+        if "label" not in spec or isinstance(spec["label"], bool) or not isinstance(spec["label"], int):
+            raise r.fail(f"{key}.label", "missing or not an integer image label")
+        if spec["label"] not in present:
+            raise r.fail(f"{key}.label", f"label {spec['label']} is absent from the image (labels: {sorted(present)})")
+        if "k" not in spec:
+            raise r.fail(f"{key}.k", "missing conductivity in W/(m K)")
+        k_raw = spec["k"]
+        if isinstance(k_raw, list):
+            if len(k_raw) != 3:
+                raise r.fail(f"{key}.k", "orthotropic k must be [kx, ky, kz]")
+            kx, ky, kz = (r.number(v, f"{key}.k", positive=True) for v in k_raw)
+            k: float | tuple[float, float, float] = (kx, ky, kz)
+        else:
+            k = r.number(k_raw, f"{key}.k", positive=True)
+        c = r.number(spec["c"], f"{key}.c", positive=True) if "c" in spec else None
+        q = None
+        if name in sources:
+            src = r.table(sources, f"source.{name}", ("q",), name)
+            q = r.number(src.get("q"), f"source.{name}.q")
+        phases.append(PhaseSpec(name, int(spec["label"]), k, c, q))
+    unknown_sources = sorted(set(sources) - set(table))
+    if unknown_sources:
+        raise r.fail(f"source.{unknown_sources[0]}", f"no such phase; phases: {', '.join(table)}")
+    missing = present - {p.label for p in phases}
+    if missing:
+        raise r.fail("phases", f"image labels {sorted(missing)} belong to no phase")
+    if len({p.label for p in phases}) != len(phases):
+        raise r.fail("phases", "two phases share one label")
+    return tuple(phases)
+
+
+def _boundary(r: _Reader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
+    table = r.table(data, "boundary", None)
+    faces = []
+    for face in table:
+        key = f"boundary.{face}"
+        if face not in FACES:
+            raise r.fail(key, f"unknown face; allowed: {', '.join(FACES)}")
+        spec = r.table(table, key, FACE_KEYS, face)
+        given = [k for k in ("flux", "h", "T") if k in spec]
+        if "T" in spec and len(given) > 1:
+            raise r.fail(key, f"a face takes one condition: a fixed T, or flux and/or h; got {given}")
+        if "T_ext" in spec and "h" not in spec:
+            raise r.fail(f"{key}.T_ext", "T_ext goes with h")
+        faces.append(FaceSpec(
+            face,
+            flux=r.number(spec["flux"], f"{key}.flux") if "flux" in spec else None,
+            h=r.number(spec["h"], f"{key}.h", positive=True) if "h" in spec else None,
+            T_ext=r.number(spec.get("T_ext", 0.0), f"{key}.T_ext"),
+            T=r.number(spec["T"], f"{key}.T") if "T" in spec else None,
+        ))
+    return tuple(faces)
+
+
+def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:
+    if "time" not in data:
+        return None
+    t = r.table(data, "time", ("end", "dt"))
+    if "end" not in t or "dt" not in t:
+        raise r.fail("time", "needs end and dt (s)")
+    dt = r.number(t["dt"], "time.dt", positive=True)
+    end = r.number(t["end"], "time.end", positive=True)
+    if end < dt:
+        raise r.fail("time.end", f"end ({end:g} s) must be at least dt ({dt:g} s)")
+    return TimeGrid(end, dt)
+
+
+def _outputs(r: _Reader, data: Mapping[str, Any]) -> tuple[str, ...]:
+    out = r.table(data, "outputs", ("mean_T",))
+    faces = out.get("mean_T", [])
+    if not isinstance(faces, list) or any(f not in FACES for f in faces):
+        raise r.fail("outputs.mean_T", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
+    return tuple(faces)
+
+
+def _interfaces(r: _Reader, data: Mapping[str, Any], names: set[str]) -> dict[tuple[str, str], float]:
+    table = r.table(data, "interfaces", None)
+    out = {}
+    for pair in table:
+        key = f'interfaces."{pair}"'
+        parts = pair.split("|")
+        if len(parts) != 2 or not set(parts) <= names:
+            raise r.fail(key, f'must name two phases as "a|b", phases: {", ".join(sorted(names))}')
+        spec = r.table(table, key, ("R",), pair)
+        out[(parts[0], parts[1])] = r.number(spec.get("R"), f"{key}.R", positive=True)
+    return out
