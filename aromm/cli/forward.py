@@ -1,0 +1,143 @@
+"""Forward commands: ``aromm simulate``, ``aromm homogenize``, ``aromm measure``."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+import meshio
+import numpy as np
+
+from aromm.cli.common import echo_json
+from aromm.errors import InputError
+from aromm.homogenize import BOUNDARIES, homogeneous_twin, homogenize, mean_capacity
+from aromm.linalg import METHODS
+from aromm.scene import Scene, assemble, load_scene
+from aromm.solve import simulate as simulate_full
+from aromm.system import Observables, ThermalSystem
+from inverse.measurements import Measurements, save_measurements
+
+SCENE = click.argument("scene", type=click.Path(path_type=Path))
+JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
+SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
+                      help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG).")
+
+
+def _table(obs: Observables, rows: int = 10) -> str:
+    faces = list(obs.mean_T)
+    lines = ["t (s)".rjust(10) + "".join(f"T̄_{f} (°C)".rjust(14) for f in faces)]
+    index = np.unique(np.linspace(0, len(obs.t) - 1, min(rows, len(obs.t))).round().astype(int))
+    for i in index:
+        lines.append(f"{obs.t[i]:10.4g}" + "".join(f"{obs.mean_T[f][i]:14.6g}" for f in faces))
+    return "\n".join(lines)
+
+
+def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
+    """observables.csv always; field.vtu (last time, or steady) when fields were kept."""
+    out.mkdir(parents=True, exist_ok=True)
+    written = [out / "observables.csv"]
+    if not obs.mean_T:
+        raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
+    save_measurements(Measurements(obs.t, obs.mean_T, "simulate"), written[0])
+    if obs.fields is not None and system.geometry is not None:
+        geo = system.geometry
+        mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
+                           point_data={"T": obs.fields[-1]},
+                           cell_data={k: [np.asarray(v)] for k, v in geo.cell_data.items()})
+        written.append(out / "field.vtu")
+        mesh.write(written[-1])
+    return written
+
+
+@click.command("simulate")
+@SCENE
+@click.option("--model", type=click.Choice(["full", "reduced"]), default="full", show_default=True)
+@click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
+              help="Reduced-model order ñ (with --model reduced).")
+@click.option("--out", type=click.Path(path_type=Path), default=None,
+              help="Folder for observables.csv and field.vtu (final field, full model).")
+@click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
+@SOLVER
+@JSON
+def simulate_cmd(scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str,
+                 as_json: bool) -> None:
+    """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
+    sc = load_scene(scene)
+    system = assemble(sc)
+    if model == "reduced":
+        from aromm.reduced import reduce
+
+        obs = reduce(system, order=order, progress=sys.stderr.isatty()).simulate()
+    else:
+        obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
+                            progress=sys.stderr.isatty())
+    written = _save(obs, system, out) if out is not None else []
+    if as_json:
+        echo_json(obs.to_json())
+    else:
+        click.echo(_table(obs))
+        for path in written:
+            click.echo(f"wrote {path}")
+
+
+@click.command("homogenize")
+@SCENE
+@click.option("--boundary", type=click.Choice(BOUNDARIES), default="flux", show_default=True,
+              help="flux: seed 001 eq. 13 (flux in, fixed T out); temperature: fixed T on both faces.")
+@SOLVER
+@JSON
+def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> None:
+    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
+    sc = load_scene(scene)
+    k = homogenize(sc, boundary=boundary, method=solver)
+    c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
+    if as_json:
+        echo_json({"k": k, "c": c})
+        return
+    click.echo("k̄ (W/(m K)):")
+    for row in k:
+        click.echo("  " + "  ".join(f"{v:12.6g}" for v in row))
+    click.echo(f"c̄ (J/(m³ K)): {c:.6g}" if c is not None else "c̄: (a phase has no c)")
+
+
+def measure_homogeneous(sc: Scene, perturb: float, solver: str) -> tuple[Observables, np.ndarray, float]:
+    """Face means of the homogeneous orthotropic twin (seed 001 eq. 1, 13, 14), properties × (1 + perturb)."""
+    if sc.time is None:
+        raise InputError(f"{sc.path}: measurements need a transient scene ([time] with end and dt)")
+    k = homogenize(sc, method=solver) * (1.0 + perturb)
+    c = mean_capacity(sc) * (1.0 + perturb)
+    twin = homogeneous_twin(sc, k, c)
+    return simulate_full(assemble(twin), method=solver), k, c
+
+
+@click.command("measure")
+@SCENE
+@click.option("--homogeneous", is_flag=True, required=True,
+              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as seed 001 does.")
+@click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+              help="Standard deviation of Gaussian noise added to every value (°C).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--perturb", type=float, default=0.0, show_default=True,
+              help="Relative change of every homogeneous property (seed 001's +2 % study: 0.02).")
+@click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
+@SOLVER
+@JSON
+def measure_cmd(scene: Path, homogeneous: bool, noise: float, seed: int, perturb: float, out: Path,
+                solver: str, as_json: bool) -> None:
+    """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model."""
+    sc = load_scene(scene)
+    obs, k, c = measure_homogeneous(sc, perturb, solver)
+    data = Measurements(obs.t, obs.mean_T, str(out))
+    if noise > 0:
+        data = data.with_noise(noise, np.random.default_rng(seed))
+    save_measurements(data, out)
+    summary = {"out": str(out), "k": k, "c": c, "noise": noise, "seed": seed, "times": len(obs.t)}
+    if as_json:
+        echo_json(summary)
+    else:
+        click.echo(f"k̄ = diag({k[0, 0]:.5g}, {k[1, 1]:.5g}, {k[2, 2]:.5g}) W/(m K), c̄ = {c:.5g} J/(m³ K)")
+        click.echo(f"wrote {len(obs.t)} times × {len(obs.mean_T)} faces to {out}")
+
+
+COMMANDS: list[click.Command] = [simulate_cmd, homogenize_cmd, measure_cmd]

@@ -1,0 +1,123 @@
+"""Scene files: every refusal names the file and the key; the CLI turns it into exit code 2."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aromm.cli import main
+from aromm.errors import InputError
+from aromm.scene import load_scene
+
+GOOD = """
+[geometry]
+image = "img.npy"
+voxel_size = 1.0e-4
+
+[phases.fibre]
+label = 1
+k = 0.3
+c = 4.0e6
+
+[phases.gas]
+label = 0
+k = 0.025
+c = 1.2e3
+
+[boundary.z0]
+flux = 500.0
+[boundary.z1]
+h = 20.0
+T_ext = 0.0
+
+[initial]
+T = 0.0
+
+[time]
+end = 1.0
+dt = 0.1
+
+[outputs]
+mean_T = ["z0", "z1"]
+"""
+
+
+@pytest.fixture
+def scene_dir(tmp_path: Path) -> Path:
+    labels = np.zeros((4, 4, 4), dtype=np.uint8)
+    labels[1:3, 1:3, :] = 1
+    np.save(tmp_path / "img.npy", labels)
+    return tmp_path
+
+
+def _write(folder: Path, text: str) -> Path:
+    path = folder / "scene.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_good_scene_loads_with_named_parameters(scene_dir: Path) -> None:
+    scene = load_scene(_write(scene_dir, GOOD))
+    assert scene.labels.shape == (4, 4, 4)
+    assert scene.voxel_size == (1e-4, 1e-4, 1e-4)
+    assert scene.parameters["fibre.k"] == 0.3 and scene.parameters["z1.h"] == 20.0
+    assert scene.time is not None and len(scene.time.times) == 10
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "key"),
+    [
+        ("[outputs]", "[output]", "output"),
+        ("k = 0.3\n", "k = 0.3\nrho = 1.0\n", "phases.fibre"),
+        ("[boundary.z1]", "[boundary.z2]", "boundary.z2"),
+        ('image = "img.npy"', 'image = "missing.npy"', "geometry.image"),
+        ("label = 1\n", "label = 7\n", "phases.fibre.label"),
+        ("[phases.gas]\nlabel = 0", "[phases.gas]\nlabel = 5", "phases.gas.label"),
+        ("k = 0.3\n", "k = -0.3\n", "phases.fibre.k"),
+        ("c = 4.0e6\n", "c = nan\n", "phases.fibre.c"),
+        ("c = 4.0e6\n", "c = 0.0\n", "phases.fibre.c"),
+        ("flux = 500.0\n", "flux = 500.0\nT = 3.0\n", "boundary.z0"),
+        ("dt = 0.1", "dt = 0.0", "time.dt"),
+        ("end = 1.0", "end = 0.05", "time.end"),
+        ("voxel_size = 1.0e-4", "voxel_size = [1.0e-4, 2.0e-4]", "geometry.voxel_size"),
+        ("voxel_size = 1.0e-4", "voxel_size = -1.0e-4", "geometry.voxel_size"),
+        ('mean_T = ["z0", "z1"]', 'mean_T = ["z0", "top"]', "outputs.mean_T"),
+        ("k = 0.3\n", "k = [0.3, 0.2]\n", "phases.fibre.k"),
+    ],
+)
+def test_bad_scenes_are_refused_naming_file_and_key(scene_dir: Path, old: str, new: str, key: str) -> None:
+    assert old in GOOD
+    path = _write(scene_dir, GOOD.replace(old, new, 1))
+    with pytest.raises(InputError) as info:
+        load_scene(path)
+    message = str(info.value)
+    assert str(path) in message and key in message, message
+
+
+def test_non_3d_image_is_refused(scene_dir: Path) -> None:
+    np.save(scene_dir / "img.npy", np.zeros((4, 4), dtype=np.uint8))
+    with pytest.raises(InputError, match="3-D"):
+        load_scene(_write(scene_dir, GOOD))
+
+
+def test_cli_exit_codes_and_json(scene_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    good = _write(scene_dir, GOOD)
+    assert main(["simulate", str(good), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert set(payload) == {"t", "mean_T"} and set(payload["mean_T"]) == {"z0", "z1"}
+    assert len(payload["t"]) == 10 and payload["mean_T"]["z0"][-1] > payload["mean_T"]["z1"][-1] > 0
+    bad = _write(scene_dir, GOOD.replace("k = 0.3", "k = -1"))
+    assert main(["simulate", str(bad)]) == 2
+    assert "phases.fibre.k" in capsys.readouterr().err
+    assert main(["simulate", str(scene_dir / "nope.toml")]) == 2
+    assert main(["simulate", str(good), "--model", "bogus"]) == 2
+
+
+def test_cli_singular_problem_exits_1(scene_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A steady body heated by a flux with no exchange anywhere has no solution: numerical failure."""
+    text = GOOD.replace("[boundary.z1]\nh = 20.0\nT_ext = 0.0\n", "").replace("[time]\nend = 1.0\ndt = 0.1\n", "")
+    assert main(["simulate", str(_write(scene_dir, text))]) == 1
+    assert "numerical failure" in capsys.readouterr().err
