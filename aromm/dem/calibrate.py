@@ -1,0 +1,167 @@
+"""Calibration of C_t (seed 000 eq. 6-8) and effective conductivities of bond networks.
+
+The conductivity of the equivalent continuum is proportional to C_t, so (eq. 8)
+
+    C_t = C_t^arb * lambda / lambda_e(C_t^arb),
+
+where ``lambda_e`` is the network's effective conductivity computed with an arbitrary
+``C_t^arb = 1``.  Two ways to measure ``lambda_e``:
+
+* ``"periodic"`` (default): the periodic network under a macroscopic gradient G.  With
+  ``T_p = G . x_p + t_p`` (t periodic) the balance of every particle is the Laplacian
+  system ``L t = b``, ``b_p = sum_q H_pq G . (x_q - x_p)`` (nearest image), solved with one
+  particle pinned.  The mean heat-flux density is exactly (Love-Weber average)
+  ``q = -(1/V) sum_bonds H_pq (T_q - T_p) (x_q - x_p)``, and ``k_e = -q / G`` for
+  G = e_x, e_y, e_z gives the full tensor.  No boundary layer: this is the bulk value.
+* ``"slab"``: the seed's test (Figure 3, eq. 7): the periodic packing is cut along its box,
+  T = T_0 on the particles of face z0, an entering flux density ``varphi`` on face z1,
+  other faces adiabatic; at steady state ``lambda_e = varphi L / (T_z1 - T_0)`` with T_z1
+  the cross-section-weighted mean temperature of the z1 particles (those receiving the flux).
+  The cut faces' looser layer lowers ``lambda_e``, so C_t comes out larger than the bulk one.
+
+``C_t`` returned uses ``lambda_e`` = the mean of the diagonal of the tensor (periodic), or
+the z value (slab).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from aromm.dem.bonds import Bonds, build_bonds
+from aromm.dem.network import (
+    Network,
+    Radius,
+    face_heat_flow,
+    face_particles,
+    laplacian,
+    sphere_inclusion,
+    transmission_factor,
+)
+from aromm.dem.packing import Packing
+from aromm.errors import InputError
+from aromm.linalg import factorize
+from aromm.solve import steady_field
+from aromm.system import FloatArray
+
+Boundary = Literal["periodic", "slab"]
+
+
+def periodic_conductivity(packing: Packing, bonds: Bonds, conductances: FloatArray) -> FloatArray:
+    """Effective conductivity tensor (W/(m K)) of a periodic network with bond conductances H (W/K)."""
+    if not packing.periodic:
+        raise InputError("periodic_conductivity needs a periodic packing")
+    n = packing.n
+    p, q = bonds.pairs[:, 0], bonds.pairs[:, 1]
+    lap = laplacian(n, bonds.pairs, conductances)
+    keep = np.arange(1, n)  # particle 0 pinned: the periodic Laplacian has the constants as kernel
+    solver = factorize(lap[keep][:, keep])
+    rhs = np.zeros((n, 3))
+    hv = conductances[:, None] * bonds.vectors
+    for k in range(3):
+        rhs[:, k] = np.bincount(p, hv[:, k], minlength=n) - np.bincount(q, hv[:, k], minlength=n)
+    t = np.zeros((n, 3))
+    t[keep] = solver.solve(rhs[keep])
+    dtemp = t[q] - t[p] + bonds.vectors  # (m, 3): T_q - T_p for G = e_x, e_y, e_z
+    flux_sum = np.einsum("b,bi,bj->ij", conductances, bonds.vectors, dtemp)  # sum H dx_i dT_j
+    return flux_sum / packing.domain_volume  # k_ij = -q_i / G_j
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Result of :func:`calibrate`: C_t, the coordination Z, lambda_e at C_t = 1 (tensor or scalar)."""
+
+    c_t: float
+    z: float
+    k_arbitrary: FloatArray
+    boundary: str
+    radius: str
+    gap_threshold: float
+    n: int
+
+    def to_json(self) -> dict[str, object]:
+        return {"C_t": self.c_t, "Z": self.z, "boundary": self.boundary, "radius": self.radius,
+                "gap_threshold": self.gap_threshold, "particles": self.n,
+                "k_at_C_t_1": np.asarray(self.k_arbitrary).tolist()}
+
+
+def slab_conductivity(packing: Packing, bonds: Bonds, c_t: float = 1.0, radius: Radius = "pair",
+                      varphi: float = 1.0) -> float:
+    """``lambda_e = varphi L / (T_z1 - T_0)`` of a cut packing with lambda = 1 (seed 000 eq. 7, Figure 3)."""
+    net = Network(packing, bonds, c_t, np.zeros(packing.n, dtype=np.int64), ("matrix",), radius)
+    system = net.system({"matrix.k": 1.0, "z0.T": 0.0, "z1.flux": varphi}, fixed=("z0",), flux=("z1",))
+    field = steady_field(system)
+    top = face_particles(packing, "z1")
+    w = packing.radii[top] ** 2
+    t_top = float(np.sum(w * field[top]) / w.sum())
+    return varphi * float(packing.box[2]) / t_top
+
+
+def calibrate(packing: Packing, z: float = 7.5, *, radius: Radius = "pair", boundary: Boundary = "periodic",
+              min_degree: int = 3, bonds: Bonds | None = None) -> Calibration:
+    """C_t such that the network's effective conductivity equals lambda (seed 000 eq. 7-8)."""
+    if not packing.periodic:
+        raise InputError("calibrate needs the periodic packing (the slab test cuts it itself)")
+    if bonds is None:
+        bonds = build_bonds(packing, z, min_degree=min_degree)
+    z_real = bonds.coordination(packing.n)
+    if boundary == "periodic":
+        k = periodic_conductivity(packing, bonds, transmission_factor(packing, bonds, 1.0, radius))
+        k_e = float(np.trace(k) / 3.0)
+        return Calibration(1.0 / k_e, z_real, k, boundary, radius, bonds.gap_threshold, packing.n)
+    if boundary == "slab":
+        cut = packing.cut(packing.lower, packing.lower + packing.box)
+        cut_bonds = build_bonds(cut, gap=bonds.gap_threshold, min_degree=min_degree)
+        k_e = slab_conductivity(cut, cut_bonds, 1.0, radius)
+        return Calibration(1.0 / k_e, cut_bonds.coordination(cut.n), np.asarray(k_e), boundary, radius,
+                           bonds.gap_threshold, packing.n)
+    raise InputError(f"unknown calibration boundary {boundary!r}; allowed: periodic, slab")
+
+
+@dataclass(frozen=True)
+class InclusionResult:
+    """Sphere-inclusion test (seed 000 §3.2): E = k_eff / k_matrix and what it was computed on."""
+
+    E: float
+    ratio: float
+    inclusion_fraction: float
+    heat_flow: float
+    heat_flow_homogeneous: float
+
+
+def inclusion_network(packing: Packing, z: float = 7.5, *, radius: Radius = "pair", min_degree: int = 3,
+                      radius_fraction: float = 1.0 / 3.0) -> Network:
+    """Cut the periodic packing along its box and tag the central sphere inclusion (radius L/3).
+
+    Bonds use the periodic packing's gap threshold for coordination ``z``; C_t is left at 1:
+    E below is a ratio of two solves on the same network, so C_t cancels (it is the
+    calibration with the same boundary conditions as the measurement, seed 000 §2.3).
+    """
+    bonds = build_bonds(packing, z, min_degree=min_degree)
+    cut = packing.cut(packing.lower, packing.lower + packing.box)
+    cut_bonds = build_bonds(cut, gap=bonds.gap_threshold, min_degree=min_degree)
+    phases = sphere_inclusion(cut, radius_fraction)
+    return Network(cut, cut_bonds, 1.0, phases, ("matrix", "inclusion"), radius)
+
+
+def inclusion_ratio(network: Network, ratio: float, axis: str = "x") -> InclusionResult:
+    """E = k_eff / k_m of the inclusion network: T = 1 on face ``<axis>1``, 0 on ``<axis>0``, rest adiabatic.
+
+    ``E = Q(k_i = ratio) / Q(k_i = 1)`` with Q the heat flow through the hot face: the
+    homogeneous solve on the same network calibrates it (C_t and the cut faces cancel).
+    """
+    if ratio <= 0:
+        raise InputError(f"conductivity ratio must be positive, got {ratio}")
+    faces = (f"{axis}0", f"{axis}1")
+    values = {"matrix.k": 1.0, "inclusion.k": 1.0, f"{axis}0.T": 0.0, f"{axis}1.T": 1.0}
+    system = network.system(values, fixed=faces)
+    hot = system.dirichlet[1].dofs
+    flows = []
+    for k_i in (1.0, ratio):
+        v = {"inclusion.k": k_i}
+        flows.append(face_heat_flow(system, v, steady_field(system, v), hot))
+    vol = network.packing.volumes
+    frac = float(vol[network.phases == 1].sum() / vol.sum())
+    return InclusionResult(flows[1] / flows[0], ratio, frac, flows[1], flows[0])
