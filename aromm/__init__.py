@@ -2,14 +2,30 @@
 
 Public API (DESIGN.md)::
 
-    scene = aromm.load_scene("scenes/wood_z.toml")
-    system = aromm.assemble(scene)
-    obs = aromm.simulate(system, scene.parameters)
-    k_eff = aromm.homogenize(scene)
+    scene = aromm.load_scene("data/scenes/wood_s1.toml")
+    system = aromm.assemble(scene)                  # ThermalSystem
+    obs = aromm.simulate(system, scene.parameters)  # full model -> Observables
+    k_eff = aromm.homogenize(scene)                 # 3x3 tensor, W/(m K)
 """
 
 from aromm.errors import InputError, NumericalError
+from aromm.homogenize import homogeneous_twin, homogenize, mean_capacity
+from aromm.scene import Scene, assemble, load_scene
+from aromm.solve import FullModel, simulate
 from aromm.system import Observables, ThermalSystem
 
-__all__ = ["InputError", "NumericalError", "Observables", "ThermalSystem"]
+__all__ = [
+    "FullModel",
+    "InputError",
+    "NumericalError",
+    "Observables",
+    "Scene",
+    "ThermalSystem",
+    "assemble",
+    "homogeneous_twin",
+    "homogenize",
+    "load_scene",
+    "mean_capacity",
+    "simulate",
+]
 __version__ = "0.1.0"
