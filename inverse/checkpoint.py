@@ -1,0 +1,68 @@
+"""Checkpoints of a long identification: ``.npz`` files written atomically, read without pickle.
+
+A checkpoint holds named arrays plus a ``problem`` string identifying what was being solved
+(unknowns and bounds, seed, swarm size, measurements digest, model description); resuming
+with another problem is refused.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from aromm.errors import InputError
+from inverse.measurements import Measurements
+
+
+def measurements_digest(measurements: Sequence[Measurements]) -> str:
+    """Content hash of times, face names and values of every scenario."""
+    h = hashlib.sha256()
+    for m in measurements:
+        h.update(np.ascontiguousarray(m.t, dtype=float).tobytes())
+        for face in m.faces:
+            h.update(face.encode())
+            h.update(np.ascontiguousarray(m.values[face], dtype=float).tobytes())
+    return h.hexdigest()[:20]
+
+
+def problem_key(description: Mapping[str, object]) -> str:
+    """Canonical JSON of the problem description (sorted keys)."""
+    return json.dumps(description, sort_keys=True, default=str)
+
+
+def save(path: str | os.PathLike[str], problem: str, arrays: Mapping[str, np.ndarray]) -> None:
+    """Write ``arrays`` and the ``problem`` key to ``path`` (temp file in the same folder, then rename)."""
+    p = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".npz", dir=p.parent if str(p.parent) else ".")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            payload = {"problem": np.asarray(problem), **{k: np.asarray(v) for k, v in arrays.items()}}
+            np.savez(fh, **payload)  # type: ignore[arg-type]  # numpy's stub confuses **arrays with allow_pickle
+        os.replace(tmp, p)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def load(path: str | os.PathLike[str], problem: str) -> dict[str, np.ndarray]:
+    """Arrays of a checkpoint written for the same ``problem``; InputError otherwise."""
+    p = Path(path)
+    try:
+        with np.load(p, allow_pickle=False) as data:
+            arrays = {k: np.array(data[k]) for k in data.files}
+    except (OSError, ValueError) as err:
+        raise InputError(f"{p}: not a readable identification checkpoint ({err})") from None
+    if "problem" not in arrays:
+        raise InputError(f"{p}: not an identification checkpoint (no 'problem' entry)")
+    stored = str(arrays.pop("problem"))
+    if stored != problem:
+        raise InputError(f"{p}: this checkpoint was written for another identification problem;\n"
+                         f"  checkpoint: {stored}\n  now:        {problem}\n"
+                         "delete it or run without --resume")
+    return arrays

@@ -1,0 +1,92 @@
+"""The least-squares criterion of seed 001 eq. 12, evaluated for a whole swarm at once.
+
+    J(β) = ½ Σ_i Σ_j (Y_ij − Ŷ_ij(β))²
+
+over every measurement time i and observed face j (and, for a joint identification, every
+scenario).  Ŷ comes from ``model.simulate_batch`` at the measurement times, so one call
+evaluates all the particles of a swarm (m parameter sets).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from aromm.errors import InputError, NumericalError
+from aromm.model import ForwardModel
+from aromm.system import FloatArray
+from inverse.measurements import Measurements
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One experiment: a forward model and the measurements it should reproduce."""
+
+    model: ForwardModel
+    measurements: Measurements
+    name: str = ""
+
+
+class LeastSquares:
+    """Residuals ``Y − Ŷ(β)`` and criterion ``J`` (eq. 12) for parameter sets ``β`` (rows of ``theta``).
+
+    ``names`` are the unknowns (columns of ``theta``); ``fixed`` overrides other parameters of
+    every model.  :attr:`evaluations` counts parameter sets evaluated (one per row).
+    """
+
+    def __init__(self, scenarios: Sequence[Scenario], names: Sequence[str],
+                 fixed: Mapping[str, float] | None = None) -> None:
+        if not scenarios:
+            raise InputError("at least one (model, measurements) scenario is needed")
+        self.scenarios = tuple(scenarios)
+        self.names = tuple(names)
+        self.fixed = dict(fixed or {})
+        clash = set(self.names) & set(self.fixed)
+        if clash:
+            raise InputError(f"parameter(s) {sorted(clash)} are both unknown and fixed")
+        for sc in self.scenarios:
+            label = f"scenario {sc.name!r}: " if sc.name else ""
+            known = sc.model.parameter_names
+            for name in (*self.names, *self.fixed):
+                if name not in known:
+                    raise InputError(f"{label}unknown parameter {name!r}; the model has {sorted(known)}")
+            sc.measurements.check_faces(sc.model.outputs)
+        self._columns = [np.array([sc.model.outputs.index(f) for f in sc.measurements.faces])
+                         for sc in self.scenarios]
+        self._data = [sc.measurements.as_array() for sc in self.scenarios]
+        self.evaluations = 0
+
+    @property
+    def n_observations(self) -> int:
+        return int(sum(d.size for d in self._data))
+
+    def predictions(self, theta: FloatArray) -> list[FloatArray]:
+        """Ŷ per scenario, each (m, n_times, n_faces) in the measurements' face order."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        m = theta.shape[0]
+        params: dict[str, FloatArray] = {k: np.full(m, float(v)) for k, v in self.fixed.items()}
+        params.update({name: theta[:, j] for j, name in enumerate(self.names)})
+        out = []
+        for sc, cols in zip(self.scenarios, self._columns, strict=True):
+            y = np.asarray(sc.model.simulate_batch(params, sc.measurements.t), dtype=float)[:, :, cols]
+            bad = ~np.all(np.isfinite(y), axis=(1, 2))
+            if np.any(bad):
+                where = dict(zip(self.names, theta[int(np.argmax(bad))].tolist(), strict=True))
+                raise NumericalError(f"forward model {type(sc.model).__name__} returned non-finite temperatures "
+                                     f"{'for scenario ' + repr(sc.name) + ' ' if sc.name else ''}at {where}")
+            out.append(y)
+        self.evaluations += m
+        return out
+
+    def residuals(self, theta: FloatArray) -> FloatArray:
+        """``Y − Ŷ`` flattened over scenarios, times and faces: shape (m, n_observations)."""
+        preds = self.predictions(theta)
+        return np.concatenate([(d[None] - y).reshape(y.shape[0], -1)
+                               for d, y in zip(self._data, preds, strict=True)], axis=1)
+
+    def __call__(self, theta: FloatArray) -> FloatArray:
+        """J (eq. 12) for each row of ``theta``: shape (m,)."""
+        r = self.residuals(theta)
+        return 0.5 * np.einsum("ij,ij->i", r, r)
