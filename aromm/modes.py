@@ -1,0 +1,357 @@
+"""Dirichlet and Steklov eigenbases of a heterogeneous body (seed 001 §3.1, eqs. 6–8).
+
+With reference properties (k0, c0) per phase, ``K0`` is the conduction operator and ``C0`` the
+capacity operator at those values, and ``B`` the boundary mass ``∫_Γ φ_a φ_b``:
+
+* Dirichlet modes (eq. 6): ``K0_II v = λ C0_II v`` on the interior DOFs, ``v = 0`` on Γ;
+* Steklov modes (eqs. 7–8): ``K0 v = λ ζ B v`` with ``ζ = ∫ c0 dΩ / ∫_Γ dΓ`` (J m⁻² K⁻¹), so that
+  both families have eigenvalues in s⁻¹ (a time constant τ = 1/λ); the eigenvectors are discretely
+  k0-harmonic (``(K0 v)_I = 0``).  The constant is a Steklov mode of eigenvalue 0, one per connected
+  component; it carries the mean temperature and is kept.
+
+Every mode is capacity-normalised, ``vᵀ C0 v = 1``.  Dirichlet modes are C0-orthogonal; Steklov
+modes are ζB- and K0-orthogonal; a Dirichlet and a Steklov mode are K0-orthogonal exactly
+(``v_D`` vanishes on Γ, ``K0 v_S`` vanishes inside), but not C0-orthogonal (method note §3).
+
+Solvers (../shared/method/solvers.md): ARPACK shift-invert with a sparse Cholesky factorisation
+passed as ``OPinv`` (never eigsh's own SuperLU/COLAMD); Steklov with a small negative shift (K0 and
+B are both singular), then one purification solve ``V ← (K0 − σζB)⁻¹ ζB V`` (the discrete harmonic
+extension, which removes the interior garbage shift-invert leaves with a singular B), then a
+Rayleigh–Ritz step.  Small systems use dense ``eigh`` (every mode).  Residuals and orthogonality
+are checked against stated tolerances and a :class:`~aromm.errors.NumericalError` names the solver
+when they fail.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.sparse import csgraph
+
+from aromm.cache import NpzCache, content_key
+from aromm.errors import InputError, NumericalError
+from aromm.fem import FACES, face_mass
+from aromm.linalg import factorize
+from aromm.system import FloatArray, Geometry, ThermalSystem
+
+#: Reference per-phase properties of the bases in seed 001 §3.1 (W/(m K), J/(m³ K)).
+SEED001_BASIS_VALUES: Mapping[str, float] = {"fibre.k": 0.53, "fibre.c": 1.2e6, "gas.k": 0.025, "gas.c": 1.2e3}
+
+#: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
+DENSE_LIMIT = 1500
+#: Relative eigen-residual ``||K v − λ M v|| / (||K v|| + λ ||M v||)`` accepted.
+RESIDUAL_TOL = 1e-6
+#: Largest deviation of the family's Gram matrix from the identity accepted.
+ORTHOGONALITY_TOL = 1e-6
+#: Largest condition number of the combined capacity Gram matrix ``Φᵀ C0 Φ`` accepted.
+GRAM_CONDITION_MAX = 1e12
+
+_BASIS_VERSION = 1
+
+
+@dataclass(frozen=True)
+class ReferenceOperators:
+    """``K0`` (W/K), ``C0`` (J/K) at reference values, boundary mass ``B`` (m²) and ζ (J/(m² K))."""
+
+    stiffness: sp.csr_array
+    capacity: sp.csr_array
+    boundary: sp.csr_array
+    zeta: float
+    values: Mapping[str, float]
+
+    @property
+    def n(self) -> int:
+        return int(self.stiffness.shape[0])
+
+    @property
+    def interior(self) -> npt.NDArray[np.int64]:
+        return np.flatnonzero(self.boundary.diagonal() == 0.0)
+
+    def key(self) -> str:
+        return content_key(self.stiffness, self.capacity, self.boundary)
+
+
+@dataclass(frozen=True)
+class ModalBasis:
+    """Columns: the constant modes (one per component), the Steklov modes, then the Dirichlet modes.
+
+    ``eigenvalues`` in s⁻¹ (0 for the constants), ``kinds`` one of ``"zero"``, ``"steklov"``,
+    ``"dirichlet"``; every column has ``vᵀ C0 v = 1``.
+    """
+
+    vectors: FloatArray
+    eigenvalues: FloatArray
+    kinds: npt.NDArray[np.str_]
+    zeta: float
+    info: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def size(self) -> int:
+        return int(self.vectors.shape[1])
+
+    @property
+    def zero_modes(self) -> npt.NDArray[np.int64]:
+        return np.flatnonzero(self.kinds == "zero")
+
+    def count(self, kind: str) -> int:
+        return int(np.count_nonzero(self.kinds == kind))
+
+
+def is_exchange(operator: sp.csr_array | FloatArray) -> bool:
+    """True for a conductance term that does not annihilate constants (convection, exchange with
+    the surroundings); False for conduction inside the body (``K 1 = 0``)."""
+    if not sp.issparse(operator):
+        return False
+    a = sp.csr_array(operator)
+    row = np.abs(a @ np.ones(a.shape[0]))
+    scale = float(np.abs(a).sum(axis=1).max()) if a.nnz else 0.0
+    return bool(row.max(initial=0.0) > 1e-10 * scale)
+
+
+def _voxel_grid(geometry: Geometry | None, n: int) -> tuple[tuple[int, int, int], tuple[float, float, float]] | None:
+    """(voxels per axis, voxel size) when the nodes form the regular grid of aromm.fem, else None."""
+    if geometry is None or geometry.cell_type != "hexahedron" or geometry.points.shape[0] != n:
+        return None
+    axes = [np.unique(geometry.points[:, i]) for i in range(3)]
+    if int(np.prod([a.size for a in axes])) != n or any(a.size < 2 for a in axes):
+        return None
+    shape = (axes[0].size - 1, axes[1].size - 1, axes[2].size - 1)
+    size = (float(np.diff(axes[0]).mean()), float(np.diff(axes[1]).mean()), float(np.diff(axes[2]).mean()))
+    return shape, size
+
+
+def boundary_mass(system: ThermalSystem) -> sp.csr_array:
+    """Boundary mass ``B = ∫_Γ φ_a φ_b`` (m²) over the whole outer boundary Γ.
+
+    Voxel systems of aromm.fem: the consistent Q1 face mass of the six faces of the box.  Other
+    systems (DEM bond networks): a lumped boundary weight per DOF, the largest over the system's
+    exchange terms (row sums) and load vectors with unit coefficient, i.e. the exchange area.
+    """
+    grid = _voxel_grid(system.geometry, system.n)
+    if grid is not None:
+        shape, size = grid
+        total = face_mass(shape, size, FACES[0])
+        for face in FACES[1:]:
+            total = total + face_mass(shape, size, face)
+        return sp.csr_array(total)
+    weight = np.zeros(system.n)
+    for t in system.conductance.terms:
+        if is_exchange(t.operator):
+            weight = np.maximum(weight, np.abs(sp.csr_array(t.operator) @ np.ones(system.n)))
+    for t in system.load.terms:
+        if not sp.issparse(t.operator):
+            weight = np.maximum(weight, np.abs(np.asarray(t.operator, dtype=float)))
+    if not np.any(weight > 0):
+        raise InputError("the system has no boundary (no exchange term, no face load): Steklov modes need one")
+    return sp.csr_array(sp.diags_array(weight))
+
+
+def default_basis_values(system: ThermalSystem) -> dict[str, float]:
+    """The system's parameters, with the seed 001 reference properties for phases named fibre/gas."""
+    out = {k: float(v) for k, v in system.parameters.items()}
+    for name, value in SEED001_BASIS_VALUES.items():
+        if name in out:
+            out[name] = value
+    return out
+
+
+def reference_operators(system: ThermalSystem, values: Mapping[str, float] | None = None) -> ReferenceOperators:
+    """``K0`` = conduction terms (those with ``K 1 = 0``) and ``C0`` = capacity terms at ``values``.
+
+    ``values`` overrides :func:`default_basis_values`; ζ from seed 001 eq. 8.
+    """
+    if system.is_steady:
+        raise InputError("the modal bases need a transient system (a [time] section and phase capacities c)")
+    if system.dirichlet:
+        names = ", ".join(d.param for d in system.dirichlet)
+        raise InputError(
+            f"fixed temperatures ({names}) are not supported by the modal reduction: the reduced model "
+            "uses natural boundary conditions only; replace them by convection with a large h (penalty)"
+        )
+    vals: dict[str, float] = default_basis_values(system)
+    vals.update({k: float(v) for k, v in (values or {}).items()})
+    n = system.n
+    k0 = sp.csr_array((n, n))
+    for t in system.conductance.terms:
+        if not is_exchange(t.operator):
+            k0 = k0 + float(t.coefficient(vals)) * sp.csr_array(t.operator)
+    c0 = sp.csr_array((n, n))
+    for t in system.capacity.terms:
+        c0 = c0 + float(t.coefficient(vals)) * sp.csr_array(t.operator)
+    b = boundary_mass(system)
+    area = float(b.sum())
+    heat = float(c0.sum())
+    if not (heat > 0 and area > 0):
+        raise InputError("reference capacity and boundary area must be positive to build the bases")
+    return ReferenceOperators(sp.csr_array(k0), sp.csr_array(c0), b, heat / area, vals)
+
+
+def zero_modes(ops: ReferenceOperators) -> FloatArray:
+    """One constant per connected component of the conduction graph, capacity-normalised (columns)."""
+    graph = sp.csr_array(ops.stiffness != 0)
+    count, labels = csgraph.connected_components(graph, directed=False)
+    out = np.zeros((ops.n, count))
+    for j in range(count):
+        ind = (labels == j).astype(float)
+        out[:, j] = ind / np.sqrt(ind @ (ops.capacity @ ind))
+    return out
+
+
+def _relative_residuals(k: sp.csr_array, m: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
+    kv = k @ v
+    mv = m @ v
+    num = np.linalg.norm(kv - mv * lam, axis=0)
+    den = np.linalg.norm(kv, axis=0) + np.abs(lam) * np.linalg.norm(mv, axis=0)
+    return num / np.maximum(den, 1e-300)
+
+
+def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, method: str, label: str) -> tuple[
+        FloatArray, FloatArray]:
+    """ARPACK shift-invert with our own factorisation of ``A − σM`` as OPinv."""
+    fac = factorize(a - sigma * m, method)
+    op = spla.LinearOperator(a.shape, matvec=lambda x: fac.solve(np.asarray(x).ravel(), check=False),
+                             dtype=float)
+    try:
+        lam, vec = spla.eigsh(a, k=count, M=m, sigma=sigma, which="LM", OPinv=op)
+    except spla.ArpackNoConvergence as err:
+        raise NumericalError(
+            f"ARPACK shift-invert ({label}, {count} modes, factorisation {fac.method}) did not converge: "
+            f"{len(err.eigenvalues)} of {count} eigenpairs; ask for fewer modes"
+        ) from None
+    order = np.argsort(lam)
+    return lam[order], vec[:, order]
+
+
+def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> tuple[FloatArray, FloatArray]:
+    """The ``count`` slowest Dirichlet modes (eq. 6): eigenvalues (s⁻¹) and C0-normalised vectors (n, count)."""
+    interior = ops.interior
+    n_i = interior.size
+    count = min(count, n_i)
+    if count <= 0:
+        return np.zeros(0), np.zeros((ops.n, 0))
+    k_ii = sp.csr_array(ops.stiffness[interior][:, interior])
+    c_ii = sp.csr_array(ops.capacity[interior][:, interior])
+    if n_i <= DENSE_LIMIT:
+        lam, vec = sla.eigh(k_ii.toarray(), c_ii.toarray(), subset_by_index=(0, count - 1))
+    else:
+        lam, vec = _eigsh(k_ii, c_ii, count, 0.0, method=method, label="Dirichlet modes")
+    res = _relative_residuals(k_ii, c_ii, lam, vec)
+    if res.max(initial=0.0) > RESIDUAL_TOL:
+        raise NumericalError(
+            f"Dirichlet eigensolver: relative residual {res.max():.1e} exceeds {RESIDUAL_TOL:.0e} "
+            f"(mode {int(res.argmax())} of {count})"
+        )
+    gram = vec.T @ (c_ii @ vec)
+    dev = float(np.abs(gram - np.eye(count)).max())
+    if dev > ORTHOGONALITY_TOL:
+        raise NumericalError(f"Dirichlet eigensolver: modes not C0-orthonormal (max |VᵀCV − I| = {dev:.1e})")
+    full = np.zeros((ops.n, count))
+    full[interior] = vec
+    return lam, full
+
+
+def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> tuple[FloatArray, FloatArray]:
+    """The ``count`` lowest non-zero Steklov modes (eqs. 7–8): eigenvalues (s⁻¹) and C0-normalised vectors.
+
+    The constants (eigenvalue 0) are returned by :func:`zero_modes`, not here.
+    """
+    b = sp.csr_array(ops.zeta * ops.boundary)
+    on_gamma = np.flatnonzero(ops.boundary.diagonal() > 0)
+    n_zero = zero_modes(ops).shape[1]
+    count = min(count, on_gamma.size - n_zero)
+    if count <= 0:
+        return np.zeros(0), np.zeros((ops.n, 0))
+    # Scale of the spectrum: the largest ratio diag(K0)/diag(ζB) on Γ bounds λ from above.
+    top = float(np.max(ops.stiffness.diagonal()[on_gamma] / b.diagonal()[on_gamma]))
+    sigma = -1e-6 * top
+    want = count + n_zero
+    if ops.n <= DENSE_LIMIT:
+        shifted = (ops.stiffness - sigma * b).toarray()
+        # eigenvalues ν of (K0 − σζB)⁻¹ ζB are 1/(λ − σ); the largest give the smallest λ.
+        nu, w = sla.eigh(b.toarray(), shifted, subset_by_index=(ops.n - want, ops.n - 1))
+        vec = w[:, np.argsort(-nu)]
+        fac = factorize(ops.stiffness - sigma * b, method)
+    else:
+        fac = factorize(ops.stiffness - sigma * b, method)
+        _, vec = _eigsh(ops.stiffness, b, want, sigma, method=method, label="Steklov modes")
+    # Purification: one application of (K0 − σζB)⁻¹ζB is the discrete harmonic extension of the trace.
+    vec = fac.solve(b @ vec, check=False)
+    # Rayleigh–Ritz on the purified subspace (ζB is SPD there: independent traces).
+    kr = vec.T @ (ops.stiffness @ vec)
+    br = vec.T @ (b @ vec)
+    try:
+        lam, q = sla.eigh((kr + kr.T) / 2, (br + br.T) / 2)
+    except np.linalg.LinAlgError as err:
+        raise NumericalError(f"Steklov Rayleigh–Ritz: traces of the computed modes are dependent ({err})") from None
+    vec = vec @ q
+    lam, vec = lam[n_zero:], vec[:, n_zero:]
+    res = _relative_residuals(ops.stiffness, b, lam, vec)
+    if res.max(initial=0.0) > RESIDUAL_TOL:
+        raise NumericalError(
+            f"Steklov eigensolver (shift {sigma:.2e} s⁻¹, {fac.method}): relative residual {res.max():.1e} "
+            f"exceeds {RESIDUAL_TOL:.0e} (mode {int(res.argmax())} of {count})"
+        )
+    if lam[0] <= 1e-8 * lam[-1]:
+        raise NumericalError("Steklov eigensolver: a zero eigenvalue beyond the constants (disconnected body?)")
+    norms = np.sqrt(np.einsum("ij,ij->j", vec, ops.capacity @ vec))
+    return lam, vec / norms
+
+
+def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> float:
+    """Condition number of the capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal); refuses a dependent basis."""
+    gram = vectors.T @ (ops.capacity @ vectors)
+    ev = np.linalg.eigvalsh((gram + gram.T) / 2)
+    cond = float(ev[-1] / ev[0]) if ev[0] > 0 else np.inf
+    if not cond < GRAM_CONDITION_MAX:
+        raise NumericalError(
+            f"modal basis: capacity Gram matrix has condition number {cond:.1e} > {GRAM_CONDITION_MAX:.0e} "
+            "(Dirichlet and Steklov modes nearly dependent); ask for fewer Steklov modes"
+        )
+    return cond
+
+
+def compute_basis(
+    system: ThermalSystem,
+    n_dirichlet: int,
+    n_steklov: int,
+    values: Mapping[str, float] | None = None,
+    *,
+    method: str = "auto",
+    cache: NpzCache | None = None,
+) -> ModalBasis:
+    """Constants + ``n_steklov`` Steklov + ``n_dirichlet`` Dirichlet modes of ``system`` at reference ``values``.
+
+    ``n_steklov`` counts the constants.  Cached in ``cache`` (key: K0, C0, B and the options), so
+    scenes that differ only in their loads and exchanges share one basis.
+    """
+    if n_dirichlet < 0 or n_steklov < 1:
+        raise InputError(f"mode counts must be n_dirichlet >= 0 and n_steklov >= 1, got {n_dirichlet}, {n_steklov}")
+    ops = reference_operators(system, values)
+    key = content_key(_BASIS_VERSION, ops.key(), n_dirichlet, n_steklov, method)
+    if cache is not None:
+        stored = cache.load("basis", key)
+        if stored is not None:
+            return ModalBasis(stored["vectors"], stored["eigenvalues"], stored["kinds"], float(stored["zeta"]),
+                              {"seconds": 0.0, "cached": 1.0, "gram_condition": float(stored["gram_condition"])})
+    start = time.perf_counter()
+    z = zero_modes(ops)
+    lam_s, v_s = steklov_modes(ops, n_steklov - z.shape[1], method)
+    t_s = time.perf_counter() - start
+    lam_d, v_d = dirichlet_modes(ops, n_dirichlet, method)
+    vectors = np.column_stack([z, v_s, v_d])
+    eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
+    kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
+    cond = _check_combined(ops, vectors)
+    seconds = time.perf_counter() - start
+    if cache is not None:
+        cache.save("basis", key, {"vectors": vectors, "eigenvalues": eigenvalues, "kinds": kinds,
+                                  "zeta": np.float64(ops.zeta), "gram_condition": np.float64(cond)})
+    return ModalBasis(vectors, eigenvalues, kinds, ops.zeta,
+                      {"seconds": seconds, "steklov_seconds": t_s, "cached": 0.0, "gram_condition": cond})
