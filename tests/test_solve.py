@@ -47,11 +47,13 @@ def test_time_stepping_converges_at_its_order(scheme: str, order: float) -> None
     assert np.all(rates > order - 0.25), (errors, rates)
 
 
-def test_energy_balance_backward_euler_is_exact() -> None:
-    """Stored heat = heat in - heat out, step by step (backward Euler is conservative)."""
+@pytest.mark.parametrize(("k_ratio", "c_ratio"), [(12.0, 3333.0), (1e4, 1e4), (1e-4, 1e-4), (1e4, 1e-4)])
+def test_energy_balance_backward_euler_is_exact(k_ratio: float, c_ratio: float) -> None:
+    """Stored heat = heat in - heat out, step by step (backward Euler is conservative), at any contrast."""
     labels = _two_phase_labels((4, 4, 4), seed=1)
     dt, end = 0.05, 3.0
-    system = assemble_voxels(labels, (1e-4,) * 3, TWO_PHASES, SCENARIO_1, time=TimeGrid(end, dt),
+    phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.025 * k_ratio, 1.2e3 * c_ratio)]
+    system = assemble_voxels(labels, (1e-4,) * 3, phases, SCENARIO_1, time=TimeGrid(end, dt),
                              outputs=["z0", "z1"])
     obs = transient(system, scheme="euler", fields=True)
     assert obs.fields is not None
@@ -62,8 +64,10 @@ def test_energy_balance_backward_euler_is_exact() -> None:
     heat_in = 500.0 * area * end
     h_mass = system.conductance["H_z1"].operator
     losses = np.array([np.ones(system.n) @ (20.0 * h_mass @ f) for f in obs.fields])  # rows at dt, 2dt, ..., end
-    assert stored == pytest.approx(heat_in - dt * losses.sum(), rel=1e-9)
-    assert stored > 0.2 * heat_in  # a real balance, not two zeros
+    heat_out = dt * losses.sum()
+    assert abs(stored - (heat_in - heat_out)) < 1e-9 * heat_in
+    assert stored > 0 and heat_out > 0  # heat is both stored and lost: a real balance, not two zeros
+    assert np.all(np.isfinite(obs.fields))
 
 
 def test_pure_neumann_transient_heats_linearly_and_steady_is_refused() -> None:
