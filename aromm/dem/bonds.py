@@ -31,6 +31,7 @@ from aromm.errors import InputError, NumericalError
 from aromm.system import FloatArray
 
 IntArray = npt.NDArray[np.int64]
+Z_TOLERANCE = 0.01  # accepted |Z - target| after the repair
 MAX_GAP = 0.5  # largest relative gap searched for the coordination threshold
 
 
@@ -151,12 +152,16 @@ def build_bonds(packing: Packing, z: float | None = 7.5, *, gap: float | None = 
         return _bonds_below(nb, gap, min_degree)
     if z is None:
         raise InputError("build_bonds: give the coordination z or the gap threshold")
-    # the repair adds bonds: lower the threshold so that the final mean coordination is z
-    bonds = _bonds_below(nb, gap_for_coordination(packing, z), min_degree)
-    target = z - 2.0 * bonds.added / packing.n
-    if bonds.added == 0 or target <= 0:
-        return bonds
-    return _bonds_below(nb, gap_for_coordination(packing, target), min_degree)
+    # the repair adds bonds: lower the threshold until the final mean coordination is z
+    target = z
+    bonds = _bonds_below(nb, gap_for_coordination(packing, target), min_degree)
+    for _ in range(6):
+        error = bonds.coordination(packing.n) - z
+        if abs(error) <= Z_TOLERANCE or target - error <= 0:
+            break
+        target -= error
+        bonds = _bonds_below(nb, gap_for_coordination(packing, target), min_degree)
+    return bonds
 
 
 def _bonds_below(nb: _Neighbours, gap: float, min_degree: int) -> Bonds:

@@ -138,6 +138,18 @@ def load_packing(path: str | Path) -> Packing:
     return Packing(centers, radii, box, periodic, lower)
 
 
+def cubic_lattice(cells: int, spacing: float) -> Packing:
+    """Periodic simple-cubic packing of ``cells^3`` equal spheres in contact (a reference network).
+
+    Centres at ``(i + 1/2) a``, radii ``a / 2``: every sphere touches its 6 axis neighbours
+    (phi = pi / 6).  Used as an exactly solvable network in tests.
+    """
+    if cells < 1 or spacing <= 0:
+        raise InputError(f"cubic lattice: cells >= 1 and spacing > 0, got {cells}, {spacing}")
+    idx = np.stack(np.meshgrid(*[np.arange(cells)] * 3, indexing="ij"), -1).reshape(-1, 3).astype(float)
+    return Packing((idx + 0.5) * spacing, np.full(cells**3, 0.5 * spacing), np.full(3, cells * spacing), True)
+
+
 def gaussian_radii(n: int, cv: float, rng: np.random.Generator) -> FloatArray:
     """``n`` radii ~ N(1, cv^2), truncated to ``1 +- 2.5 cv`` by redrawing (mean radius ~ 1)."""
     if not 0.0 <= cv < 1.0 / TRUNCATION:
