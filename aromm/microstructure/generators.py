@@ -136,36 +136,37 @@ def laminate(
     return np.broadcast_to(profile.reshape(view), (nx, ny, nz)).copy()
 
 
-def _wall_positions(length: float, spacing: float, jitter: float, offset: float, rng: np.random.Generator) -> np.ndarray:
-    """Wall centre lines from ``offset`` (≤ 0) past ``length``, gaps ``spacing (1 + jitter N(0, 1))``
-    clipped to [0.5, 1.5] × spacing.  Always draws the same count of normals for a given call."""
-    count = int(length / (0.5 * spacing)) + 3
+def _wall_positions(
+    rng: np.random.Generator, span: tuple[float, float], spacing: float, jitter: float, phase: float
+) -> np.ndarray:
+    """Wall centre lines from ``start - phase · spacing`` past ``stop`` (``span = (start, stop)``),
+    gaps ``spacing (1 + jitter N(0, 1))`` clipped to [0.5, 1.5] × spacing; a fixed count of draws."""
+    start, stop = span
+    count = int((stop - start) / (0.5 * spacing)) + 3
     gaps = spacing * np.clip(1.0 + jitter * rng.standard_normal(count), 0.5, 1.5)
-    positions = offset + np.concatenate([[0.0], np.cumsum(gaps)])
-    return positions[: int(np.searchsorted(positions, length)) + 1]
+    positions = start - phase * spacing + np.concatenate([[0.0], np.cumsum(gaps)])
+    return positions[: int(np.searchsorted(positions, stop)) + 1]
 
 
-def _wall_mask(n: int, step: float, positions: np.ndarray, thickness: float) -> npt.NDArray[np.bool_]:
-    """Voxels (of ``n`` along one axis, size ``step``) whose centre is within ``thickness/2`` of a
-    wall centre line, plus the voxel holding each line, so a wall is never thinner than one voxel."""
-    centres = (np.arange(n) + 0.5) * step
-    mask = np.min(np.abs(centres[:, None] - positions[None, :]), axis=1) <= thickness / 2.0
-    holder = np.floor(positions / step).astype(int)
-    mask[holder[(holder >= 0) & (holder < n)]] = True
-    return mask
+def _wall_mask(centres: np.ndarray, step: float, positions: np.ndarray, thickness: float) -> npt.NDArray[np.bool_]:
+    """Voxels (centres along one axis, size ``step``) within ``thickness/2`` of a wall centre line, or
+    holding one, so that a wall is never thinner than one voxel."""
+    distance = np.min(np.abs(centres[..., None] - positions), axis=-1)
+    return distance <= max(thickness, step) / 2.0
 
 
 def wood(
     shape: Sequence[int],
     voxel_size: float | Sequence[float],
     rng: np.random.Generator,
+    *,
     cell_size_radial: float = 25e-6,
     cell_size_tangential: float = 35e-6,
     wall_thickness: float = 5e-6,
-    *,
     size_jitter: float = 0.15,
     stagger: float = 1.0,
     tracheid_length: float | None = None,
+    grain_angle: float = 0.0,
 ) -> LabelImage:
     """Spruce-like softwood: tracheids along z with walls = fibre (label 1), lumens = gas (label 0).
 
@@ -180,8 +181,11 @@ def wood(
     Tracheid tips: with ``tracheid_length`` (m) each radial file is cut along z into segments of
     that mean length (same jitter, random phase); at each cut the tracheids of the file end and new
     ones begin with freshly drawn tangential walls, so those walls are interrupted along z (the
-    tapered tips overlap: no end wall).  This lowers k_zz below the prismatic value while leaving
-    the transverse structure statistically unchanged.  ``None`` (default): straight prisms.
+    tapered tips overlap: no end wall).  ``None`` (default): tracheids cross the whole image.
+
+    Spiral grain: ``grain_angle`` (radians) tilts the tracheid axis from z towards y, the pattern
+    at height z being the base section shifted by z·tan(angle) along y.  Walls then leave the
+    image through its y faces, which lowers k_zz (and raises k_yy slightly).
 
     Unequal radial and tangential cell sizes make k_xx ≠ k_yy (seed 001 § 4.2 reports
     k̄_xx = 0.087, k̄_yy = 0.099, k̄_zz = 0.123 W/(m K)); the wall volume fraction sets c̄ (eq. 14).
@@ -203,32 +207,35 @@ def wood(
         raise InputError(f"wood: stagger must lie in [0, 1], got {stagger!r}")
     if tracheid_length is not None and not tracheid_length > 0:
         raise InputError(f"wood: tracheid_length must be positive (m) or None, got {tracheid_length!r}")
-    radial_walls = _wall_positions(ny * dy, b, size_jitter, -b * rng.random(), rng)
-    in_wall_y = _wall_mask(ny, dy, radial_walls, t)
-    n_files = radial_walls.size + 1
-    file_of_y = np.searchsorted(radial_walls, (np.arange(ny) + 0.5) * dy)
+    if not abs(grain_angle) < math.pi / 4:
+        raise InputError(f"wood: grain_angle must lie in (-π/4, π/4) radians, got {grain_angle!r}")
     z_centres = (np.arange(nz) + 0.5) * dz
+    # tangential coordinate of voxel centres in the frame of the (tilted) tracheids: [y, z]
+    y_frame = (np.arange(ny) + 0.5)[:, None] * dy - math.tan(grain_angle) * z_centres[None, :]
+    radial_walls = _wall_positions(rng, (float(y_frame.min()), float(y_frame.max())), b, size_jitter, rng.random())
+    in_wall_y = _wall_mask(y_frame, dy, radial_walls, t)
+    file_of_y = np.searchsorted(radial_walls, y_frame)
+    n_files = radial_walls.size + 1
     if tracheid_length is None:
         segment_of_z = np.zeros((n_files, nz), dtype=int)
     else:
         segment_of_z = np.array(
             [
                 np.searchsorted(
-                    _wall_positions(nz * dz, tracheid_length, size_jitter, -tracheid_length * rng.random(), rng),
-                    z_centres,
+                    _wall_positions(rng, (0.0, nz * dz), tracheid_length, size_jitter, rng.random()), z_centres
                 )
                 for _ in range(n_files)
             ]
         )
     n_segments = int(segment_of_z.max()) + 1
     phase = rng.random()
-    offsets = -a * ((phase + stagger * rng.random((n_files, n_segments))) % 1.0)
+    phases = (phase + stagger * rng.random((n_files, n_segments))) % 1.0
+    x_centres = (np.arange(nx) + 0.5) * dx
     in_wall_x = np.array(
         [
-            [_wall_mask(nx, dx, _wall_positions(nx * dx, a, size_jitter, offset, rng), t) for offset in row]
-            for row in offsets
+            [_wall_mask(x_centres, dx, _wall_positions(rng, (0.0, nx * dx), a, size_jitter, ph), t) for ph in row]
+            for row in phases
         ]
     )  # [file, segment, x]
-    files = file_of_y[:, None]
-    walls = in_wall_x[files, segment_of_z[files, np.arange(nz)[None, :]]]  # [y, z, x]
-    return (walls.transpose(2, 0, 1) | in_wall_y[None, :, None]).astype(np.int32)
+    walls = in_wall_x[file_of_y, segment_of_z[file_of_y, np.arange(nz)[None, :]]]  # [y, z, x]
+    return (walls.transpose(2, 0, 1) | in_wall_y[None, :, :]).astype(np.int32)

@@ -171,7 +171,7 @@ def _read_tiff_directory(path: Path) -> np.ndarray:
     )
     if not files:
         raise InputError(f"{path}: directory holds no .tif/.tiff slices")
-    slices = []
+    slices: list[np.ndarray] = []
     for file in files:
         page = _read_tiff_page(file)
         if page.ndim != 2:
@@ -257,8 +257,9 @@ def save_image(path: str | Path, labels: npt.ArrayLike, voxel_size: object | Non
     path = Path(path)
     if path.suffix.lower() != ".npz":
         raise InputError(f"{path}: save_image writes .npz files only")
-    arrays: dict[str, np.ndarray] = {"labels": as_labels(labels, str(path))}
-    if voxel_size is not None:
-        arrays["voxel_size"] = np.asarray(as_voxel_size(voxel_size, f"{path}: voxel_size"))
-    np.savez_compressed(path, **arrays)
+    image = as_labels(labels, str(path))
+    if voxel_size is None:
+        np.savez_compressed(path, labels=image)
+    else:
+        np.savez_compressed(path, labels=image, voxel_size=np.asarray(as_voxel_size(voxel_size, f"{path}: voxel_size")))
     return path
