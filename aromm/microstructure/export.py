@@ -6,7 +6,10 @@ the node order of the finite-element assembly (aromm/fem.py); voxels likewise
 ``cell(i, j, k) = i + nx (j + ny k)``.  Cell data ``labels`` holds the phase labels.
 
 Formats by file name: ``.vtu`` (VTK XML unstructured grid, zlib-compressed binary) and
-``.xdmf``/``.xmf`` (XDMF with the data inline as XML, so no HDF5 library is needed).
+``.xdmf``/``.xmf`` (XDMF with the data inline as XML, so no HDF5 library is needed).  XDMF is
+written through meshio's time-series writer (the only meshio XDMF path that works without h5py),
+so a single image is a one-step temporal collection at t = 0; read it back with
+``meshio.xdmf.TimeSeriesReader`` (``meshio.read`` on XDMF needs h5py).
 """
 
 from __future__ import annotations
@@ -108,7 +111,9 @@ def export_image(
         cell_data={"labels": [image.ravel(order="F")], **{k: [v] for k, v in cell_data.items()}},
     )
     if kind == "xdmf":
-        meshio.xdmf.write(path, mesh, data_format="XML")
+        with meshio.xdmf.TimeSeriesWriter(path, data_format="XML") as writer:
+            writer.write_points_cells(mesh.points, mesh.cells)
+            writer.write_data(0.0, point_data=mesh.point_data, cell_data=mesh.cell_data)
     else:
         meshio.vtu.write(path, mesh)
     return path

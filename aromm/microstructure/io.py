@@ -144,17 +144,34 @@ def _read_npz(path: Path) -> tuple[np.ndarray, VoxelSize | None]:
     return labels, voxel_size
 
 
-def _read_tiff_page(path: Path) -> np.ndarray:
+def _read_tiff_pages(path: Path) -> list[np.ndarray]:
+    """The image series of a TIFF file (one series for stacks written at once or ImageJ stacks;
+    one series per page for files written page by page)."""
     import tifffile
 
     try:
-        return np.asarray(tifffile.imread(path))
-    except (OSError, ValueError) as err:  # tifffile.TiffFileError is a ValueError
+        with tifffile.TiffFile(path) as tif:
+            return [np.asarray(series.asarray()) for series in tif.series]
+    except (OSError, ValueError, IndexError) as err:  # tifffile.TiffFileError is a ValueError
         raise InputError(f"{path}: not a readable TIFF file ({err})") from None
 
 
+def _read_tiff_page(path: Path) -> np.ndarray:
+    series = _read_tiff_pages(path)
+    if len(series) != 1 or series[0].ndim != 2:
+        shapes = [s.shape for s in series]
+        raise InputError(f"{path}: a slice must be one 2-D single-channel page, got series of shapes {shapes}")
+    return series[0]
+
+
 def _read_tiff(path: Path) -> np.ndarray:
-    stack = _read_tiff_page(path)
+    series = _read_tiff_pages(path)
+    if len(series) == 1:
+        stack = series[0]
+    elif all(s.ndim == 2 and s.shape == series[0].shape for s in series):
+        stack = np.stack(series, axis=0)
+    else:
+        raise InputError(f"{path}: TIFF pages of unequal shapes {[s.shape for s in series][:4]}…; expected z slices")
     if stack.ndim == 2:
         raise InputError(f"{path}: the TIFF holds one 2-D page {stack.shape}; a 3-D stack (z pages) is needed")
     if stack.ndim != 3:
@@ -174,8 +191,6 @@ def _read_tiff_directory(path: Path) -> np.ndarray:
     slices: list[np.ndarray] = []
     for file in files:
         page = _read_tiff_page(file)
-        if page.ndim != 2:
-            raise InputError(f"{file}: a slice must be one 2-D single-channel page, got shape {page.shape}")
         if slices and page.shape != slices[0].shape:
             raise InputError(f"{file}: slice shape {page.shape} differs from {files[0].name} {slices[0].shape}")
         slices.append(page)
