@@ -60,7 +60,7 @@ def sphere_in_cube(n: int, radius_fraction: float = 1.0 / 3.0) -> LabelImage:
 
     >>> labels = sphere_in_cube(30)
     >>> labels.shape, round(float(labels.mean()), 3), round(4 * np.pi / 81, 3)
-    ((30, 30, 30), 0.154, 0.155)
+    ((30, 30, 30), 0.156, 0.155)
     """
     n = _positive_int(n, "n")
     if not 0.0 < radius_fraction <= 0.5:
