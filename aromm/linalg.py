@@ -97,8 +97,6 @@ def _cholmod(a: sp.csr_array) -> Callable[[FloatArray], FloatArray]:
 
     low = sp.tril(a, format="coo")
     mat = cvxopt.spmatrix(low.data.astype(float), low.row.astype(int), low.col.astype(int), a.shape)
-    cvxopt.cholmod.options["supernodal"] = 2
-    cvxopt.cholmod.options["print"] = 0
     try:
         factor = cvxopt.cholmod.symbolic(mat, uplo="L")
         cvxopt.cholmod.numeric(mat, factor)

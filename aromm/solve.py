@@ -126,14 +126,18 @@ def transient(
     history_y = [e_free @ x_prev + e_fixed]
     stored: list[FloatArray] = [x_prev] if fields else []
 
-    euler = factorize(c_ff / dt + k_ff, method)
-    bdf2 = factorize(1.5 * c_ff / dt + k_ff, method) if scheme == "bdf2" and steps > 1 else None
+    # Step 1 is backward Euler (BDF2's starter); the Euler factor is released before BDF2's is built,
+    # so at most one factorisation is alive at a time (each costs ~1 GB at 1e5 unknowns).
+    stepper = factorize(c_ff / dt + k_ff, method)
     x_older = x_prev
     for n in tqdm(range(1, steps + 1), desc="time steps", disable=not progress, leave=False):
-        if bdf2 is None or n == 1:
-            x = euler.solve(c_ff @ x_prev / dt + f_free)
+        if n == 1 or scheme == "euler":
+            x = stepper.solve(c_ff @ x_prev / dt + f_free)
         else:
-            x = bdf2.solve(c_ff @ (2.0 * x_prev - 0.5 * x_older) / dt + f_free)
+            x = stepper.solve(c_ff @ (2.0 * x_prev - 0.5 * x_older) / dt + f_free)
+        if n == 1 and scheme == "bdf2" and steps > 1:
+            del stepper
+            stepper = factorize(1.5 * c_ff / dt + k_ff, method)
         x_older, x_prev = x_prev, x
         history_t.append(n * dt)
         history_y.append(e_free @ x + e_fixed)
