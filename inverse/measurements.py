@@ -4,7 +4,7 @@ A measurement file is a CSV with a header ``t,<face>,...`` (times in s, temperat
 one row per time, times strictly increasing.  Synthetic measurements come from any forward
 model; the seed's measurements (§ 4.2) come from the *homogeneous orthotropic* twin of the
 sample: one phase of conductivity diag(k̄_xx, k̄_yy, k̄_zz) (eq. 13) and capacity c̄ (eq. 14)
-on the same box under the same scenario, see :func:`homogeneous_system`.
+on the same box under the same scenario, see :func:`homogeneous_measurements`.
 """
 
 from __future__ import annotations
@@ -21,11 +21,11 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.homogenize import homogeneous_twin
 from aromm.model import ForwardModel
-from aromm.system import FloatArray, ThermalSystem, TimeGrid
-
-HOMOGENEOUS_PHASE = "homogeneous"
+from aromm.scene import Scene, assemble
+from aromm.solve import simulate
+from aromm.system import FloatArray
 
 
 @dataclass(frozen=True)
@@ -70,12 +70,14 @@ class Measurements:
 
     def check_faces(self, allowed: Iterable[str]) -> None:
         """Refuse faces the model does not output (InputError naming them and the allowed ones)."""
-        allowed = tuple(allowed)
-        unknown = [f for f in self.faces if f not in allowed]
-        if unknown:
-            where = f"{self.source}: " if self.source else ""
-            raise InputError(f"{where}face(s) {', '.join(unknown)} are not outputs of the model; "
-                             f"allowed: {', '.join(allowed) or '(none)'}")
+        _check_faces(self.faces, tuple(allowed), f"{self.source}: " if self.source else "")
+
+
+def _check_faces(faces: Iterable[str], allowed: tuple[str, ...], where: str = "") -> None:
+    unknown = [f for f in faces if f not in allowed]
+    if unknown:
+        raise InputError(f"{where}face(s) {', '.join(unknown)} are not outputs of the model; "
+                         f"allowed: {', '.join(allowed) or '(none)'}")
 
 
 def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None = None) -> Measurements:
@@ -160,10 +162,7 @@ def simulate_measurements(
     """
     obs = model.simulate(params, times)
     chosen = tuple(faces) if faces is not None else tuple(obs.mean_T)
-    unknown = [f for f in chosen if f not in obs.mean_T]
-    if unknown:
-        raise InputError(f"face(s) {', '.join(unknown)} are not outputs of the model; "
-                         f"allowed: {', '.join(obs.mean_T) or '(none)'}")
+    _check_faces(chosen, tuple(obs.mean_T))
     out = Measurements(np.asarray(obs.t, dtype=float), {f: np.asarray(obs.mean_T[f], dtype=float) for f in chosen},
                        "simulated")
     if noise:
@@ -173,44 +172,22 @@ def simulate_measurements(
     return out
 
 
-def _diagonal(k_bar: npt.ArrayLike) -> tuple[float, float, float]:
-    k = np.asarray(k_bar, dtype=float)
-    if k.shape == (3, 3):
-        off = k - np.diag(np.diag(k))
-        if np.max(np.abs(off)) > 1e-3 * np.max(np.abs(np.diag(k))):
-            raise InputError("the homogeneous model is orthotropic in the box axes: k̄ must be diagonal "
-                             f"(off-diagonal terms <= 1e-3 of the diagonal), got {k.tolist()}")
-        k = np.diag(k)
-    if k.shape != (3,) or not np.all(np.isfinite(k)) or np.any(k <= 0):
-        raise InputError(f"k̄ must be three positive conductivities (k_xx, k_yy, k_zz) in W/(m K), got {k.tolist()}")
-    return float(k[0]), float(k[1]), float(k[2])
+def homogeneous_measurements(scene: Scene, k: npt.ArrayLike, c: float, *, perturbation: float = 0.0,
+                             method: str = "auto") -> Measurements:
+    """Face means of the homogeneous orthotropic twin of ``scene`` (seed 001 eq. 1, § 4.2).
 
-
-def homogeneous_system(
-    shape: tuple[int, int, int],
-    voxel_size: Sequence[float],
-    k_bar: npt.ArrayLike,
-    c_bar: float,
-    boundary: Sequence[FaceSpec],
-    *,
-    time: TimeGrid | None,
-    outputs: Sequence[str],
-    initial_T: float = 0.0,
-    perturbation: float = 0.0,
-) -> ThermalSystem:
-    """The homogeneous orthotropic twin (seed 001 eq. 1) of a ``shape`` voxel box.
-
-    One phase ``"homogeneous"`` with k = diag(k̄) (eq. 13; a (3,) vector or a diagonal 3x3 tensor,
-    W/(m K)) and c = c̄ (eq. 14, J/(m^3 K)), under the same ``boundary``, ``time`` and ``outputs``
-    as the heterogeneous model.  ``perturbation`` multiplies every homogeneous property by
-    ``1 + perturbation`` (seed 001 § 4.3 studies +2 %: ``perturbation=0.02``).
+    ``k`` is the effective conductivity tensor (3x3, W/(m K); ``aromm.homogenize(scene)``, eq. 13)
+    and ``c`` the mean capacity (J/(m^3 K); ``aromm.mean_capacity(scene)``, eq. 14).  Every
+    homogeneous property is multiplied by ``1 + perturbation`` (§ 4.3 studies +2 %: 0.02).
+    The twin (``aromm.homogeneous_twin``) has the scene's box, face conditions, time grid and
+    outputs; it is simulated by the full model with the linear solver ``method``.
     """
-    if not (math.isfinite(c_bar) and c_bar > 0):
-        raise InputError(f"c̄ must be a positive volumetric heat capacity in J/(m^3 K), got {c_bar!r}")
+    if scene.time is None:
+        raise InputError(f"{scene.path or 'scene'}: measurements need a transient scene ([time] with end and dt)")
     if not (math.isfinite(perturbation) and perturbation > -1):
         raise InputError(f"perturbation must be a finite fraction > -1, got {perturbation!r}")
     scale = 1.0 + perturbation
-    kx, ky, kz = _diagonal(k_bar)
-    phase = PhaseSpec(HOMOGENEOUS_PHASE, 0, k=(scale * kx, scale * ky, scale * kz), c=scale * float(c_bar))
-    return assemble_voxels(np.zeros(shape, dtype=np.int32), voxel_size, [phase], boundary,
-                           time=time, outputs=outputs, initial_T=initial_T)
+    twin = homogeneous_twin(scene, scale * np.asarray(k, dtype=float), scale * float(c))
+    obs = simulate(assemble(twin), method=method)
+    return Measurements(np.asarray(obs.t, dtype=float), {f: np.asarray(v, dtype=float) for f, v in obs.mean_T.items()},
+                        f"homogeneous twin of {scene.path or 'scene'}")

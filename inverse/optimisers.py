@@ -230,11 +230,11 @@ def swarm_start(objective: Objective, dim: int, particles: int, rng: np.random.G
     return SwarmState(0, x, v, x.copy(), cost, _LegacyRNG.seeded(rng))
 
 
-def swarm_step(state: SwarmState, objective: Objective) -> SwarmState:
+def swarm_step(state: SwarmState, objective: Objective, backend: _Backend | None = None) -> SwarmState:
     """One global-best PSO iteration through pyswarms' backend: move, evaluate, update bests."""
     dim = state.position.shape[1]
     bounds = (np.zeros(dim), np.ones(dim))
-    ps = _Backend.build()
+    ps = backend if backend is not None else _Backend.build()
     swarm = ps.swarm(state.position.copy(), state.velocity.copy(), options={"w": W, "c1": C1, "c2": C2},
                      pbest_pos=state.pbest_pos.copy(), pbest_cost=state.pbest_cost.copy(),
                      best_pos=state.best_pos.copy(), best_cost=state.best_cost)
@@ -260,8 +260,9 @@ def pso(objective: Objective, dim: int, rng: np.random.Generator, *, particles: 
         state = swarm_start(objective, dim, particles, rng)
         if callback is not None:
             callback(state)
+    backend = _Backend.build()
     while state.iteration < iterations:
-        state = swarm_step(state, objective)
+        state = swarm_step(state, objective, backend)
         if callback is not None:
             callback(state)
     return state

@@ -14,7 +14,8 @@ pin the parameters down rather than where the truth lies.
 
 Identifiability is judged on the *relative* sensitivities X_j β̂_j (K per unit relative
 change): a column that is zero (e.g. a capacity under steady measurements) or a
-near-singular matrix (condition number above :data:`CONDITION_LIMIT`) is reported.
+near-singular matrix (condition number above :data:`CONDITION_LIMIT`) is reported; a numerically
+singular one (:data:`SINGULAR`) gets infinite standard errors.
 """
 
 from __future__ import annotations
@@ -30,7 +31,10 @@ import scipy.stats as st
 from aromm.system import FloatArray
 
 CONDITION_LIMIT = 1e6  # relative-sensitivity condition number above which parameters are not separable
-NULL_SENSITIVITY = 1e-9  # a relative-sensitivity column this small (vs the largest) carries no information
+# a relative-sensitivity column this small (vs the largest) carries no information; above the noise
+# floor of central differences on solver output (~1e-7 measured on a steady-state case)
+NULL_SENSITIVITY = 1e-6
+SINGULAR = 1e-12  # singular values below this fraction of the largest are zero (no covariance)
 LEVEL = 0.95
 
 
@@ -95,26 +99,27 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                      "from these data (e.g. a heat capacity from steady measurements)")
     live = ~dead
     condition = math.inf
+    se = np.full(p, np.inf)
+    corr = np.full((p, p), np.nan)  # undefined for parameters the data do not determine
+    dof = n_obs - p
+    s2 = float(r @ r) / dof if dof > 0 else math.inf
+    if dof <= 0:
+        notes.append(f"{n_obs} observations for {p} unknowns: no residual variance, no intervals")
     if np.any(live):
         _, sv, vt = np.linalg.svd(scaled[:, live], full_matrices=False)
-        condition = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+        condition = float(sv[0] / sv[-1]) if sv[-1] > SINGULAR * sv[0] else math.inf
         if condition > CONDITION_LIMIT:
             combo = " ".join(f"{c:+.2f}·{n}" for c, n in zip(vt[-1], np.array(names)[live], strict=True))
             notes.append(f"the measurements hardly separate the unknowns (condition number {condition:.2g} > "
                          f"{CONDITION_LIMIT:g}); least determined relative combination: {combo}")
-    dof = n_obs - p
-    if dof <= 0:
-        notes.append(f"{n_obs} observations for {p} unknowns: no residual variance, no intervals")
-    s2 = float(r @ r) / dof if dof > 0 else math.inf
-
-    se = np.full(p, np.inf)
-    corr = np.full((p, p), np.nan)  # undefined for parameters the data do not determine
-    if np.any(live) and math.isfinite(condition):
-        shape = np.linalg.inv(x[:, live].T @ x[:, live])  # Cov = s² (XᵀX)⁻¹
-        d = np.sqrt(np.diag(shape))
-        corr[np.ix_(live, live)] = shape / np.outer(d, d)
-        if math.isfinite(s2):
-            se[live] = math.sqrt(s2) * d
+        if math.isfinite(condition):
+            # (XᵀX)⁻¹ = D V Σ⁻² Vᵀ D with X D = U Σ Vᵀ the relative sensitivities (D = diag|β|)
+            scale = np.where(beta != 0, np.abs(beta), 1.0)[live]
+            shape = (vt.T / sv**2) @ vt * np.outer(scale, scale)
+            d = np.sqrt(np.diag(shape))
+            corr[np.ix_(live, live)] = shape / np.outer(d, d)
+            if math.isfinite(s2):
+                se[live] = math.sqrt(s2) * d
     t_q = float(st.t.ppf(0.5 + level / 2, dof)) if dof > 0 else math.inf
     half = t_q * se
     for msg in notes:
