@@ -127,22 +127,28 @@ def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float,
 @RADIUS
 @click.option("--ratio", type=click.FloatRange(min=0, min_open=True), required=True,
               help="Contrast k_inclusion / k_matrix.")
-@click.option("--axis", type=click.Choice(["x", "y", "z"]), default="x", show_default=True)
+@click.option("--axes", type=click.Choice(["x", "y", "z", "xyz"]), default="xyz", show_default=True,
+              help="Direction(s) of the imposed gradient; E is averaged over them.")
+@click.option("--boundary", type=click.Choice(["periodic", "faces"]), default="periodic", show_default=True,
+              help="periodic: cell of a cubic array (= isothermal/adiabatic faces by symmetry); "
+                   "faces: cut packing with two faces at fixed T (the seed's set-up, cut layer included).")
 @JSON
 @QUIET
 def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, ratio: float,
-               axis: str, as_json: bool, quiet: bool) -> None:
-    """E = k_eff / k_matrix of a sphere inclusion of radius L/3 (seed 000 §3.2), faces held at fixed T."""
+               axes: str, boundary: str, as_json: bool, quiet: bool) -> None:
+    """E = k_eff / k_matrix of a sphere inclusion of radius L/3 centred in the cube (seed 000 §3.2)."""
     packing = _packing(packing_path, particles, seed, 0.1, quiet)
-    net = inclusion_network(packing, z, radius=radius)  # type: ignore[arg-type]
-    res = inclusion_ratio(net, ratio, axis)
+    net = inclusion_network(packing, z, radius=radius, boundary=boundary)  # type: ignore[arg-type]
+    res = inclusion_ratio(net, ratio, axes)
     phi = res.inclusion_fraction
     maxwell = (ratio + 2 + 2 * phi * (ratio - 1)) / (ratio + 2 - phi * (ratio - 1))
-    payload = {"E": res.E, "ratio": ratio, "inclusion_fraction": phi, "maxwell": maxwell, "particles": packing.n}
+    payload = {"E": res.E, "E_axes": res.E_axes, "ratio": ratio, "inclusion_fraction": phi, "maxwell": maxwell,
+               "boundary": boundary, "particles": packing.n}
     if as_json:
         echo_json(payload)
     else:
-        click.echo(f"E = {res.E:.5f}  (Maxwell at the same fraction {phi:.4f}: {maxwell:.5f})")
+        click.echo(f"E = {res.E:.5f}  (per axis {np.round(res.E_axes, 5).tolist()}; Maxwell at the same "
+                   f"fraction {phi:.4f}: {maxwell:.5f})")
 
 
 @dem.command("simulate")

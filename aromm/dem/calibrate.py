@@ -122,46 +122,69 @@ def calibrate(packing: Packing, z: float = 7.5, *, radius: Radius = "pair", boun
 
 @dataclass(frozen=True)
 class InclusionResult:
-    """Sphere-inclusion test (seed 000 §3.2): E = k_eff / k_matrix and what it was computed on."""
+    """Sphere-inclusion test (seed 000 §3.2): E = k_eff / k_matrix, per axis and averaged."""
 
     E: float
+    E_axes: FloatArray
     ratio: float
     inclusion_fraction: float
-    heat_flow: float
-    heat_flow_homogeneous: float
+    boundary: str
+
+
+InclusionBoundary = Literal["periodic", "faces"]
 
 
 def inclusion_network(packing: Packing, z: float = 7.5, *, radius: Radius = "pair", min_degree: int = 3,
-                      radius_fraction: float = 1.0 / 3.0) -> Network:
-    """Cut the periodic packing along its box and tag the central sphere inclusion (radius L/3).
+                      radius_fraction: float = 1.0 / 3.0, boundary: InclusionBoundary = "periodic") -> Network:
+    """Bond network of the periodic packing with the central sphere inclusion (radius L/3) tagged.
 
-    Bonds use the periodic packing's gap threshold for coordination ``z``; C_t is left at 1:
-    E below is a ratio of two solves on the same network, so C_t cancels (it is the
-    calibration with the same boundary conditions as the measurement, seed 000 §2.3).
+    ``boundary="periodic"`` keeps the periodic network: the cube is then the cell of a
+    simple-cubic array of inclusions, which by mirror symmetry has the same k_eff as the
+    cube with two isothermal and four adiabatic faces (the FE set-up).  ``"faces"`` cuts
+    the packing along its box (bonds from the periodic packing's gap threshold) for a
+    test with fixed temperatures on two faces, as in the seed, cut layer included.
+    C_t is left at 1: E is a ratio of two solves on the same network, so C_t cancels (the
+    calibration on the same packing and boundary conditions, seed 000 §2.3).
     """
+    if not packing.periodic:
+        raise InputError("inclusion_network needs the periodic packing (it cuts it itself for 'faces')")
     bonds = build_bonds(packing, z, min_degree=min_degree)
-    cut = packing.cut(packing.lower, packing.lower + packing.box)
-    cut_bonds = build_bonds(cut, gap=bonds.gap_threshold, min_degree=min_degree)
-    phases = sphere_inclusion(cut, radius_fraction)
-    return Network(cut, cut_bonds, 1.0, phases, ("matrix", "inclusion"), radius)
+    if boundary == "faces":
+        packing = packing.cut(packing.lower, packing.lower + packing.box)
+        bonds = build_bonds(packing, gap=bonds.gap_threshold, min_degree=min_degree)
+    elif boundary != "periodic":
+        raise InputError(f"unknown inclusion boundary {boundary!r}; allowed: periodic, faces")
+    return Network(packing, bonds, 1.0, sphere_inclusion(packing, radius_fraction), ("matrix", "inclusion"),
+                   radius)
 
 
-def inclusion_ratio(network: Network, ratio: float, axis: str = "x") -> InclusionResult:
-    """E = k_eff / k_m of the inclusion network: T = 1 on face ``<axis>1``, 0 on ``<axis>0``, rest adiabatic.
+def inclusion_ratio(network: Network, ratio: float, axes: str = "xyz") -> InclusionResult:
+    """E = k_eff(k_i = ratio k_m) / k_eff(k_i = k_m) along each of ``axes``, and their mean.
 
-    ``E = Q(k_i = ratio) / Q(k_i = 1)`` with Q the heat flow through the hot face: the
-    homogeneous solve on the same network calibrates it (C_t and the cut faces cancel).
+    Periodic network: diagonal of the Love-Weber conductivity tensors.  Cut network: T = 1
+    on face ``<axis>1``, 0 on ``<axis>0``, other faces adiabatic, and E the ratio of the heat
+    flows through the hot face (aromm.solve.steady_field).
     """
     if ratio <= 0:
         raise InputError(f"conductivity ratio must be positive, got {ratio}")
-    faces = (f"{axis}0", f"{axis}1")
-    values = {"matrix.k": 1.0, "inclusion.k": 1.0, f"{axis}0.T": 0.0, f"{axis}1.T": 1.0}
-    system = network.system(values, fixed=faces)
-    hot = system.dirichlet[1].dofs
-    flows = []
-    for k_i in (1.0, ratio):
-        v = {"inclusion.k": k_i}
-        flows.append(face_heat_flow(system, v, steady_field(system, v), hot))
+    if not axes or any(a not in "xyz" for a in axes):
+        raise InputError(f"axes must be letters of 'xyz', got {axes!r}")
+    idx = ["xyz".index(a) for a in axes]
+    cases = ({"matrix.k": 1.0, "inclusion.k": 1.0}, {"matrix.k": 1.0, "inclusion.k": ratio})
+    if network.packing.periodic:
+        k_hom, k_het = (np.diag(periodic_conductivity(network.packing, network.bonds, network.conductances(v)))
+                        for v in cases)
+        e_axes = k_het[idx] / k_hom[idx]
+    else:
+        e_list = []
+        for axis in axes:
+            faces = (f"{axis}0", f"{axis}1")
+            system = network.system({**cases[0], f"{axis}0.T": 0.0, f"{axis}1.T": 1.0}, fixed=faces)
+            hot = system.dirichlet[1].dofs
+            flows = [face_heat_flow(system, v, steady_field(system, v), hot) for v in cases]
+            e_list.append(flows[1] / flows[0])
+        e_axes = np.asarray(e_list)
     vol = network.packing.volumes
     frac = float(vol[network.phases == 1].sum() / vol.sum())
-    return InclusionResult(flows[1] / flows[0], ratio, frac, flows[1], flows[0])
+    boundary = "periodic" if network.packing.periodic else "faces"
+    return InclusionResult(float(e_axes.mean()), e_axes, ratio, frac, boundary)
