@@ -13,8 +13,9 @@ import click
 from aromm.cli.common import run_guarded
 
 from aromm.cli import forward
+from aromm.cli import identify
 
-COMMANDS: list[click.Command] = [*forward.COMMANDS]
+COMMANDS: list[click.Command] = [*forward.COMMANDS, *identify.COMMANDS]
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

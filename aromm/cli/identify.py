@@ -1,0 +1,125 @@
+"""``aromm identify``: phase properties from measured face-mean temperatures (seed 001 § 4)."""
+
+from __future__ import annotations
+
+import math
+import sys
+import warnings
+from pathlib import Path
+
+import click
+from tqdm import tqdm
+
+from aromm.cli.common import echo_json
+from aromm.model import ForwardModel
+from aromm.scene import assemble, load_scene
+from aromm.solve import FullModel
+from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
+from inverse.measurements import load_measurements
+from inverse.plotting import save_identification_plot
+from inverse.uncertainty import IdentifiabilityWarning
+
+
+def parse_unknown(text: str) -> tuple[str, tuple[float, float]]:
+    """``NAME=LOW:HIGH`` (SI units), e.g. ``fibre.k=0.05:1`` or ``fibre.c=1e5:1e7``."""
+    name, eq, bounds = text.partition("=")
+    low, colon, high = bounds.partition(":")
+    try:
+        if not (eq and colon and name.strip()):
+            raise ValueError
+        lo, hi = float(low), float(high)
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: expected NAME=LOW:HIGH, e.g. fibre.k=0.05:1",
+                                 param_hint="--unknown") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise click.BadParameter(f"{text!r}: bounds must be finite with LOW < HIGH", param_hint="--unknown")
+    return name.strip(), (lo, hi)
+
+
+def _model(scene: Path, kind: str, order: int, tty: bool) -> tuple[ForwardModel, dict[str, object]]:
+    system = assemble(load_scene(scene))
+    if kind == "full":
+        return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
+    from aromm.reduced import reduce
+
+    rom = reduce(system, order=order, progress=tty)
+    info = {"kind": "reduced", "order": rom.order, "scene": str(scene)}
+    info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
+    return rom, info
+
+
+def _table(result: Identification) -> str:
+    unc = result.uncertainty
+    lines = [f"{'parameter':<12}{'estimate':>14}{'std error':>12}{'rel. se':>10}   95 % interval"]
+    for i, name in enumerate(unc.names):
+        est, se = result.estimates[name], unc.std_error[i]
+        rel = f"{100 * se / abs(est):.3g} %" if math.isfinite(se) and est else "-"
+        ci = f"[{unc.lower[i]:.6g}, {unc.upper[i]:.6g}]" if math.isfinite(se) else "(not identifiable)"
+        lines.append(f"{name:<12}{est:>14.6g}{se:>12.3g}{rel:>10}   {ci}")
+    lines.append(f"criterion J = {result.criterion:.4g} °C² (eq. 12), residual std {unc.residual_std:.3g} °C, "
+                 f"{result.evaluations} evaluations, {result.seconds:.1f} s")
+    for i, a in enumerate(unc.names):
+        for j in range(i + 1, len(unc.names)):
+            lines.append(f"correlation {a} / {unc.names[j]}: {unc.correlation[i, j]:+.3f}")
+    lines.append("model: " + ", ".join(f"{k} {v}" for k, v in result.model.items() if k in ("kind", "order")))
+    return "\n".join(lines)
+
+
+@click.command("identify")
+@click.argument("scene", type=click.Path(path_type=Path))
+@click.option("--measurements", "measurements_path", type=click.Path(path_type=Path), required=True,
+              help="CSV t,<face>,... of measured face-mean temperatures (s, °C).")
+@click.option("--unknown", "unknowns", multiple=True, required=True, metavar="NAME=LOW:HIGH",
+              help="An unknown parameter and its search bounds (repeat), e.g. fibre.k=0.05:1.")
+@click.option("--model", "kind", type=click.Choice(["reduced", "full"]), default="reduced", show_default=True)
+@click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
+              help="Reduced-model order ñ (with --model reduced).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the particle swarm.")
+@click.option("--particles", type=click.IntRange(min=2), default=DEFAULT_PARTICLES, show_default=True)
+@click.option("--iterations", type=click.IntRange(min=0), default=DEFAULT_ITERATIONS, show_default=True)
+@click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
+@click.option("--plot", type=click.Path(path_type=Path), default=None,
+              help="Write a figure of the fit and of the convergence (e.g. fit.png).")
+@click.option("--checkpoint", type=click.Path(path_type=Path), default=None,
+              help="Checkpoint file (.npz) rewritten after every swarm iteration.")
+@click.option("--resume", is_flag=True, help="Continue from --checkpoint when it exists.")
+def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, ...], kind: str, order: int, seed: int,
+                 particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
+                 resume: bool) -> None:
+    """Estimate phase properties of SCENE's material from measured face-mean temperatures.
+
+    The criterion is seed 001 eq. 12; the model is evaluated at the measurement times.
+    """
+    if resume and checkpoint is None:
+        raise click.UsageError("--resume needs --checkpoint FILE")
+    bounds = dict(parse_unknown(u) for u in unknowns)
+    tty = sys.stderr.isatty()
+    model, info = _model(scene, kind, order, tty)
+    data = load_measurements(measurements_path, model.outputs)
+    bar = tqdm(total=iterations, desc="PSO", file=sys.stderr, disable=not tty, leave=False)
+
+    def report(p: Progress) -> None:
+        if p.stage == "pso":
+            bar.update(p.step - bar.n)
+        else:
+            bar.set_description("refine")
+        bar.set_postfix_str(f"J={p.criterion:.3g}")
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", IdentifiabilityWarning)
+        try:
+            result = identify(model, data, bounds, seed=seed, particles=particles, iterations=iterations,
+                              checkpoint=checkpoint, resume=resume, progress=report, description=info)
+        finally:
+            bar.close()
+    for w in caught:
+        click.echo(f"aromm: warning: {w.message}", err=True)
+    if plot is not None:
+        click.echo(f"wrote {save_identification_plot(result, plot)}", err=True)
+    if as_json:
+        echo_json(result.to_json())
+    else:
+        click.echo(_table(result))
+
+
+COMMANDS: list[click.Command] = [identify_cmd]

@@ -1,0 +1,113 @@
+"""``aromm identify``: twin recovery through the command line, JSON shape, plot, checkpoint, exit codes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from inverse_cases import TRUTH, tracheids
+
+from aromm.cli import main
+from aromm.scene import assemble, load_scene
+from aromm.solve import FullModel
+from inverse.measurements import save_measurements, simulate_measurements
+
+SCENE = """
+[geometry]
+image = "labels.npy"
+voxel_size = {voxel}
+
+[phases.fibre]
+label = 1
+k = 0.3
+c = 4.0e6
+
+[phases.gas]
+label = 0
+k = 0.025
+c = 1.2e3
+
+[boundary.z0]
+flux = 500.0
+[boundary.z1]
+h = 20.0
+T_ext = 0.0
+
+[time]
+end = 20.0
+dt = 1.0
+
+[outputs]
+mean_T = ["z0", "z1"]
+"""
+
+
+@pytest.fixture
+def case(tmp_path: Path) -> tuple[Path, Path]:
+    """A 4³ scene and noise-free measurements made by its own full model at the truth."""
+    np.save(tmp_path / "labels.npy", tracheids(4))
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE.format(voxel=231e-6 / 4), encoding="utf-8")
+    model = FullModel(assemble(load_scene(scene)))
+    csv = tmp_path / "y.csv"
+    save_measurements(simulate_measurements(model, TRUTH), csv)
+    return scene, csv
+
+
+ARGS = ["--unknown", "fibre.k=0.05:1", "--unknown", "fibre.c=1e5:1e7", "--model", "full", "--particles", "6",
+        "--iterations", "5"]
+
+
+def test_json_output_recovers_the_truth_and_writes_plot_and_checkpoint(
+        case: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    scene, csv = case
+    plot, ck = scene.parent / "fit.png", scene.parent / "run.npz"
+    code = main(["identify", str(scene), "--measurements", str(csv), *ARGS, "--json", "--plot", str(plot),
+                 "--checkpoint", str(ck)])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    doc = json.loads(out.out)
+    assert list(doc) == ["estimates", "criterion", "evaluations", "seconds", "model", "uncertainty"]
+    for name, value in TRUTH.items():
+        assert doc["estimates"][name] == pytest.approx(value, rel=1e-3)
+    assert doc["model"]["kind"] == "full"
+    assert plot.stat().st_size > 10_000 and plot.read_bytes()[:4] == b"\x89PNG"
+    assert ck.exists()
+    code = main(["identify", str(scene), "--measurements", str(csv), *ARGS, "--json", "--checkpoint", str(ck),
+                 "--resume"])
+    again = json.loads(capsys.readouterr().out)
+    assert code == 0 and again["estimates"] == doc["estimates"]
+
+
+def test_table_output(case: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    scene, csv = case
+    assert main(["identify", str(scene), "--measurements", str(csv), *ARGS]) == 0
+    out = capsys.readouterr().out
+    assert "fibre.k" in out and "95 % interval" in out and "correlation fibre.k / fibre.c" in out
+
+
+@pytest.mark.parametrize(("extra", "needle"), [
+    (["--unknown", "fibre.k=0.05-1"], "NAME=LOW:HIGH"),
+    (["--unknown", "fibre.k=1:0.05"], "LOW < HIGH"),
+    (["--unknown", "fibre.q=0:1"], "unknown parameter 'fibre.q'"),
+    (["--unknown", "fibre.k=0.05:1", "--resume"], "--resume needs --checkpoint"),
+])
+def test_bad_arguments_exit_2(case: tuple[Path, Path], capsys: pytest.CaptureFixture[str], extra: list[str],
+                              needle: str) -> None:
+    scene, csv = case
+    code = main(["identify", str(scene), "--measurements", str(csv), "--model", "full", "--particles", "4",
+                 "--iterations", "1", *extra])
+    assert code == 2
+    assert needle in capsys.readouterr().err
+
+
+def test_measurement_file_with_unknown_face_exits_2(case: tuple[Path, Path],
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    scene, csv = case
+    csv.write_text("t,x0\n1,2\n", encoding="utf-8")
+    code = main(["identify", str(scene), "--measurements", str(csv), *ARGS])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert str(csv) in err and "'x0'" in err and "allowed: z0, z1" in err
