@@ -97,3 +97,25 @@ def test_shared_transient_solver_matches_explicit(inclusion_net: Network) -> Non
     explicit = simulate_explicit(system, times=[0.002, 0.004])
     np.testing.assert_allclose(explicit.as_array(), implicit.as_array(), atol=2e-3)
     assert explicit.as_array()[-1, 0] > 0.05  # heat has arrived: the comparison is not trivial
+
+
+def test_aromm_reducer_on_network() -> None:
+    """aromm.reduced.reduce works unchanged on a DEM network (flux on z0, convection on z1)."""
+    from aromm.reduced import reduce
+
+    p = pack_spheres(600, np.random.default_rng(3), box=0.01)
+    cut = p.cut(p.lower, p.lower + p.box)
+    net = Network(cut, build_bonds(cut, gap=build_bonds(p, 7.5).gap_threshold), 0.8,
+                  np.zeros(cut.n, dtype=np.int64))
+    values = {"matrix.k": 1.0, "matrix.c": 1e6, "z0.flux": 500.0, "z1.h": 20.0, "z1.T_ext": 0.0}
+    system = net.system(values, flux=("z0",), convection=("z1",), outputs=("z0", "z1"),
+                        time=TimeGrid(100.0, 1.0))
+    assert system.conductance.names == ("K_matrix", "H_z1")
+    rom = reduce(system, order=20, cache=False)
+    other = {"matrix.k": 1.5, "matrix.c": 2e6}  # away from the basis parameters
+    full = simulate(system, other).as_array()
+    assert np.abs(rom.simulate(other).as_array() - full).max() < 0.01 * np.abs(full).max()
+    # energy balance of the full model at steady state: the flux in leaves by convection
+    steady = steady_field(system)
+    area_out = net.face_areas("z1")
+    assert float(area_out @ (20.0 * steady)) == pytest.approx(500.0 * 0.01**2, rel=1e-8)

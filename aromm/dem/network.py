@@ -186,6 +186,17 @@ class Network:
         w[idx] = self.packing.volumes[idx]
         return w / w.sum()
 
+    def face_areas(self, face: str) -> FloatArray:
+        """Share of the face area (m^2) per particle: the face's particles in proportion to pi r_p^2."""
+        idx = face_particles(self.packing, face)
+        if idx.size == 0:
+            raise InputError(f"face {face!r} has no particle")
+        axis = AXES.index(face[0])
+        area = float(np.prod(np.delete(self.packing.box, axis)))
+        share = np.zeros(self.n)
+        share[idx] = self.packing.radii[idx] ** 2
+        return area * share / share.sum()
+
     def slab_weights(self, axis: str, bins: int) -> dict[str, FloatArray]:
         """Observation rows: V-weighted means over ``bins`` equal slabs along ``axis`` (by centre)."""
         if axis not in AXES or bins < 1:
@@ -207,6 +218,7 @@ class Network:
         *,
         fixed: Sequence[str] = (),
         flux: Sequence[str] = (),
+        convection: Sequence[str] = (),
         outputs: Sequence[str] = (),
         profile: tuple[str, int] | None = None,
         time: TimeGrid | None = None,
@@ -214,21 +226,22 @@ class Network:
         """The ThermalSystem of this network.
 
         ``fixed`` faces get a Dirichlet condition ``"<face>.T"``; ``flux`` faces an entering
-        flux ``"<face>.flux"`` (W/m^2) over the face area; the other faces are adiabatic.
+        flux ``"<face>.flux"`` (W/m^2) over the face area; ``convection`` faces an exchange
+        ``"<face>.h"`` (W/(m^2 K)) with ``"<face>.T_ext"`` (terms ``H_<face>``, ``U_<face>`` as in
+        aromm.fem); the other faces are adiabatic.  Face loads and exchanges are shared between
+        the face's particles in proportion to ``pi r_p^2``.
         A capacity is included only for a transient (``time`` given).  ``parameters``
         holds the default values (``"<phase>.k"``, ``"<phase>.c"``, ``"<face>.T"``, ...).
         """
         dirichlet = tuple(
             Dirichlet(face, face_particles(self.packing, face), f"{face}.T") for face in fixed
         )
-        load_terms = []
-        for face in flux:
-            idx = face_particles(self.packing, face)
-            axis = AXES.index(face[0])
-            area = float(np.prod(np.delete(self.packing.box, axis)))
-            share = np.zeros(self.n)
-            share[idx] = self.packing.radii[idx] ** 2
-            load_terms.append(Term(f"U_{face}", Coefficient((f"{face}.flux",)), area * share / share.sum()))
+        load_terms = [Term(f"U_{face}", Coefficient((f"{face}.flux",)), self.face_areas(face)) for face in flux]
+        exchange_terms = []
+        for face in convection:
+            area = self.face_areas(face)
+            exchange_terms.append(Term(f"H_{face}", Coefficient((f"{face}.h",)), sp.csr_array(sp.diags(area))))
+            load_terms.append(Term(f"U_{face}", Coefficient((f"{face}.h", f"{face}.T_ext")), area))
         observation = {face: self.face_weights(face) for face in outputs}
         if profile is not None:
             observation.update(self.slab_weights(*profile))
@@ -238,7 +251,7 @@ class Network:
         )
         return ThermalSystem(
             n=self.n,
-            conductance=self.conductance(),
+            conductance=Affine(self.conductance().terms + tuple(exchange_terms)),
             capacity=self.capacity() if time is not None else Affine(),
             load=Affine(tuple(load_terms)),
             dirichlet=dirichlet,
