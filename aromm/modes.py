@@ -193,6 +193,17 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
     return ReferenceOperators(sp.csr_array(k0), sp.csr_array(c0), b, heat / area, vals)
 
 
+def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
+    """Split Ñ = ``total`` into (n_dirichlet, n_steklov) evenly, moving to one family what the other lacks
+    (at most n_interior Dirichlet modes and n_boundary Steklov modes exist)."""
+    on_gamma = int(np.count_nonzero(boundary_mass(system).diagonal() > 0))
+    n_interior = system.n - on_gamma
+    n_s = min((total + 1) // 2, on_gamma)
+    n_d = min(total - n_s, n_interior)
+    n_s = min(total - n_d, on_gamma)
+    return n_d, n_s
+
+
 def zero_modes(ops: ReferenceOperators) -> FloatArray:
     """One constant per connected component of the conduction graph, capacity-normalised (columns)."""
     graph = sp.csr_array(ops.stiffness != 0)

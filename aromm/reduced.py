@@ -39,7 +39,7 @@ from tqdm import tqdm
 from aromm.amalgam import amalgam
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
-from aromm.modes import boundary_mass, compute_basis, default_basis_values, is_exchange
+from aromm.modes import boundary_mass, compute_basis, default_basis_values, is_exchange, split_modes
 from aromm.pod import pod_coefficients
 from aromm.system import Affine, Coefficient, FloatArray, Observables, Term, ThermalSystem, TimeGrid
 
@@ -179,6 +179,12 @@ class ReducedModel:
         values, m = self._values({k: [v] for k, v in (params or {}).items()})
         with threadpool_limits(limits=1, user_api="blas"):
             return self._modal(values, m).states(np.asarray(times, dtype=float))[0]
+
+    def rates(self, params: Mapping[str, npt.ArrayLike] | None = None) -> FloatArray:
+        """Modal rates Λ (s⁻¹, ascending, ≥ 0; 1/Λ are the time constants), shape (m, r)."""
+        values, m = self._values(params or {})
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._modal(values, m).rates
 
     def steady(self, params: Mapping[str, npt.ArrayLike] | None = None) -> FloatArray:
         """Steady limit of the outputs, (m, n_outputs); refused when no exchange fixes the mean temperature."""
@@ -375,9 +381,11 @@ def reduce(
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
     total = int(modes) if modes is not None else 2 * int(order)
-    n_s = int(n_steklov) if n_steklov is not None else (total - int(n_dirichlet) if n_dirichlet is not None
-                                                        else (total + 1) // 2)
-    n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
+    if n_dirichlet is None and n_steklov is None:
+        n_d, n_s = split_modes(system, total)
+    else:
+        n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
+        n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
     ref_vals = default_reference_values(system)
     ref_vals.update({k: float(v) for k, v in (reference_values or {}).items()})
     cases: list[ReferenceCase] = [ReferenceCase(system, ref_vals, name="system")]
