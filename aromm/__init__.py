@@ -6,10 +6,12 @@ Public API (DESIGN.md)::
     system = aromm.assemble(scene)                  # ThermalSystem
     obs = aromm.simulate(system, scene.parameters)  # full model -> Observables
     k_eff = aromm.homogenize(scene)                 # 3x3 tensor, W/(m K)
+    rom = aromm.reduce(system, order=200)           # AROMM ReducedModel (cached bases)
 """
 
 from aromm.errors import InputError, NumericalError
 from aromm.homogenize import homogeneous_twin, homogenize, mean_capacity
+from aromm.reduced import ReducedModel, reduce
 from aromm.scene import Scene, assemble, load_scene
 from aromm.solve import FullModel, simulate
 from aromm.system import Observables, ThermalSystem
@@ -19,6 +21,7 @@ __all__ = [
     "InputError",
     "NumericalError",
     "Observables",
+    "ReducedModel",
     "Scene",
     "ThermalSystem",
     "assemble",
@@ -26,6 +29,7 @@ __all__ = [
     "homogenize",
     "load_scene",
     "mean_capacity",
+    "reduce",
     "simulate",
 ]
 __version__ = "0.1.0"
