@@ -1,0 +1,61 @@
+"""``aromm reduce``: build (or load from the cache) the AROMM reduced model of a scene."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from aromm.cache import NpzCache
+from aromm.cli.common import echo_json
+from aromm.linalg import METHODS
+from aromm.reduced import METHODS as REDUCTIONS
+from aromm.reduced import reduce
+from aromm.scene import assemble, load_scene
+
+
+@click.command("reduce")
+@click.argument("scene", type=click.Path(path_type=Path))
+@click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
+              help="Reduced order ñ (number of amalgamated modes, seed 001 eq. 9).")
+@click.option("--modes", type=click.IntRange(min=1), default=None,
+              help="Detailed basis size Ñ (Dirichlet + Steklov modes); default 2 × order.")
+@click.option("--method", type=click.Choice(REDUCTIONS), default="aromm", show_default=True,
+              help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots.")
+@click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
+              help="Extra reference scene on the same image (e.g. the other scenarios of seed 001); repeatable.")
+@click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
+              help="Sparse factorisation used by the eigensolvers.")
+@click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
+              help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")
+@click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")
+@click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
+def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
+               cache_dir: Path | None, no_cache: bool, as_json: bool) -> None:
+    """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant)."""
+    system = assemble(load_scene(scene))
+    refs = [assemble(load_scene(path)) for path in references]
+    cache = False if no_cache else NpzCache(cache_dir)
+    rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
+                 progress=sys.stderr.isatty())
+    info = dict(rom.info)
+    info["cache_dir"] = "" if no_cache else str(NpzCache(cache_dir).directory)
+    info["outputs"] = list(rom.outputs)
+    info["parameters"] = sorted(rom.parameter_names)
+    if as_json:
+        echo_json(info)
+        return
+    click.echo(f"reduced model of {scene}: order ñ = {rom.order} from Ñ = {info.get('modes')} modes "
+               f"({info.get('n_dirichlet')} Dirichlet, {info.get('n_steklov')} Steklov incl. constants), "
+               f"method {info.get('method')}")
+    if info.get("cached"):
+        click.echo(f"loaded from the cache in {info['cache_dir']}")
+    else:
+        click.echo(f"offline build {float(info['offline_seconds']):.1f} s (bases {float(info['basis_seconds']):.1f} s"
+                   f"{', cached' if info.get('basis_cached') else ''}); "
+                   f"max output error on the reference case {float(info['reference_error']):.3g} °C")
+    click.echo(f"outputs: {', '.join(rom.outputs)}; parameters: {', '.join(sorted(rom.parameter_names))}")
+
+
+COMMANDS: list[click.Command] = [reduce_cmd]
