@@ -41,10 +41,8 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, refer
                  progress=sys.stderr.isatty())
     info = dict(rom.info)
     info["cache_dir"] = "" if no_cache else str(NpzCache(cache_dir).directory)
-    info["outputs"] = list(rom.outputs)
-    info["parameters"] = sorted(rom.parameter_names)
     if as_json:
-        echo_json(info)
+        echo_json({**info, "outputs": list(rom.outputs), "parameters": sorted(rom.parameter_names)})
         return
     click.echo(f"reduced model of {scene}: order ñ = {rom.order} from Ñ = {info.get('modes')} modes "
                f"({info.get('n_dirichlet')} Dirichlet, {info.get('n_steklov')} Steklov incl. constants), "
