@@ -1,0 +1,174 @@
+"""The identification study of seed 001 § 4: Table 2, the +2 % study, and accuracy against cost.
+
+Shared by ``notebooks/table2.ipynb`` and ``benchmarks/identify.py``.  The measurements of a
+scenario come from the homogeneous orthotropic twin (k̄ by eq. 13, c̄ by eq. 14) and the
+unknowns k_F, c_F of the heterogeneous model are searched in the bounds of :data:`UNKNOWNS`;
+the error of an estimate is eq. 15, σ = |β̂ − β| / β, against the scene's own fibre values.
+Loading directions follow DESIGN.md: scenario 1 heats z0 (Table 2 row "zz"), 2 heats x0
+("xx"), 3 heats y0 ("yy").
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aromm.fem import FaceSpec
+from aromm.homogenize import homogenize, mean_capacity
+from aromm.model import ForwardModel
+from aromm.scene import Scene, assemble, load_scene, scene_from_dict
+from aromm.system import FloatArray, ThermalSystem, TimeGrid
+from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, identify
+from inverse.measurements import Measurements, homogeneous_measurements
+
+UNKNOWNS: Mapping[str, tuple[float, float]] = {"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}
+AXES = ("x", "y", "z")
+SCENE_FILES = {"z": "wood_s1.toml", "x": "wood_s2.toml", "y": "wood_s3.toml"}
+
+#: Seed 001 Table 2 by loading direction: k̂_F (W/(m K)), σ_k (%), ĉ_F (J/(m^3 K)), σ_c (%), t_CPU (h).
+PAPER_TABLE2: Mapping[str, tuple[float, float, float, float, float]] = {
+    "x": (0.299, 0.230, 4.051e6, 1.276, 4.1),
+    "y": (0.298, 0.798, 4.042e6, 1.052, 5.2),
+    "z": (0.296, 1.290, 4.048e6, 1.212, 3.6),
+}
+#: Seed 001 § 4.3: errors (%) when every homogeneous property is 2 % too high (loading along x).
+PAPER_PERTURBED: Mapping[str, float] = {"fibre.k": 2.9, "fibre.c": 3.3}
+#: Seed 001 § 4.2: k̄_xx, k̄_yy, k̄_zz (W/(m K)) and c̄ (J/(m^3 K)) for k_F = 0.3, c_F = 4e6.
+PAPER_HOMOGENEOUS = (0.087, 0.099, 0.123, 1.558e6)
+
+
+def relative_errors(estimates: Mapping[str, float], truth: Mapping[str, float]) -> dict[str, float]:
+    """Seed 001 eq. 15, σ_β = |β̂ − β| / β, for every parameter of ``truth``."""
+    return {k: abs(float(estimates[k]) - v) / abs(v) for k, v in truth.items()}
+
+
+def fibre_truth(scene: Scene) -> dict[str, float]:
+    """The fibre values the scene was built with: what an identification should find."""
+    fibre = next(ph for ph in scene.phases if ph.name == "fibre")
+    return {"fibre.k": float(fibre.k), "fibre.c": float(fibre.c)}  # type: ignore[arg-type]
+
+
+def loading(material: Scene, axis: str, *, end: float = 60.0, dt: float = 0.1, flux: float = 500.0,
+            h: float = 20.0) -> Scene:
+    """Seed 001 Table 1 on ``material``: ``flux`` (W/m²) into face <axis>0, ``h`` (W/(m² K)) on <axis>1."""
+    faces = (FaceSpec(f"{axis}0", flux=flux), FaceSpec(f"{axis}1", h=h, T_ext=0.0))
+    return material.with_boundary(faces, (f"{axis}0", f"{axis}1"), TimeGrid(end, dt))
+
+
+def small_wood(n: int = 12, box: float = 230e-6, seed: int = 0) -> Scene:
+    """A coarse spruce-like VER: ``n``³ voxels over the seed's ``box`` (m), seed 001's phase properties.
+
+    The tracheid cross-section (25 x 35 µm cells, 5 µm walls at 5 µm voxels) is scaled with the
+    voxel so that walls stay one voxel thick and the fibre fraction stays near the shipped VER's.
+    """
+    voxel = box / n
+    scale = voxel / 5e-6
+    return scene_from_dict({
+        "geometry": {"generator": "wood", "shape": [n, n, n], "voxel_size": voxel, "seed": seed,
+                     "cell_size_radial": 25e-6 * scale, "cell_size_tangential": 35e-6 * scale,
+                     "wall_thickness": 5e-6 * scale},
+        "phases": {"fibre": {"label": 1, "k": 0.3, "c": 4.0e6}, "gas": {"label": 0, "k": 0.025, "c": 1.2e3}},
+    })
+
+
+def shipped_scenarios(root: Path) -> dict[str, Scene]:
+    """The three scenario scenes of the shipped wood VER (``data/scenes/wood_s{1,2,3}.toml``)."""
+    return {axis: load_scene(root / "data" / "scenes" / SCENE_FILES[axis]) for axis in AXES}
+
+
+@dataclass(frozen=True)
+class Case:
+    """One loading direction: its scene, assembled heterogeneous system and twin measurements."""
+
+    axis: str
+    scene: Scene
+    system: ThermalSystem
+    measurements: Measurements
+
+
+@dataclass(frozen=True)
+class Homogeneous:
+    """k̄ (3x3, eq. 13), c̄ (eq. 14) and the seconds they took."""
+
+    k: FloatArray
+    c: float
+    seconds: float
+
+
+def homogeneous_properties(scene: Scene) -> Homogeneous:
+    start = time.perf_counter()
+    k = homogenize(scene)
+    return Homogeneous(k, mean_capacity(scene), time.perf_counter() - start)
+
+
+def twin_cases(scenes: Mapping[str, Scene], hom: Homogeneous, perturbation: float = 0.0) -> dict[str, Case]:
+    """Measurements of every scenario from the homogeneous twin (properties × (1 + perturbation))."""
+    return {axis: Case(axis, sc, assemble(sc), homogeneous_measurements(sc, hom.k, hom.c, perturbation=perturbation))
+            for axis, sc in scenes.items()}
+
+
+@dataclass(frozen=True)
+class Run:
+    """One identification and its errors (eq. 15, fractions) against the truth."""
+
+    label: str
+    result: Identification
+    errors: Mapping[str, float]
+
+    def row(self) -> dict[str, object]:
+        unc = self.result.uncertainty
+        out: dict[str, object] = {"run": self.label}
+        for i, name in enumerate(unc.names):
+            out[name] = self.result.estimates[name]
+            if name in self.errors:
+                out[f"err {name} %"] = 100 * self.errors[name]
+            out[f"se {name} %"] = 100 * float(unc.std_error[i]) / abs(self.result.estimates[name])
+        out["J"] = self.result.criterion
+        out["evaluations"] = self.result.evaluations
+        out["seconds"] = self.result.seconds
+        return out
+
+
+def run(label: str, model: ForwardModel | Sequence[tuple[ForwardModel, Measurements]],
+        measurements: Measurements | None, truth: Mapping[str, float], *,
+        unknowns: Mapping[str, tuple[float, float]] = UNKNOWNS, seed: int = 0,
+        particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS, refine: bool = True,
+        description: Mapping[str, object] | None = None) -> Run:
+    """:func:`inverse.identify` with the study's bounds, and the errors of its estimates."""
+    result = identify(model, measurements, unknowns, seed=seed, particles=particles, iterations=iterations,
+                      refine=refine, description=description)
+    return Run(label, result, relative_errors(result.estimates, truth))
+
+
+def budget_sweep(model: ForwardModel, measurements: Measurements, truth: Mapping[str, float],
+                 budgets: Sequence[tuple[int, int]], seed: int = 0) -> list[Run]:
+    """Error against swarm budget (particles, iterations), each without and with the local refinement."""
+    out = []
+    for particles, iterations in budgets:
+        for refine in (False, True):
+            label = f"PSO {particles}x{iterations}{' + refine' if refine else ''}"
+            out.append(run(label, model, measurements, truth, seed=seed, particles=particles, iterations=iterations,
+                           refine=refine))
+    return out
+
+
+def as_table(rows: Sequence[Mapping[str, object]]) -> str:
+    """Rows of dicts as a fixed-width text table (numbers with 4 significant digits)."""
+    keys: list[str] = []
+    for r in rows:
+        keys.extend(k for k in r if k not in keys)
+
+    def cell(v: object) -> str:
+        if isinstance(v, float | np.floating):
+            return f"{float(v):.4g}"
+        return "" if v is None else str(v)
+
+    cells = [[cell(r.get(k)) for k in keys] for r in rows]
+    widths = [max(len(k), *(len(c[i]) for c in cells)) for i, k in enumerate(keys)]
+    lines = ["  ".join(k.rjust(w) for k, w in zip(keys, widths, strict=True))]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(row, widths, strict=True)) for row in cells]
+    return "\n".join(lines)
