@@ -7,11 +7,10 @@ import pytest
 import scipy.sparse as sp
 
 from aromm.dem.bonds import build_bonds
-from aromm.dem.calibrate import calibrate, periodic_conductivity
+from aromm.dem.calibrate import calibrate, periodic_conductivity, periodic_field
 from aromm.dem.flux import neighbourhood_mean, particle_flux
-from aromm.dem.network import Network, face_heat_flow, laplacian, transmission_factor
+from aromm.dem.network import Network, face_heat_flow, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
-from aromm.linalg import factorize
 from aromm.solve import steady_field
 
 
@@ -38,11 +37,7 @@ def test_periodic_mean_flux_is_minus_lambda_gradient(packing: Packing) -> None:
     b = build_bonds(packing, 7.5)
     h = 33.0 * transmission_factor(packing, b, cal.c_t)
     g = np.array([0.0, 0.0, 1000.0])
-    lap = laplacian(packing.n, b.pairs, h)
-    hv = h * (b.vectors @ g)
-    rhs = np.bincount(b.pairs[:, 0], hv, minlength=packing.n) - np.bincount(b.pairs[:, 1], hv, minlength=packing.n)
-    t = np.zeros(packing.n)
-    t[1:] = factorize(lap[1:][:, 1:]).solve(rhs[1:])
+    t = periodic_field(packing, b, h, g)
     q = particle_flux(packing, b, h, t, gradient=g)
     vol = packing.volumes
     mean = (vol[:, None] * q).sum(0) / vol.sum()

@@ -49,21 +49,32 @@ from aromm.system import FloatArray
 Boundary = Literal["periodic", "slab"]
 
 
-def periodic_conductivity(packing: Packing, bonds: Bonds, conductances: FloatArray) -> FloatArray:
-    """Effective conductivity tensor (W/(m K)) of a periodic network with bond conductances H (W/K)."""
+def periodic_field(packing: Packing, bonds: Bonds, conductances: FloatArray, gradients: FloatArray) -> FloatArray:
+    """Periodic fluctuations t (K) with ``T_p = G . x_p + t_p`` at balance, one column per gradient.
+
+    ``gradients`` is (3,) or (3, k) (K/m).  Solves ``L t = b``, ``b_p = sum_q H_pq G . (x_q - x_p)``
+    with particle 0 pinned (the periodic Laplacian has the constants as kernel).
+    """
     if not packing.periodic:
-        raise InputError("periodic_conductivity needs a periodic packing")
+        raise InputError("periodic_field needs a periodic packing")
+    g = np.asarray(gradients, dtype=float)
+    single = g.ndim == 1
+    g = g.reshape(3, -1)
     n = packing.n
     p, q = bonds.pairs[:, 0], bonds.pairs[:, 1]
+    hv = conductances[:, None] * (bonds.vectors @ g)  # (m, k)
+    rhs = np.column_stack([np.bincount(p, hv[:, j], minlength=n) - np.bincount(q, hv[:, j], minlength=n)
+                           for j in range(g.shape[1])])
     lap = laplacian(n, bonds.pairs, conductances)
-    keep = np.arange(1, n)  # particle 0 pinned: the periodic Laplacian has the constants as kernel
-    solver = factorize(lap[keep][:, keep])
-    rhs = np.zeros((n, 3))
-    hv = conductances[:, None] * bonds.vectors
-    for k in range(3):
-        rhs[:, k] = np.bincount(p, hv[:, k], minlength=n) - np.bincount(q, hv[:, k], minlength=n)
-    t = np.zeros((n, 3))
-    t[keep] = solver.solve(rhs[keep])
+    t = np.zeros((n, g.shape[1]))
+    t[1:] = factorize(lap[1:][:, 1:]).solve(rhs[1:])
+    return t[:, 0] if single else t
+
+
+def periodic_conductivity(packing: Packing, bonds: Bonds, conductances: FloatArray) -> FloatArray:
+    """Effective conductivity tensor (W/(m K)) of a periodic network with bond conductances H (W/K)."""
+    t = periodic_field(packing, bonds, conductances, np.eye(3))
+    p, q = bonds.pairs[:, 0], bonds.pairs[:, 1]
     dtemp = t[q] - t[p] + bonds.vectors  # (m, 3): T_q - T_p for G = e_x, e_y, e_z
     flux_sum = np.einsum("b,bi,bj->ij", conductances, bonds.vectors, dtemp)  # sum H dx_i dT_j
     return flux_sum / packing.domain_volume  # k_ij = -q_i / G_j
