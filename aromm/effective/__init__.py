@@ -1,0 +1,49 @@
+"""Effective conductivity of sphere composites with contact resistance: models and bounds of seed 002.
+
+* :mod:`aromm.effective.models`: closed-form models (Wiener, Hashin-Shtrikman, Maxwell-Eucken,
+  Hasselman-Johnson, Hatta-Taya, Lewis-Nielsen, Rayleigh for the simple-cubic array) and the
+  Torquato-Rintoul third-order bounds;
+* :mod:`aromm.effective.wall`: the Danes-Garnier wall-insertion bounds W1a, W_inf_a, W1b, W_inf_b;
+* :mod:`aromm.effective.cell_fem`: conforming tetrahedral finite elements of the cell with
+  contact resistance on split interface nodes (E_c, E_II, E_1bot).
+
+Every value is ``E = lambda_eff / lambda_m``.
+"""
+
+from aromm.effective.domain import cell_B, cell_phi
+from aromm.effective.models import (
+    hashin_shtrikman_lower,
+    hashin_shtrikman_upper,
+    hasselman_johnson,
+    hatta_taya,
+    lewis_nielsen,
+    maxwell_eucken,
+    rayleigh_simple_cubic,
+    torquato_rintoul_lower,
+    torquato_rintoul_upper,
+    wiener_parallel,
+    wiener_series,
+    zeta2_simple_cubic,
+)
+from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
+
+__all__ = [
+    "cell_B",
+    "cell_phi",
+    "hashin_shtrikman_lower",
+    "hashin_shtrikman_upper",
+    "hasselman_johnson",
+    "hatta_taya",
+    "lewis_nielsen",
+    "maxwell_eucken",
+    "rayleigh_simple_cubic",
+    "torquato_rintoul_lower",
+    "torquato_rintoul_upper",
+    "wall_1a",
+    "wall_1b",
+    "wall_inf_a",
+    "wall_inf_b",
+    "wiener_parallel",
+    "wiener_series",
+    "zeta2_simple_cubic",
+]
