@@ -129,6 +129,7 @@ def _bad_files(tmp: Path) -> dict[str, tuple[Path, dict, str]]:
     tifffile.imwrite(tmp / "ragged" / "s1.tif", np.zeros((4, 4), dtype=np.uint8))
     tifffile.imwrite(tmp / "ragged" / "s2.tif", np.zeros((4, 5), dtype=np.uint8))
     np.save(tmp / "ok.npy", np.zeros((2, 2, 2), dtype=np.uint8))
+    (tmp / "archive.npy").write_bytes((tmp / "wrongkey.npz").read_bytes())
     return {
         "missing": (tmp / "nope.npy", {}, "no such file"),
         "not 3-D": (tmp / "flat.npy", {}, "3-D"),
@@ -150,13 +151,14 @@ def _bad_files(tmp: Path) -> dict[str, tuple[Path, dict, str]]:
         "2-D tiff": (tmp / "page.tif", {}, "2-D"),
         "empty dir": (tmp / "empty_dir", {}, "no .tif"),
         "ragged slices": (tmp / "ragged", {}, "differs"),
+        "npz named npy": (tmp / "archive.npy", {}, "rename it to .npz"),
     }
 
 
 BAD_CASES = [
     "missing", "not 3-D", "non-integer", "nan", "pickle", "empty", "wrong key", "bad voxel", "two voxel values",
     "corrupt npz", "corrupt tiff", "raw size", "raw bad shape", "raw bad dtype", "raw without shape",
-    "dtype not raw", "shape mismatch", "2-D tiff", "empty dir", "ragged slices",
+    "dtype not raw", "shape mismatch", "2-D tiff", "empty dir", "ragged slices", "npz named npy",
 ]
 
 

@@ -9,7 +9,10 @@ Formats by file name: ``.vtu`` (VTK XML unstructured grid, zlib-compressed binar
 ``.xdmf``/``.xmf`` (XDMF with the data inline as XML, so no HDF5 library is needed).  XDMF is
 written through meshio's time-series writer (the only meshio XDMF path that works without h5py),
 so a single image is a one-step temporal collection at t = 0; read it back with
-``meshio.xdmf.TimeSeriesReader`` (``meshio.read`` on XDMF needs h5py).
+``meshio.xdmf.TimeSeriesReader`` (``meshio.read`` on XDMF needs h5py).  VTK's readers (those of
+ParaView: vtkXMLUnstructuredGridReader, vtkXdmfReader, VTK 9.7) read both formats with the right
+hexahedra (volumes dx dy dz), labels and fields; on XDMF they show a second block, ``mesh``, which is
+meshio's shared geometry — colour by the ``TimeSeries_meshio`` block.
 """
 
 from __future__ import annotations

@@ -117,9 +117,13 @@ def _natural_key(name: str) -> list[object]:
 
 def _read_npy(path: Path) -> np.ndarray:
     try:
-        return np.load(path, allow_pickle=False)
+        array = np.load(path, allow_pickle=False)
     except (OSError, ValueError, EOFError) as err:
         raise InputError(f"{path}: not a readable .npy array ({err})") from None
+    if not isinstance(array, np.ndarray):
+        array.close()
+        raise InputError(f"{path}: holds a .npz archive, not one .npy array; rename it to .npz")
+    return array
 
 
 def _read_npz(path: Path) -> tuple[np.ndarray, VoxelSize | None]:
