@@ -15,6 +15,8 @@ import meshio
 import numpy as np
 import pytest
 import tifffile
+from hypothesis import given
+from hypothesis import strategies as st
 
 from aromm.errors import InputError
 from aromm.microstructure import (
@@ -186,6 +188,15 @@ def test_laminate_fractions_exact(axis: int | str) -> None:
     assert image.mean() == pytest.approx(expected, abs=1e-12)
     # layers are normal to the axis: constant over every plane normal to it
     assert all(np.unique(np.take(image, i, axis=ax)).size == 1 for i in range(n))
+
+
+@given(st.lists(st.integers(1, 5), min_size=1, max_size=6), st.sampled_from("xyz"))
+def test_laminate_layer_fractions_property(layers: list[int], axis: str) -> None:
+    shape = [3, 3, 3]
+    shape["xyz".index(axis)] = sum(layers)
+    image = laminate(tuple(shape), axis, layers)
+    odd = sum(layers[1::2])
+    assert image.sum() == odd * image.size // sum(layers)  # label 1 on odd layers, exactly
 
 
 def test_laminate_layer_voxels_and_labels() -> None:
@@ -453,6 +464,16 @@ def test_sphere_scene_is_the_seed_000_cell() -> None:
     scene = pytest.importorskip("aromm.scene").load_scene(DATA / "scenes" / "sphere_steady.toml")
     assert scene.size == pytest.approx((0.1, 0.1, 0.1))
     assert scene.volume_fractions()["inclusion"] == pytest.approx(4 * math.pi / 81, rel=0.05)
+
+
+def test_wood_ver_is_reproduced_by_a_generator_scene() -> None:
+    scene_module = pytest.importorskip("aromm.scene")
+    geometry = {"generator": "wood", "shape": [46, 46, 46], "voxel_size": 5.0e-6, "seed": 735,
+                "cell_size_radial": 22.0e-6, "cell_size_tangential": 28.8e-6, "wall_thickness": 5.47e-6,
+                "size_jitter": 0.099, "tracheid_length": 106e-6, "grain_angle": 0.157}
+    phases = {"fibre": {"label": 1, "k": K_F}, "gas": {"label": 0, "k": K_G}}
+    scene = scene_module.scene_from_dict({"geometry": geometry, "phases": phases})
+    np.testing.assert_array_equal(scene.labels, load_image(DATA / "wood_ver.npz")[0])
 
 
 @pytest.mark.slow
