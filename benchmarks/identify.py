@@ -1,0 +1,177 @@
+"""Identification (seed 001 § 4): accuracy and wall time of the whole inverse procedure.
+
+Prints, for a wood VER (coarse n³ by default; the shipped 46³ VER with AROMM_FULL=1):
+
+1. Table 2: k_F, c_F identified from homogeneous-twin measurements (eq. 13, 14) in the three loading
+   directions with the reduced model; errors (eq. 15) and wall time per identification (model built);
+2. the +2 % study (every homogeneous property 2 % too high, loading along x);
+3. twin tests: measurements from the heterogeneous model itself, without noise (recovery error) and
+   with Gaussian noise σ (how many of R seeded repetitions have the truth inside the 95 % intervals),
+   identified with the full model (coarse VER only) and with the reduced model;
+4. joint identification from the three scenarios at once, with k_F, c_F and then also k_G unknown;
+5. accuracy against cost: swarm budget (with / without refinement), reduced order, full model.
+
+Usage: python benchmarks/identify.py [--size 12] [--order 40] [--reps 20] [--noise 0.02] [--no-full]
+       AROMM_FULL=1 python benchmarks/identify.py --order 200 --no-full
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from aromm.model import ForwardModel
+from aromm.reduced import reduce
+from aromm.solve import FullModel
+from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
+from inverse.measurements import Measurements, simulate_measurements
+from inverse.study import (
+    AXES,
+    PAPER_PERTURBED,
+    PAPER_TABLE2,
+    UNKNOWNS,
+    as_table,
+    budget_sweep,
+    fibre_truth,
+    homogeneous_properties,
+    loading,
+    run,
+    shipped_scenarios,
+    small_wood,
+    twin_cases,
+)
+from inverse.uncertainty import IdentifiabilityWarning
+
+ROOT = Path(__file__).resolve().parents[1]
+# swarm of the full-model identifications (each evaluation is a full simulation): the refinement does the work
+FULL_P, FULL_I = 6, 3
+
+
+def section(title: str) -> None:
+    print(f"\n== {title}", flush=True)
+
+
+def coverage(model: ForwardModel, exact: Measurements, truth: dict[str, float], *, reps: int, noise: float,
+             particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS) -> dict[str, object]:
+    """How many of ``reps`` noisy copies of ``exact`` give 95 % intervals containing the truth."""
+    inside = dict.fromkeys(truth, 0)
+    seconds = []
+    for rep in range(reps):
+        data = exact.with_noise(noise, np.random.default_rng(1000 + rep))
+        r = run(f"rep {rep}", model, data, truth, seed=rep, particles=particles, iterations=iterations)
+        unc = r.result.uncertainty
+        for i, name in enumerate(unc.names):
+            inside[name] += int(unc.lower[i] <= truth[name] <= unc.upper[i])
+        seconds.append(r.result.seconds)
+    return {**{f"inside {k}": f"{v}/{reps}" for k, v in inside.items()}, "mean s": float(np.mean(seconds))}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--size", type=int, default=12, help="voxels per side of the coarse VER")
+    parser.add_argument("--dt", type=float, default=0.5, help="time step of the coarse VER's scenes (s)")
+    parser.add_argument("--order", type=int, default=None, help="reduced order (40 coarse, 200 shipped)")
+    parser.add_argument("--reps", type=int, default=20, help="noisy repetitions of the twin test")
+    parser.add_argument("--noise", type=float, default=0.02, help="noise standard deviation (°C)")
+    parser.add_argument("--no-full", action="store_true", help="skip identifications with the full model")
+    args = parser.parse_args()
+    warnings.simplefilter("ignore", IdentifiabilityWarning)  # listed with the results instead
+
+    shipped = os.environ.get("AROMM_FULL") == "1"
+    if shipped:
+        scenes = shipped_scenarios(ROOT)
+        order = args.order or 200
+    else:
+        material = small_wood(args.size)
+        scenes = {axis: loading(material, axis, end=60.0, dt=args.dt) for axis in AXES}
+        order = args.order or 40
+    material = scenes["z"]
+    truth = fibre_truth(material)
+    print(f"VER {'shipped' if shipped else 'coarse'} {material.labels.shape}, voxel {material.voxel_size[0]:.3g} m, "
+          f"fibre fraction {material.labels.mean():.4f}, {len(scenes['z'].time.times)} times, order {order}, "  # type: ignore[union-attr]
+          f"python {sys.version.split()[0]}")
+
+    hom = homogeneous_properties(material)
+    cases = twin_cases(scenes, hom)
+    print(f"k̄ = diag{tuple(np.round(np.diag(hom.k), 5))} W/(m K), c̄ = {hom.c:.5g} J/(m³ K) ({hom.seconds:.1f} s)")
+    roms = {}
+    for axis in AXES:
+        roms[axis] = reduce(cases[axis].system, order=order, progress=sys.stderr.isatty())
+        print(f"reduced model {axis}: order {roms[axis].order}, offline {roms[axis].info['offline_seconds']:.1f} s "
+              f"(cached {roms[axis].info['cached']})", flush=True)
+
+    section("1. Table 2: homogeneous-twin measurements, reduced model, PSO 20x30 + refinement, seed 0")
+    rows = []
+    for axis in AXES:
+        r = run(f"{axis}{axis}", roms[axis], cases[axis].measurements, truth)
+        _, psk, _, psc, ph = PAPER_TABLE2[axis]
+        rows.append({**r.row(), "paper σ_k %": psk, "paper σ_c %": psc, "paper t (h)": ph})
+    print(as_table(rows))
+
+    section("2. +2 % on every homogeneous property, loading along x (paper: 2.9 % on k, 3.3 % on c)")
+    plus = twin_cases({"x": scenes["x"]}, hom, perturbation=0.02)["x"]
+    r = run("x +2 %", roms["x"], plus.measurements, truth)
+    print(as_table([{**r.row(), "paper σ_k %": PAPER_PERTURBED["fibre.k"], "paper σ_c %": PAPER_PERTURBED["fibre.c"]}]))
+
+    section(f"3. Twin tests (loading along x): data from the heterogeneous model; noise σ = {args.noise} °C, "
+            f"{args.reps} seeded repetitions")
+    x = cases["x"]
+    full = FullModel(x.system)
+    rom = roms["x"]
+    rows = []
+    if not args.no_full:
+        exact = simulate_measurements(full, truth)
+        rows.append({"data": "full model", "identified with": "full model",
+                     **run("", full, exact, truth, particles=FULL_P, iterations=FULL_I).row()})
+        rows.append({"data": "full model", "identified with": f"reduced {order}",
+                     **run("", rom, exact, truth).row()})
+    own = simulate_measurements(rom, truth)
+    rows.append({"data": f"reduced {order}", "identified with": f"reduced {order}", **run("", rom, own, truth).row()})
+    print(as_table(rows))
+    rows = []
+    if not args.no_full:
+        rows.append({"data": "full + noise", "identified with": "full model",
+                     **coverage(full, exact, truth, reps=args.reps, noise=args.noise, particles=FULL_P,
+                                iterations=FULL_I)})
+        rows.append({"data": "full + noise", "identified with": f"reduced {order}",
+                     **coverage(rom, exact, truth, reps=args.reps, noise=args.noise)})
+    rows.append({"data": f"reduced {order} + noise", "identified with": f"reduced {order}",
+                 **coverage(rom, own, truth, reps=args.reps, noise=args.noise)})
+    print(as_table(rows))
+
+    section("4. Joint identification from the three scenarios (homogeneous-twin data, reduced models)")
+    pairs = [(roms[a], cases[a].measurements) for a in AXES]
+    joint = run("k_F, c_F", pairs, None, truth)
+    three = run("k_F, c_F, k_G", pairs, None, {**truth, "gas.k": 0.025},
+                unknowns={**UNKNOWNS, "gas.k": (0.005, 0.1)})
+    print(as_table([joint.row(), three.row()]))
+    own_pairs = [(roms[a], simulate_measurements(roms[a], {**truth, "gas.k": 0.025})) for a in AXES]
+    three_twin = run("k_F, c_F, k_G (reduced-model data)", own_pairs, None, {**truth, "gas.k": 0.025},
+                     unknowns={**UNKNOWNS, "gas.k": (0.005, 0.1)})
+    print(as_table([three_twin.row()]))
+
+    section("5. Accuracy against cost (loading along x, homogeneous-twin data)")
+    runs = budget_sweep(rom, x.measurements, truth, [(5, 2), (10, 5), (20, 10), (20, 30), (40, 50)])
+    rows = [{**r.row(), "offline s": 0.0} for r in runs]
+    for o in sorted({max(order // 4, 5), max(order // 2, 5)}):
+        start = time.perf_counter()
+        other = reduce(x.system, order=o)
+        offline = float(other.info["offline_seconds"]) if not other.info["cached"] else time.perf_counter() - start
+        rows.append({**run(f"order {o}", other, x.measurements, truth).row(), "offline s": offline})
+    rows.append({**run(f"order {order}", rom, x.measurements, truth).row(),
+                 "offline s": float(rom.info["offline_seconds"])})
+    if not args.no_full:
+        label = f"full model, PSO {FULL_P}x{FULL_I} + refine"
+        full_run = run(label, full, x.measurements, truth, particles=FULL_P, iterations=FULL_I)
+        rows.append({**full_run.row(), "offline s": 0.0})
+    print(as_table(rows))
+
+
+if __name__ == "__main__":
+    main()
