@@ -99,9 +99,10 @@ class Homogeneous:
     seconds: float
 
 
-def homogeneous_properties(scene: Scene) -> Homogeneous:
+def homogeneous_properties(scene: Scene, method: str = "auto") -> Homogeneous:
+    """k̄ by ``aromm.homogenize`` (linear solver ``method``) and c̄ by ``aromm.mean_capacity``."""
     start = time.perf_counter()
-    k = homogenize(scene)
+    k = homogenize(scene, method=method)
     return Homogeneous(k, mean_capacity(scene), time.perf_counter() - start)
 
 
