@@ -1,8 +1,9 @@
 """Checkpoints of a long identification: ``.npz`` files written atomically, read without pickle.
 
 A checkpoint holds named arrays plus a ``problem`` string identifying what was being solved
-(unknowns and bounds, seed, swarm size, measurements digest, model description); resuming
-with another problem is refused.
+(unknowns and bounds, fixed values, seed, swarm size, measurements digest, model types and
+outputs); resuming with another problem is refused.  A change inside a model of the same type
+(e.g. another reduced order) is not detected.
 """
 
 from __future__ import annotations

@@ -190,7 +190,7 @@ def identify(
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
     problem = ckpt.problem_key({"unknowns": box.as_dict(), "fixed": dict(fixed or {}), "seed": seed,
-                                "particles": particles, "model": info,
+                                "particles": particles, "model": _describe(scenarios, None),
                                 "measurements": ckpt.measurements_digest([s.measurements for s in scenarios])})
     previous = ckpt.load(checkpoint, problem) if (checkpoint is not None and resume
                                                   and Path(checkpoint).exists()) else None

@@ -117,7 +117,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
             scale = np.where(beta != 0, np.abs(beta), 1.0)[live]
             shape = (vt.T / sv**2) @ vt * np.outer(scale, scale)
             d = np.sqrt(np.diag(shape))
-            corr[np.ix_(live, live)] = shape / np.outer(d, d)
+            corr[np.ix_(live, live)] = np.clip(shape / np.outer(d, d), -1.0, 1.0)
             if math.isfinite(s2):
                 se[live] = math.sqrt(s2) * d
     t_q = float(st.t.ppf(0.5 + level / 2, dof)) if dof > 0 else math.inf

@@ -81,6 +81,23 @@ def test_json_output_recovers_the_truth_and_writes_plot_and_checkpoint(
     assert code == 0 and again["estimates"] == doc["estimates"]
 
 
+def test_reduced_model_with_checkpoint_resume(case: tuple[Path, Path], capsys: pytest.CaptureFixture[str],
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """The default model: aromm.reduce at the given order; a resumed run gives the same answer."""
+    scene, csv = case
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(scene.parent / "cache"))
+    ck = scene.parent / "run.npz"
+    args = ["identify", str(scene), "--measurements", str(csv), "--unknown", "fibre.k=0.05:1", "--unknown",
+            "fibre.c=1e5:1e7", "--order", "8", "--particles", "6", "--iterations", "3", "--json",
+            "--checkpoint", str(ck)]
+    assert main(args) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert first["model"]["kind"] == "reduced" and first["model"]["order"] == 8
+    assert main([*args, "--resume"]) == 0  # now from the cache: other offline seconds, same problem
+    second = json.loads(capsys.readouterr().out)
+    assert second["estimates"] == first["estimates"]
+
+
 def test_table_output(case: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
     scene, csv = case
     assert main(["identify", str(scene), "--measurements", str(csv), *ARGS]) == 0
