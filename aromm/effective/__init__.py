@@ -4,13 +4,17 @@
   Hasselman-Johnson, Hatta-Taya, Lewis-Nielsen, Rayleigh for the simple-cubic array) and the
   Torquato-Rintoul third-order bounds;
 * :mod:`aromm.effective.wall`: the Danes-Garnier wall-insertion bounds W1a, W_inf_a, W1b, W_inf_b;
-* :mod:`aromm.effective.cell_fem`: conforming tetrahedral finite elements of the cell with
-  contact resistance on split interface nodes (E_c, E_II, E_1bot).
+* :mod:`aromm.effective.mesh_fem`: a ThermalSystem from any conforming simplex mesh (meshio),
+  phases from cell sets, contact resistance on split interface nodes;
+* :mod:`aromm.effective.cell_fem`: gmsh meshes of the seed-002 cell and its FE values
+  (E_c, E_II, E_1bot).
 
 Every value is ``E = lambda_eff / lambda_m``.
 """
 
+from aromm.effective.cell_fem import CellModel, cell_mesh, cell_values
 from aromm.effective.domain import cell_B, cell_phi
+from aromm.effective.mesh_fem import assemble_mesh
 from aromm.effective.models import (
     hashin_shtrikman_lower,
     hashin_shtrikman_upper,
@@ -28,8 +32,12 @@ from aromm.effective.models import (
 from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
 
 __all__ = [
+    "CellModel",
+    "assemble_mesh",
     "cell_B",
+    "cell_mesh",
     "cell_phi",
+    "cell_values",
     "hashin_shtrikman_lower",
     "hashin_shtrikman_upper",
     "hasselman_johnson",
