@@ -47,13 +47,23 @@ from aromm.solve import steady_field
 from aromm.system import FloatArray
 
 Boundary = Literal["periodic", "slab"]
+AMG_ABOVE = 20_000  # particles: above this, "auto" solves with pyamg + CG (CHOLMOD fills to GBs at 1.5e5)
 
 
-def periodic_field(packing: Packing, bonds: Bonds, conductances: FloatArray, gradients: FloatArray) -> FloatArray:
+def solver_for(n: int, method: str = "auto") -> str:
+    """Linear solver for a network of ``n`` particles: ``"auto"`` picks AMG-CG for large networks."""
+    if method != "auto":
+        return method
+    return "amg" if n > AMG_ABOVE else "auto"
+
+
+def periodic_field(packing: Packing, bonds: Bonds, conductances: FloatArray, gradients: FloatArray,
+                   method: str = "auto") -> FloatArray:
     """Periodic fluctuations t (K) with ``T_p = G . x_p + t_p`` at balance, one column per gradient.
 
     ``gradients`` is (3,) or (3, k) (K/m).  Solves ``L t = b``, ``b_p = sum_q H_pq G . (x_q - x_p)``
-    with particle 0 pinned (the periodic Laplacian has the constants as kernel).
+    with particle 0 pinned (the periodic Laplacian has the constants as kernel).  ``method``:
+    aromm.linalg solver; ``"auto"`` uses pyamg + CG above 20 000 particles.
     """
     if not packing.periodic:
         raise InputError("periodic_field needs a periodic packing")
@@ -67,7 +77,7 @@ def periodic_field(packing: Packing, bonds: Bonds, conductances: FloatArray, gra
                            for j in range(g.shape[1])])
     lap = laplacian(n, bonds.pairs, conductances)
     t = np.zeros((n, g.shape[1]))
-    t[1:] = factorize(lap[1:][:, 1:]).solve(rhs[1:])
+    t[1:] = factorize(lap[1:][:, 1:], solver_for(n, method)).solve(rhs[1:])
     return t[:, 0] if single else t
 
 
@@ -103,7 +113,7 @@ def slab_conductivity(packing: Packing, bonds: Bonds, c_t: float = 1.0, radius: 
     """``lambda_e = varphi L / (T_z1 - T_0)`` of a cut packing with lambda = 1 (seed 000 eq. 7, Figure 3)."""
     net = Network(packing, bonds, c_t, np.zeros(packing.n, dtype=np.int64), ("matrix",), radius)
     system = net.system({"matrix.k": 1.0, "z0.T": 0.0, "z1.flux": varphi}, fixed=("z0",), flux=("z1",))
-    field = steady_field(system)
+    field = steady_field(system, method=solver_for(packing.n))
     top = face_particles(packing, "z1")
     w = packing.radii[top] ** 2
     t_top = float(np.sum(w * field[top]) / w.sum())
@@ -192,7 +202,8 @@ def inclusion_ratio(network: Network, ratio: float, axes: str = "xyz") -> Inclus
             faces = (f"{axis}0", f"{axis}1")
             system = network.system({**cases[0], f"{axis}0.T": 0.0, f"{axis}1.T": 1.0}, fixed=faces)
             hot = system.dirichlet[1].dofs
-            flows = [face_heat_flow(system, v, steady_field(system, v), hot) for v in cases]
+            method = solver_for(network.n)
+            flows = [face_heat_flow(system, v, steady_field(system, v, method), hot) for v in cases]
             e_list.append(flows[1] / flows[0])
         e_axes = np.asarray(e_list)
     vol = network.packing.volumes
