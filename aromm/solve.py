@@ -58,6 +58,13 @@ def _partition(system: ThermalSystem, values: ParamValues) -> _Partition:
     return _Partition(np.flatnonzero(~mask), fixed, fixed_values[fixed])
 
 
+def _points(system: ThermalSystem, part: _Partition) -> FloatArray | None:
+    """Coordinates of the free unknowns (for the nested-dissection ordering), when the system has them."""
+    if system.geometry is None or system.geometry.points.shape[0] != system.n:
+        return None
+    return system.geometry.points[part.free]
+
+
 def _split(a: sp.csr_array, part: _Partition) -> tuple[sp.csr_array, sp.csr_array]:
     rows = a[part.free]
     return sp.csr_array(rows[:, part.free]), sp.csr_array(rows[:, part.fixed])
@@ -76,7 +83,7 @@ def steady_field(system: ThermalSystem, values: ParamValues | None = None, metho
     k = sp.csr_array(system.conductance.evaluate(v))
     k_ff, k_fd = _split(k, part)
     rhs = _load(system, v)[part.free] - k_fd @ part.fixed_values
-    return part.full(system.n, factorize(k_ff, method).solve(rhs))
+    return part.full(system.n, factorize(k_ff, method, points=_points(system, part)).solve(rhs))
 
 
 def _check_times(times: npt.ArrayLike | None, grid: TimeGrid) -> FloatArray:
@@ -128,7 +135,8 @@ def transient(
 
     # Step 1 is backward Euler (BDF2's starter); the Euler factor is released before BDF2's is built,
     # so at most one factorisation is alive at a time (each costs ~1 GB at 1e5 unknowns).
-    stepper = factorize(c_ff / dt + k_ff, method)
+    points = _points(system, part)
+    stepper = factorize(c_ff / dt + k_ff, method, points=points)
     x_older = x_prev
     for n in tqdm(range(1, steps + 1), desc="time steps", disable=not progress, leave=False):
         if n == 1 or scheme == "euler":
@@ -137,7 +145,7 @@ def transient(
             x = stepper.solve(c_ff @ (2.0 * x_prev - 0.5 * x_older) / dt + f_free)
         if n == 1 and scheme == "bdf2" and steps > 1:
             del stepper
-            stepper = factorize(1.5 * c_ff / dt + k_ff, method)
+            stepper = factorize(1.5 * c_ff / dt + k_ff, method, points=points)
         x_older, x_prev = x_prev, x
         history_t.append(n * dt)
         history_y.append(e_free @ x + e_fixed)
