@@ -10,13 +10,15 @@ import sys
 
 import click
 
+from aromm.cli import bounds
 from aromm.cli import dem
 from aromm.cli import forward
 from aromm.cli import identify
 from aromm.cli import reduce
 from aromm.cli.common import run_guarded
 
-COMMANDS: list[click.Command] = [*forward.COMMANDS, *dem.COMMANDS, *identify.COMMANDS, *reduce.COMMANDS]
+COMMANDS: list[click.Command] = [*forward.COMMANDS, *dem.COMMANDS, *identify.COMMANDS, *reduce.COMMANDS,
+                                 *bounds.COMMANDS]
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
