@@ -99,7 +99,8 @@ def main() -> None:
 
     hom = homogeneous_properties(material, method="amg" if shipped else "auto")
     cases = twin_cases(scenes, hom)
-    print(f"k̄ = diag{tuple(np.round(np.diag(hom.k), 5))} W/(m K), c̄ = {hom.c:.5g} J/(m³ K) ({hom.seconds:.1f} s)")
+    k_bar = ", ".join(f"{v:.5g}" for v in np.diag(hom.k))
+    print(f"k̄ = diag({k_bar}) W/(m K), c̄ = {hom.c:.5g} J/(m³ K) ({hom.seconds:.1f} s)")
     roms = {}
     for axis in AXES:
         roms[axis] = reduce(cases[axis].system, order=order, progress=sys.stderr.isatty())
