@@ -34,7 +34,7 @@ from threadpoolctl import threadpool_limits
 
 from aromm.analytic import slab_dirichlet_series
 from aromm.dem.bonds import build_bonds
-from aromm.dem.calibrate import calibrate, inclusion_network, inclusion_ratio
+from aromm.dem.calibrate import calibrate, inclusion_network, inclusion_ratios
 from aromm.dem.explicit import simulate_explicit, stability_limit
 from aromm.dem.network import Network
 from aromm.dem.packing import Packing, load_packing, pack_spheres
@@ -140,7 +140,7 @@ def table_ct(sizes: list[int], seed: int, cache: str | None) -> None:
         slab = calibrate(packing, 7.5, boundary="slab", bonds=bonds)
         zc = [calibrate(packing, z).c_t * z for z in (6.0, 9.0)]
         net = inclusion_network(packing, 7.5)
-        errs = [inclusion_ratio(net, k).E / float(rayleigh_simple_cubic(phi, k)) - 1 for k in (0.01, 100.0)]
+        errs = [r.E / float(rayleigh_simple_cubic(phi, r.ratio)) - 1 for r in inclusion_ratios(net, [0.01, 100.0])]
         print(f"{n:8d} {pair.c_t:9.4f} {glob.c_t:9.4f} {slab.c_t:9.4f} {zc[0]:8.3f} {pair.z * pair.c_t:9.3f}"
               f" {zc[1]:8.3f} {errs[0]:+12.2%} {errs[1]:+11.2%} {time.perf_counter() - t:6.0f}", flush=True)
 

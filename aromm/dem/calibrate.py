@@ -25,6 +25,7 @@ the z value (slab).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -186,27 +187,31 @@ def inclusion_ratio(network: Network, ratio: float, axes: str = "xyz") -> Inclus
     on face ``<axis>1``, 0 on ``<axis>0``, other faces adiabatic, and E the ratio of the heat
     flows through the hot face (aromm.solve.steady_field).
     """
-    if ratio <= 0:
-        raise InputError(f"conductivity ratio must be positive, got {ratio}")
+    return inclusion_ratios(network, [ratio], axes)[0]
+
+
+def inclusion_ratios(network: Network, ratios: Sequence[float], axes: str = "xyz") -> list[InclusionResult]:
+    """:func:`inclusion_ratio` for several contrasts, with the homogeneous reference solved once."""
+    if any(r <= 0 for r in ratios):
+        raise InputError(f"conductivity ratios must be positive, got {list(ratios)}")
     if not axes or any(a not in "xyz" for a in axes):
         raise InputError(f"axes must be letters of 'xyz', got {axes!r}")
     idx = ["xyz".index(a) for a in axes]
-    cases = ({"matrix.k": 1.0, "inclusion.k": 1.0}, {"matrix.k": 1.0, "inclusion.k": ratio})
+    cases = [{"matrix.k": 1.0, "inclusion.k": float(r)} for r in (1.0, *ratios)]
     if network.packing.periodic:
-        k_hom, k_het = (np.diag(periodic_conductivity(network.packing, network.bonds, network.conductances(v)))
-                        for v in cases)
-        e_axes = k_het[idx] / k_hom[idx]
+        k = np.array([np.diag(periodic_conductivity(network.packing, network.bonds, network.conductances(v)))[idx]
+                      for v in cases])  # (1 + len(ratios), len(axes))
     else:
-        e_list = []
+        method = solver_for(network.n)
+        columns = []
         for axis in axes:
             faces = (f"{axis}0", f"{axis}1")
             system = network.system({**cases[0], f"{axis}0.T": 0.0, f"{axis}1.T": 1.0}, fixed=faces)
             hot = system.dirichlet[1].dofs
-            method = solver_for(network.n)
-            flows = [face_heat_flow(system, v, steady_field(system, v, method), hot) for v in cases]
-            e_list.append(flows[1] / flows[0])
-        e_axes = np.asarray(e_list)
+            columns.append([face_heat_flow(system, v, steady_field(system, v, method), hot) for v in cases])
+        k = np.array(columns).T
     vol = network.packing.volumes
     frac = float(vol[network.phases == 1].sum() / vol.sum())
     boundary = "periodic" if network.packing.periodic else "faces"
-    return InclusionResult(float(e_axes.mean()), e_axes, ratio, frac, boundary)
+    return [InclusionResult(float(np.mean(k[i + 1] / k[0])), k[i + 1] / k[0], float(r), frac, boundary)
+            for i, r in enumerate(ratios)]
