@@ -5,6 +5,8 @@ Prints two tables:
 1. For cubes of N^3 voxels (two random-free phases: a wood-like VER from the shipped
    generator): assembly, factorisation, steady solve, transient step, and the peak
    resident memory of a fresh process doing all of it (N = 20, 46, 80 by default).
+   The factorisation is timed with the nested-dissection ordering the solvers use and,
+   with --amd, with CHOLMOD's own AMD ordering for comparison.
 2. Sphere of radius L/3 in a cube, contrast 10: k_eff by the flux method (seed 001
    eq. 13) against resolution, its error against the exact simple-cubic value
    1.39573 (../shared/method/solvers.md; Maxwell 1.39503 for comparison), and the seconds.
@@ -28,7 +30,7 @@ import numpy as np
 EXACT_SC = 1.39573  # kappa = 10, phi = 4 pi / 81, simple-cubic array (solvers.md)
 
 
-def one_size(n: int, solver: str, steps: int) -> dict[str, float]:
+def one_size(n: int, solver: str, steps: int, amd: bool) -> dict[str, float]:
     from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
     from aromm.linalg import factorize
     from aromm.microstructure import wood
@@ -44,8 +46,13 @@ def one_size(n: int, solver: str, steps: int) -> dict[str, float]:
     t_assemble = time.perf_counter() - t0
     v = system.values()
     t0, c0 = time.perf_counter(), time.process_time()
-    fac = factorize(system.conductance.evaluate(v), solver)
+    fac = factorize(system.conductance.evaluate(v), solver, points=system.geometry.points)
     t_factor, c_factor = time.perf_counter() - t0, time.process_time() - c0
+    c_amd = float("nan")
+    if amd and solver != "amg":
+        c0 = time.process_time()
+        factorize(system.conductance.evaluate(v), solver)
+        c_amd = time.process_time() - c0
     t0 = time.perf_counter()
     fac.solve(system.load.evaluate(v))
     t_solve = time.perf_counter() - t0
@@ -57,7 +64,7 @@ def one_size(n: int, solver: str, steps: int) -> dict[str, float]:
     transient(system, method=solver, scheme="bdf2")
     t_transient = time.perf_counter() - t0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return {"n": n, "dofs": system.n, "assemble_s": t_assemble, "factor_s": t_factor, "factor_cpu_s": c_factor, "solve_s": t_solve,
+    return {"n": n, "dofs": system.n, "assemble_s": t_assemble, "factor_s": t_factor, "factor_cpu_s": c_factor, "factor_amd_cpu_s": c_amd, "solve_s": t_solve,
             "steady_s": t_steady, "transient_s": t_transient, "steps": steps, "peak_MB": peak}
 
 
@@ -81,24 +88,25 @@ def main() -> None:
     parser.add_argument("--sphere", type=int, nargs="+", default=[12, 24, 36, 48])
     parser.add_argument("--solver", default="auto")
     parser.add_argument("--steps", type=int, default=50)
+    parser.add_argument("--amd", action="store_true", help="also time the AMD ordering (slow in 3-D)")
     parser.add_argument("--one", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(one_size(args.one, args.solver, args.steps)))
+        print(json.dumps(one_size(args.one, args.solver, args.steps, args.amd)))
         return
     print(f"Full-order voxel model (wood-like VER, scenario 1, solver {args.solver}, {args.steps} BDF2 steps)")
     print(f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores: wall times include contention;"
           " the CPU time of the single-threaded factorisation does not)")
-    print(f"{'N^3':>6} {'DOF':>9} {'assemble s':>11} {'factor s':>9} {'(cpu s)':>8} {'solve s':>8} {'steady s':>9} "
+    print(f"{'N^3':>6} {'DOF':>9} {'assemble s':>11} {'factor s':>9} {'(cpu s)':>8} {'AMD cpu s':>10} {'solve s':>8} {'steady s':>9} "
           f"{'transient s':>12} {'s/step':>7} {'peak MB':>8}")
     for n in args.sizes:
         out = subprocess.run([sys.executable, __file__, "--one", str(n), "--solver", args.solver,
-                              "--steps", str(args.steps)], capture_output=True, text=True, check=False)
+                              "--steps", str(args.steps), *(["--amd"] if args.amd else [])], capture_output=True, text=True, check=False)
         if out.returncode != 0:
             print(f"{n:>6} failed: {out.stderr.strip().splitlines()[-1] if out.stderr else out.returncode}")
             continue
         r = json.loads(out.stdout)
-        print(f"{n:>6} {r['dofs']:>9} {r['assemble_s']:>11.2f} {r['factor_s']:>9.2f} {r['factor_cpu_s']:>8.2f} {r['solve_s']:>8.3f} "
+        print(f"{n:>6} {r['dofs']:>9} {r['assemble_s']:>11.2f} {r['factor_s']:>9.2f} {r['factor_cpu_s']:>8.2f} {r['factor_amd_cpu_s']:>10.2f} {r['solve_s']:>8.3f} "
               f"{r['steady_s']:>9.2f} {r['transient_s']:>12.2f} {r['transient_s'] / r['steps']:>7.3f} "
               f"{r['peak_MB']:>8.0f}")
     print()
