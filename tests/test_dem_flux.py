@@ -73,3 +73,14 @@ def test_slab_flux_matches_face_heat_flow(packing: Packing) -> None:
     assert heat > 0 and mean_qx < 0  # heat flows from x1 (hot) to x0: q_x < 0
     # the fixed layers' centres sit ~R inside the faces: -Q/A within 10 %, far from the 1/phi = 1.56 error
     assert mean_qx == pytest.approx(-heat / area, rel=0.10)
+
+
+def test_neighbourhood_mean_weights(packing: Packing) -> None:
+    """Eq. 10 with Omega_p = sum of representative volumes: constants are kept, radius 0 is eq. 9,
+    and a radius covering the periodic box gives the V-weighted domain mean for every particle."""
+    field = np.random.default_rng(0).normal(size=(packing.n, 3))
+    np.testing.assert_allclose(neighbourhood_mean(packing, np.ones((packing.n, 3)), 0.004), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(neighbourhood_mean(packing, field, 0.0), field, rtol=1e-12)
+    whole = neighbourhood_mean(packing, field, float(np.linalg.norm(packing.box)))
+    expected = (packing.volumes[:, None] * field).sum(0) / packing.volumes.sum()
+    np.testing.assert_allclose(whole, np.broadcast_to(expected, whole.shape), rtol=1e-10, atol=1e-12)

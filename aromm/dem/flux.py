@@ -74,8 +74,7 @@ def neighbourhood_mean(packing: Packing, flux: FloatArray, radius: float) -> Flo
     n = packing.n
     rows = np.concatenate([member.row, np.arange(n)])  # each particle is in its own neighbourhood
     cols = np.concatenate([member.col, np.arange(n)])
-    vol = representative_volumes(packing)
-    w = sp.csr_array(sp.coo_array((vol[cols], (rows, cols)), shape=(n, n)))
-    w.sum_duplicates()
-    w.data = np.where(w.data > 0, vol[w.indices], 0.0)  # duplicates (p, p) collapse to one weight
+    m = sp.csr_array(sp.coo_array((np.ones(rows.size), (rows, cols)), shape=(n, n)))  # sums duplicates
+    m.data[:] = 1.0  # membership is 0/1
+    w = m @ sp.diags_array(representative_volumes(packing))
     return (w @ flux) / (w @ np.ones(n))[:, None]
