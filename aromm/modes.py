@@ -54,6 +54,8 @@ ORTHOGONALITY_TOL = 1e-6
 GRAM_CONDITION_MAX = 1e12
 
 _BASIS_VERSION = 1
+#: Default conductivity factors of the correction samples (each conduction parameter in turn).
+CORRECTION_FACTORS = (0.1, 0.3, 1.0, 3.0)
 
 
 @dataclass(frozen=True)
@@ -99,6 +101,11 @@ class ModalBasis:
     @property
     def zero_modes(self) -> npt.NDArray[np.int64]:
         return np.flatnonzero(self.kinds == "zero")
+
+    @property
+    def forced(self) -> npt.NDArray[np.int64]:
+        """Columns the amalgam keeps principal and alone: the constants and the correction modes."""
+        return np.flatnonzero((self.kinds == "zero") | (self.kinds == "correction"))
 
     def count(self, kind: str) -> int:
         return int(np.count_nonzero(self.kinds == kind))
@@ -366,3 +373,84 @@ def compute_basis(
                                   "zeta": np.float64(ops.zeta), "gram_condition": np.float64(cond)})
     return ModalBasis(vectors, eigenvalues, kinds, ops.zeta,
                       {"seconds": seconds, "steklov_seconds": t_s, "cached": 0.0, "gram_condition": cond})
+
+
+def correction_samples(system: ThermalSystem, values: Mapping[str, float] | None = None,
+                       factors: tuple[float, ...] = CORRECTION_FACTORS) -> list[dict[str, float]]:
+    """Parameter sets of the correction modes: the reference values, then each conduction parameter
+    (of the terms with ``K 1 = 0``) multiplied in turn by each of ``factors``."""
+    ref = default_basis_values(system)
+    ref.update({k: float(v) for k, v in (values or {}).items()})
+    names = sorted({p for t in system.conductance.terms if not is_exchange(t.operator) for p in t.coefficient.params})
+    samples = [ref]
+    for name in names:
+        for f in factors:
+            if f != 1.0:
+                samples.append({**ref, name: ref[name] * f})
+    return samples
+
+
+def with_corrections(
+    system: ThermalSystem,
+    basis: ModalBasis,
+    samples: list[dict[str, float]],
+    *,
+    values: Mapping[str, float] | None = None,
+    method: str = "auto",
+    cache: NpzCache | None = None,
+) -> ModalBasis:
+    """The basis enriched with static and first-order dynamic correction modes of the system's loads.
+
+    For each parameter sample s and load term U_j: the static response ``x = K(s)⁻¹ U_j`` and the
+    first time moment ``K(s)⁻¹ C_i x`` for each capacity term (moment matching at zero frequency,
+    the "static correction" / mode-acceleration idea of modal synthesis; an extension of seed 001,
+    not in it).  They make the steady state exact at the samples and the slow response accurate,
+    which truncated Dirichlet modes capture only slowly when k differs from k0 (measured in
+    benchmarks/aromm_accuracy.py).  The vectors are C0-orthogonalised against the basis and
+    compressed (C0-orthonormal, dependent directions dropped below 1e-10).  A system without
+    exchange (K singular) is shifted by a tiny multiple of its capacity.
+    """
+    if not system.load.terms:
+        return basis
+    ops = reference_operators(system, values)
+    key = content_key(_BASIS_VERSION, "corrections", system.fingerprint(), ops.key(), samples, basis.size,
+                      basis.vectors[::97].copy(), method)
+    stored = cache.load("corrections", key) if cache is not None else None
+    if stored is not None:
+        extra = stored["vectors"]
+    else:
+        extra = _correction_vectors(system, basis, ops, samples, method)
+        if cache is not None:
+            cache.save("corrections", key, {"vectors": extra})
+    return ModalBasis(np.column_stack([basis.vectors, extra]),
+                      np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
+                      np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
+                      basis.zeta, {**basis.info, "corrections": float(extra.shape[1])})
+
+
+def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: ReferenceOperators,
+                        samples: list[dict[str, float]], method: str) -> FloatArray:
+    exchange = any(is_exchange(t.operator) for t in system.conductance.terms)
+    cols = []
+    for sample in samples:
+        v = {k: val for k, val in sample.items() if k in system.parameter_names}
+        k_mat = sp.csr_array(system.conductance.evaluate(system.values(v)))
+        c_terms = [sp.csr_array(t.operator) for t in system.capacity.terms]
+        if not exchange:
+            c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
+            k_mat = sp.csr_array(k_mat + 1e-8 * (k_mat.diagonal().sum() / c_mat.diagonal().sum()) * c_mat)
+        fac = factorize(k_mat, method)
+        for t in system.load.terms:
+            x = fac.solve(np.asarray(t.operator, dtype=float))
+            cols.append(x)
+            cols.extend(fac.solve(c @ x) for c in c_terms)
+    x = np.column_stack(cols)
+    x = x / np.sqrt(np.maximum(np.einsum("ij,ij->j", x, ops.capacity @ x), 1e-300))
+    phi = basis.vectors
+    gram = phi.T @ (ops.capacity @ phi)
+    for _ in range(2):  # block Gram–Schmidt in the C0 product, twice for accuracy
+        x = x - phi @ np.linalg.solve(gram, phi.T @ (ops.capacity @ x))
+    g = x.T @ (ops.capacity @ x)
+    w, u = np.linalg.eigh((g + g.T) / 2)
+    keep = w > 1e-10
+    return (x @ u[:, keep]) / np.sqrt(w[keep])

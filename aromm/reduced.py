@@ -39,7 +39,15 @@ from tqdm import tqdm
 from aromm.amalgam import amalgam
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
-from aromm.modes import boundary_mass, compute_basis, default_basis_values, is_exchange, split_modes
+from aromm.modes import (
+    boundary_mass,
+    compute_basis,
+    correction_samples,
+    default_basis_values,
+    is_exchange,
+    split_modes,
+    with_corrections,
+)
 from aromm.pod import pod_coefficients
 from aromm.system import Affine, Coefficient, FloatArray, Observables, Term, ThermalSystem, TimeGrid
 
@@ -357,6 +365,7 @@ def reduce(
     reference_values: Mapping[str, float] | None = None,
     references: Sequence[ThermalSystem | ReferenceCase] = (),
     relaxation: bool = True,
+    corrections: bool | Sequence[Mapping[str, float]] = True,
     method: str = "aromm",
     solver: str = "auto",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
@@ -372,6 +381,11 @@ def reduce(
       ``reference_values`` (default: seed 001 §3.2, k_F = 0.1, c_F = 1.2e6), each of
       ``references`` (other scenarios on the same mesh), and the relaxation from 30 °C cooled
       on the whole boundary (``relaxation``).
+    * ``corrections``: enrich the basis with static and first-order dynamic correction modes of the
+      system's loads (aromm.modes.with_corrections; an extension of seed 001) at the parameter
+      samples of :func:`aromm.modes.correction_samples` (True), at given samples (a list of
+      parameter dicts), or not at all (False: the method of the seed exactly).  They are kept
+      principal and alone by the amalgam, like the constants.
     * ``method``: ``"aromm"`` (amalgam, eq. 9) or ``"pod"`` (POD–Galerkin baseline).
     * ``cache``: True (default directory), a directory, an NpzCache, or False.  Bases and reduced
       models are stored by content hash; a second call with the same inputs loads the result.
@@ -400,8 +414,14 @@ def reduce(
         if case.system.n != system.n:
             raise InputError(f"reference case {case.name!r} has {case.system.n} unknowns, the system {system.n}")
     store = _resolve_cache(cache)
+    if corrections is True:
+        samples = correction_samples(system, basis_values)
+    elif corrections is False:
+        samples = []
+    else:
+        samples = [dict(s) for s in corrections]
     key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values or {}, method, solver,
-                      relaxation, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
+                      relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
     if store is not None:
         stored = store.load("rom", key)
         if stored is not None:
@@ -412,6 +432,8 @@ def reduce(
     stages = tqdm(total=4, desc="reduce", disable=not progress, leave=False, file=sys.stderr)
     stages.set_postfix_str("modes")
     basis = compute_basis(system, n_d, n_s, basis_values, method=solver, cache=store)
+    if samples:
+        basis = with_corrections(system, basis, samples, values=basis_values, method=solver, cache=store)
     stages.update()
     stages.set_postfix_str("projection")
     memo: dict[int, FloatArray] = {}
@@ -424,19 +446,19 @@ def reduce(
         names = model.parameter_names
         times = case.times if case.times is not None else snapshot_times(case.system.time or system.time)
         x = model.states({k: v for k, v in case.values.items() if k in names}, times).T
-        free = np.setdiff1d(np.arange(basis.size), basis.zero_modes)
+        free = np.setdiff1d(np.arange(basis.size), basis.forced)
         scale = float(np.linalg.norm(x[free]))
         snapshots.append(x / scale if scale > 0 else x)
     stages.update()
     stages.set_postfix_str(method)
     states = np.hstack(snapshots)
     if method == "aromm":
-        coefficients = amalgam(states, order, basis.zero_modes).coefficients
+        coefficients = amalgam(states, order, basis.forced).coefficients
     else:
         bvals, _ = detailed._values({k: [v] for k, v in _basis_values(system, basis_values).items()
                                      if k in detailed.parameter_names})
         gram = detailed._stack(detailed.capacity, bvals, 1)[0]
-        coefficients = pod_coefficients(states, gram, order, basis.zero_modes)
+        coefficients = pod_coefficients(states, gram, order, basis.forced)
     stages.update()
     rom = detailed.transform(coefficients)
     check_t = snapshot_times(system.time)
@@ -447,7 +469,8 @@ def reduce(
     stages.close()
     info: dict[str, float | int | str] = {
         "method": method, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
-        "n_steklov": basis.count("steklov") + basis.count("zero"), "zeta": basis.zeta,
+        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
+        "zeta": basis.zeta,
         "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
         "gram_condition": float(basis.info.get("gram_condition", np.nan)),
         "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
