@@ -95,16 +95,7 @@ def cell_mesh(kind: Kind, B: float, h: float = DEFAULT_H, a: float = 1.0) -> mes
         matrix = next(t for _, t in volumes if t != filler)
         gmsh.model.addPhysicalGroup(3, [filler], FILLER, "filler")
         gmsh.model.addPhysicalGroup(3, [matrix], MATRIX, "matrix")
-        sphere_faces = [t for _, t in gmsh.model.getBoundary([(3, filler)], oriented=False)]
-        dist = gmsh.model.mesh.field.add("Distance")
-        gmsh.model.mesh.field.setNumbers(dist, "SurfacesList", sphere_faces)
-        ramp = gmsh.model.mesh.field.add("Threshold")
-        gmsh.model.mesh.field.setNumber(ramp, "InField", dist)
-        gmsh.model.mesh.field.setNumber(ramp, "SizeMin", 0.25 * size * a)
-        gmsh.model.mesh.field.setNumber(ramp, "SizeMax", size * a)
-        gmsh.model.mesh.field.setNumber(ramp, "DistMin", 0.0)
-        gmsh.model.mesh.field.setNumber(ramp, "DistMax", 2.0 * size * a)
-        gmsh.model.mesh.field.setAsBackgroundMesh(ramp)
+        _size_field(kind, filler, matrix, size * a, a)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
@@ -122,6 +113,42 @@ def cell_mesh(kind: Kind, B: float, h: float = DEFAULT_H, a: float = 1.0) -> mes
             labels.append(np.full(len(tets), tag))
     points = coords.reshape(-1, 3)
     return meshio.Mesh(points, [("tetra", np.vstack(blocks))], cell_data={"gmsh:physical": [np.concatenate(labels)]})
+
+
+def _size_field(kind: Kind, filler: int, matrix: int, h: float, a: float) -> None:
+    """Element size: ``h`` far away, ``h/4`` within ``2h`` of the spherical interface; in the slab,
+    graded down to ``h^2/(16 a)`` at the pole where the sphere touches the isothermal plane.
+
+    The pole node is shared by both phases when the contact is perfect and is then held at the
+    plane's temperature: it feeds the filler through elements of the pole's size, an artefact
+    ``~ kappa * size`` (4.7 % on E_1bot at kappa = 100, h = 0.3 without this grading)."""
+    field = gmsh.model.mesh.field
+    faces_f = {t for _, t in gmsh.model.getBoundary([(3, filler)], oriented=False)}
+    faces_m = {t for _, t in gmsh.model.getBoundary([(3, matrix)], oriented=False)}
+    dist = field.add("Distance")
+    field.setNumbers(dist, "SurfacesList", sorted(faces_f & faces_m))
+    ramp = field.add("Threshold")
+    field.setNumber(ramp, "InField", dist)
+    field.setNumber(ramp, "SizeMin", 0.25 * h)
+    field.setNumber(ramp, "SizeMax", h)
+    field.setNumber(ramp, "DistMin", 0.0)
+    field.setNumber(ramp, "DistMax", 2.0 * h)
+    fields = [ramp]
+    if kind == "slab":
+        pole = min((t for _, t in gmsh.model.getEntities(0)),
+                   key=lambda t: float(np.linalg.norm(gmsh.model.getValue(0, t, []) - [0.0, 0.0, a])))
+        contact = field.add("Distance")
+        field.setNumbers(contact, "PointsList", [pole])
+        tip = field.add("Threshold")
+        field.setNumber(tip, "InField", contact)
+        field.setNumber(tip, "SizeMin", h * h / (16.0 * a))
+        field.setNumber(tip, "SizeMax", 0.25 * h)
+        field.setNumber(tip, "DistMin", 0.0)
+        field.setNumber(tip, "DistMax", h)
+        fields.append(tip)
+    total = field.add("Min")
+    field.setNumbers(total, "FieldsList", fields)
+    field.setAsBackgroundMesh(total)
 
 
 def cell_system(mesh: meshio.Mesh, contact: bool) -> ThermalSystem:
