@@ -452,13 +452,15 @@ def reduce(
     stages.update()
     stages.set_postfix_str(method)
     states = np.hstack(snapshots)
+    # correction modes are kept principal and alone when the order leaves room for them, else they compete
+    forced = basis.forced if basis.forced.size < order else basis.zero_modes
     if method == "aromm":
-        coefficients = amalgam(states, order, basis.forced).coefficients
+        coefficients = amalgam(states, order, forced).coefficients
     else:
         bvals, _ = detailed._values({k: [v] for k, v in _basis_values(system, basis_values).items()
                                      if k in detailed.parameter_names})
         gram = detailed._stack(detailed.capacity, bvals, 1)[0]
-        coefficients = pod_coefficients(states, gram, order, basis.forced)
+        coefficients = pod_coefficients(states, gram, order, forced)
     stages.update()
     rom = detailed.transform(coefficients)
     check_t = snapshot_times(system.time)
