@@ -56,6 +56,8 @@ GRAM_CONDITION_MAX = 1e12
 _BASIS_VERSION = 1
 #: Default conductivity factors of the correction samples (each conduction parameter in turn).
 CORRECTION_FACTORS = (0.1, 0.3, 1.0, 3.0)
+#: Directions of the correction vectors with a relative Gram eigenvalue below this are dependent (dropped).
+CORRECTION_RANK_TOL = 1e-12
 
 
 @dataclass(frozen=True)
@@ -93,6 +95,7 @@ class ModalBasis:
     kinds: npt.NDArray[np.str_]
     zeta: float
     info: Mapping[str, float] = field(default_factory=dict)
+    corrections: FloatArray | None = None  # (size, m): correction vectors in this basis, see with_corrections
 
     @property
     def size(self) -> int:
@@ -102,10 +105,6 @@ class ModalBasis:
     def zero_modes(self) -> npt.NDArray[np.int64]:
         return np.flatnonzero(self.kinds == "zero")
 
-    @property
-    def forced(self) -> npt.NDArray[np.int64]:
-        """Columns the amalgam keeps principal and alone: the constants and the correction modes."""
-        return np.flatnonzero((self.kinds == "zero") | (self.kinds == "correction"))
 
     def count(self, kind: str) -> int:
         return int(np.count_nonzero(self.kinds == kind))
@@ -406,9 +405,10 @@ def with_corrections(
     the "static correction" / mode-acceleration idea of modal synthesis; an extension of seed 001,
     not in it).  They make the steady state exact at the samples and the slow response accurate,
     which truncated Dirichlet modes capture only slowly when k differs from k0 (measured in
-    benchmarks/aromm_accuracy.py).  The vectors are C0-orthogonalised against the basis and
-    compressed (C0-orthonormal, dependent directions dropped below 1e-10).  A system without
-    exchange (K singular) is shifted by a tiny multiple of its capacity.
+    benchmarks/aromm_accuracy.py).  The detailed basis gains their C0-orthonormalised parts
+    orthogonal to it (kind ``"correction"``), and ``corrections`` holds the coefficients of the
+    correction vectors themselves in the enriched basis, which the reducer keeps as whole columns.
+    A system without exchange (K singular) is shifted by a tiny multiple of its capacity.
     """
     if not system.load.terms:
         return basis
@@ -417,19 +417,21 @@ def with_corrections(
                       basis.vectors[::97].copy(), method)
     stored = cache.load("corrections", key) if cache is not None else None
     if stored is not None:
-        extra = stored["vectors"]
+        extra, coefficients = stored["vectors"], stored["coefficients"]
     else:
-        extra = _correction_vectors(system, basis, ops, samples, method)
+        extra, coefficients = _correction_vectors(system, basis, ops, samples, method)
         if cache is not None:
-            cache.save("corrections", key, {"vectors": extra})
+            cache.save("corrections", key, {"vectors": extra, "coefficients": coefficients})
     return ModalBasis(np.column_stack([basis.vectors, extra]),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
-                      basis.zeta, {**basis.info, "corrections": float(extra.shape[1])})
+                      basis.zeta, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
 
 
 def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: ReferenceOperators,
-                        samples: list[dict[str, float]], method: str) -> FloatArray:
+                        samples: list[dict[str, float]], method: str) -> tuple[FloatArray, FloatArray]:
+    """New columns P (C0-orthonormal, C0-orthogonal to the basis) and the coefficients (Ñ + m, m0) of the
+    C0-orthonormalised correction vectors S in the enriched basis: S = [Φ, P] coefficients."""
     exchange = any(is_exchange(t.operator) for t in system.conductance.terms)
     cols = []
     for sample in samples:
@@ -446,11 +448,26 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
             cols.extend(fac.solve(c @ x) for c in c_terms)
     x = np.column_stack(cols)
     x = x / np.sqrt(np.maximum(np.einsum("ij,ij->j", x, ops.capacity @ x), 1e-300))
+    z = basis.vectors[:, basis.zero_modes]  # the constants are kept anyway: remove them first
+    for _ in range(2):
+        x = x - z @ np.linalg.solve(z.T @ (ops.capacity @ z), z.T @ (ops.capacity @ x))
+    s = _orthonormal(x, ops.capacity, CORRECTION_RANK_TOL)
     phi = basis.vectors
     gram = phi.T @ (ops.capacity @ phi)
+    a = np.zeros((phi.shape[1], s.shape[1]))
+    r = s
     for _ in range(2):  # block Gram–Schmidt in the C0 product, twice for accuracy
-        x = x - phi @ np.linalg.solve(gram, phi.T @ (ops.capacity @ x))
-    g = x.T @ (ops.capacity @ x)
+        step = np.linalg.solve(gram, phi.T @ (ops.capacity @ r))
+        a += step
+        r = r - phi @ step
+    p = _orthonormal(r, ops.capacity, CORRECTION_RANK_TOL)
+    b = p.T @ (ops.capacity @ r)
+    return p, np.vstack([a, b])
+
+
+def _orthonormal(x: FloatArray, capacity: sp.csr_array, tol: float) -> FloatArray:
+    """C0-orthonormal basis of span(x), directions with Gram eigenvalue below ``tol`` (relative to 1) dropped."""
+    g = x.T @ (capacity @ x)
     w, u = np.linalg.eigh((g + g.T) / 2)
-    keep = w > 1e-10
+    keep = w > tol * max(1.0, float(w.max(initial=0.0)))
     return (x @ u[:, keep]) / np.sqrt(w[keep])

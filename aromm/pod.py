@@ -2,36 +2,30 @@
 
 The snapshots are the reference excitation states of the detailed modal model (Ñ × K, modal
 coordinates), so POD works in the same Ñ-mode space and the comparison isolates what the amalgam
-grouping buys.  The constant modes (the mean temperature, energy balance) are kept explicitly;
-POD is applied to the snapshots C0-orthogonally projected off them, in the capacity inner product
+grouping buys.  The constant modes (the mean temperature, energy balance) and the correction vectors are kept
+explicitly; POD is applied to the snapshots C0-orthogonally projected off them, in the capacity inner product
 ``G = Φᵀ C0 Φ`` (method of snapshots: SVD of ``Rᵀ X`` with ``G = R Rᵀ``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
-import numpy.typing as npt
 import scipy.linalg as sla
 
 from aromm.errors import InputError, NumericalError
 from aromm.system import FloatArray
 
 
-def pod_coefficients(states: FloatArray, gram: FloatArray, order: int,
-                     forced: Sequence[int] | npt.NDArray[np.int64] = ()) -> FloatArray:
-    """Coefficients ``A`` (Ñ × order): the ``forced`` unit vectors, then the leading POD modes."""
+def pod_coefficients(states: FloatArray, gram: FloatArray, order: int, kept: FloatArray) -> FloatArray:
+    """Coefficients ``A`` (Ñ × order): the ``kept`` columns (Ñ × q: constants, corrections), then POD modes."""
     states = np.asarray(states, dtype=float)
     n_modes = states.shape[0]
-    forced_idx = np.asarray(sorted(set(int(i) for i in forced)), dtype=np.int64)
-    if order < max(1, forced_idx.size):
-        raise InputError(f"order must be at least {max(1, forced_idx.size)} (the constant modes), got {order}")
+    z = np.asarray(kept, dtype=float).reshape(n_modes, -1)
+    if order < max(1, z.shape[1]):
+        raise InputError(f"order must be at least {max(1, z.shape[1])} (the constant modes), got {order}")
     order = min(order, n_modes)
-    z = np.zeros((n_modes, forced_idx.size))
-    z[forced_idx, np.arange(forced_idx.size)] = 1.0
     g = (gram + gram.T) / 2
-    if forced_idx.size:
+    if z.shape[1]:
         zg = z.T @ g
         states = states - z @ np.linalg.solve(zg @ z, zg @ states)
     try:
@@ -40,6 +34,6 @@ def pod_coefficients(states: FloatArray, gram: FloatArray, order: int,
         raise NumericalError("POD: capacity Gram matrix of the modal basis is not positive definite") from None
     u, s, _ = np.linalg.svd(r.T @ states, full_matrices=False)
     rank = int(np.count_nonzero(s > s[0] * 1e-13)) if s.size and s[0] > 0 else 0
-    keep = min(order - forced_idx.size, rank)
+    keep = min(order - z.shape[1], rank)
     modes = sla.solve_triangular(r.T, u[:, :keep], lower=False)
     return np.column_stack([z, modes])

@@ -40,6 +40,7 @@ from aromm.amalgam import amalgam
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
 from aromm.modes import (
+    ModalBasis,
     boundary_mass,
     compute_basis,
     correction_samples,
@@ -446,21 +447,14 @@ def reduce(
         names = model.parameter_names
         times = case.times if case.times is not None else snapshot_times(case.system.time or system.time)
         x = model.states({k: v for k, v in case.values.items() if k in names}, times).T
-        free = np.setdiff1d(np.arange(basis.size), basis.forced)
+        free = np.flatnonzero(basis.kinds != "zero")
         scale = float(np.linalg.norm(x[free]))
         snapshots.append(x / scale if scale > 0 else x)
     stages.update()
     stages.set_postfix_str(method)
     states = np.hstack(snapshots)
-    # correction modes are kept principal and alone when the order leaves room for them, else they compete
-    forced = basis.forced if basis.forced.size < order else basis.zero_modes
-    if method == "aromm":
-        coefficients = amalgam(states, order, forced).coefficients
-    else:
-        bvals, _ = detailed._values({k: [v] for k, v in _basis_values(system, basis_values).items()
-                                     if k in detailed.parameter_names})
-        gram = detailed._stack(detailed.capacity, bvals, 1)[0]
-        coefficients = pod_coefficients(states, gram, order, forced)
+    coefficients = _reduction(basis, states, order, method=method, detailed=detailed, system=system,
+                              basis_values=basis_values)
     stages.update()
     rom = detailed.transform(coefficients)
     check_t = snapshot_times(system.time)
@@ -481,6 +475,37 @@ def reduce(
     if store is not None:
         store.save("rom", key, _to_arrays(rom))
     return rom
+
+
+def _reduction(basis: ModalBasis, states: FloatArray, order: int, *, method: str, detailed: ReducedModel,
+               system: ThermalSystem, basis_values: Mapping[str, float] | None) -> FloatArray:
+    """Coefficients A (Ñ × ñ) of the reduced basis Ψ = Φ A.
+
+    The constants are kept alone; the correction vectors (when the order leaves room for them and one
+    more mode) are kept as whole columns, the other ñ − m columns come from the amalgam (or POD) of
+    the Dirichlet–Steklov modes.  Otherwise the correction directions compete like modes.
+    """
+    if order >= basis.size:
+        return np.eye(basis.size)
+    corr = basis.corrections if basis.corrections is not None else np.zeros((basis.size, 0))
+    zero = basis.zero_modes
+    rows = np.flatnonzero(basis.kinds != "correction")
+    keep_corr = 0 < corr.shape[1] < order - zero.size and order - corr.shape[1] < rows.size
+    units = np.zeros((basis.size, zero.size))
+    units[zero, np.arange(zero.size)] = 1.0
+    if method == "pod":
+        bvals, _ = detailed._values({k: [v] for k, v in _basis_values(system, basis_values).items()
+                                     if k in detailed.parameter_names})
+        gram = detailed._stack(detailed.capacity, bvals, 1)[0]
+        kept = np.column_stack([units, corr]) if keep_corr else units
+        return pod_coefficients(states, gram, order, kept)
+    if not keep_corr:
+        return amalgam(states, order, zero).coefficients
+    sub = amalgam(states[rows], order - corr.shape[1], np.searchsorted(rows, zero)).coefficients
+    a = np.zeros((basis.size, order))
+    a[rows, : sub.shape[1]] = sub
+    a[:, sub.shape[1]:] = corr
+    return a
 
 
 def _basis_values(system: ThermalSystem, values: Mapping[str, float] | None) -> dict[str, float]:
