@@ -24,6 +24,8 @@ coefficient matrix ``A`` (Ψ = Φ A) to every projected operator at the cost of 
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import os
 import sys
 import time
@@ -33,7 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 from tqdm import tqdm
 
 from aromm.amalgam import amalgam
@@ -56,6 +58,19 @@ from aromm.system import Affine, Coefficient, FloatArray, Observables, Term, The
 ZERO_RATE = 1e-11
 #: Negative modal rates beyond this fraction of the largest mean a growing mode (refused).
 NEGATIVE_RATE = 1e-8
+
+
+@functools.cache
+def _threads() -> ThreadpoolController:
+    """Created on first use (inspecting the loaded BLAS costs ~2 ms; limiting through it ~0.01 ms)."""
+    return ThreadpoolController()
+
+
+def _one_blas_thread() -> contextlib.AbstractContextManager[object]:
+    """Small dense algebra runs single-threaded: on a loaded 2-core machine threaded OpenBLAS made a
+    200 × 200 eigh 13× slower (258 ms vs 19 ms, measured), solvers.md reports up to 100×."""
+    limiter: contextlib.AbstractContextManager[object] = _threads().limit(limits=1, user_api="blas")
+    return limiter
 
 
 @dataclass(frozen=True)
@@ -178,7 +193,7 @@ class ReducedModel:
         """Arrays of equal length m per parameter → outputs (m, len(times), n_outputs)."""
         t = self._times(times)
         values, m = self._values(params)
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _one_blas_thread():
             modal = self._modal(values, m)
             y = modal.outputs(t)
         return y
@@ -186,13 +201,13 @@ class ReducedModel:
     def states(self, params: Mapping[str, float] | None, times: npt.ArrayLike) -> FloatArray:
         """Reduced states X (len(times), r) for one parameter set (T ≈ Ψ X)."""
         values, m = self._values({k: [v] for k, v in (params or {}).items()})
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _one_blas_thread():
             return self._modal(values, m).states(np.asarray(times, dtype=float))[0]
 
     def rates(self, params: Mapping[str, npt.ArrayLike] | None = None) -> FloatArray:
         """Modal rates Λ (s⁻¹, ascending, ≥ 0; 1/Λ are the time constants), shape (m, r)."""
         values, m = self._values(params or {})
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _one_blas_thread():
             return self._modal(values, m).rates
 
     def steady(self, params: Mapping[str, npt.ArrayLike] | None = None) -> FloatArray:

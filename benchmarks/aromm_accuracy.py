@@ -23,18 +23,18 @@ import resource
 import tempfile
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from aromm.cache import NpzCache
 from aromm.microstructure.generators import wood
-from aromm.modes import compute_basis
+from aromm.modes import compute_basis, split_modes
 from aromm.reduced import reduce
 from aromm.scene import assemble, load_scene
 from aromm.solve import simulate
-from aromm.system import ThermalSystem
+from aromm.system import ThermalSystem, TimeGrid
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "data" / "scenes"
@@ -49,7 +49,7 @@ class Row:
     order: int
     k_F: float
     c_F: float
-    max_error: float  # °C, max over both face means and all output times
+    max_error: float  # °C, max over both face means and all output times, against the (refined) full model
     offline_s: float  # bases (when not shared) + snapshots + reduction, wall clock
     online_s: float  # one evaluation (whole scenario), wall clock
     full_s: float  # the full model on the same parameters, wall clock
@@ -84,27 +84,46 @@ def timed_full(system: ThermalSystem, values: dict[str, float]) -> tuple[np.ndar
     return y, time.perf_counter() - start
 
 
-def sweep(systems: Sequence[ThermalSystem], orders: Sequence[int], modes: Sequence[int],
+def converged_full(system: ThermalSystem, values: dict[str, float], refine: int) -> np.ndarray:
+    """The full model with the scene's step divided by ``refine`` (BDF2 error / refine²), at the scene's times."""
+    assert system.time is not None
+    fine = replace(system, time=TimeGrid(system.time.end, system.time.dt / refine))
+    return simulate(fine, values, system.time.times).as_array()
+
+
+VARIANTS = {"aromm": ("aromm", True), "pod": ("pod", True), "aromm-seed": ("aromm", False), "pod-seed": ("pod", False)}
+
+
+def sweep(systems: Sequence[ThermalSystem], orders: Sequence[int], modes: Sequence[int], *,
           points: Sequence[tuple[float, float]] = DEFAULT_POINTS, methods: Sequence[str] = ("aromm", "pod"),
-          repeats: int = 5) -> list[Row]:
-    """Every (method, Ñ, ñ, parameter point) against the full model of scenario 1."""
+          refine: int = 1, repeats: int = 5) -> list[Row]:
+    """Every (method, Ñ, ñ, parameter point) against the full model of scenario 1.
+
+    ``methods``: ``aromm``, ``pod`` (with correction modes), ``aromm-seed``, ``pod-seed`` (without, i.e.
+    the seed's method).  ``refine`` > 1 measures the error against the full model with dt / refine
+    (the reduced model is exact in time; the full model's BDF2 error is then removed from the figures).
+    """
     s1, *refs = systems
     full = {}
     for k, c in points:
-        full[(k, c)] = timed_full(s1, {"fibre.k": k, "fibre.c": c})
+        values = {"fibre.k": k, "fibre.c": c}
+        y, seconds = timed_full(s1, values)
+        full[(k, c)] = (converged_full(s1, values, refine) if refine > 1 else y, seconds)
     rows = []
     with tempfile.TemporaryDirectory() as cache_dir:
+        cache = NpzCache(cache_dir)  # bases computed once per Ñ, shared by every order and method
         for n_modes in modes:
             start = time.perf_counter()
-            compute_basis(s1, n_modes - (n_modes + 1) // 2, (n_modes + 1) // 2, cache=_cache(cache_dir))
+            compute_basis(s1, *split_modes(s1, n_modes), cache=cache)
             basis_s = time.perf_counter() - start
             for order in orders:
                 if order > n_modes:
                     continue
-                for method in methods:
+                for name in methods:
+                    method, corrections = VARIANTS[name]
                     start = time.perf_counter()
                     rom = reduce(s1, order=order, modes=n_modes, references=refs, method=method,
-                                 cache=_cache(cache_dir))
+                                 corrections=corrections, cache=cache)
                     offline = basis_s + time.perf_counter() - start
                     for k, c in points:
                         values = {"fibre.k": k, "fibre.c": c}
@@ -114,22 +133,17 @@ def sweep(systems: Sequence[ThermalSystem], orders: Sequence[int], modes: Sequen
                             y = rom.simulate(values).as_array()
                         online = (time.perf_counter() - start) / repeats
                         y_full, full_s = full[(k, c)]
-                        rows.append(Row(method, n_modes, order, k, c, float(np.abs(y - y_full).max()), offline,
+                        rows.append(Row(name, n_modes, rom.order, k, c, float(np.abs(y - y_full).max()), offline,
                                         online, full_s))
     return rows
 
 
-def _cache(directory: str) -> NpzCache:
-    """One cache folder per sweep: bases are computed once per Ñ and shared by every order and method."""
-    return NpzCache(directory)
-
-
 def table(rows: Sequence[Row]) -> str:
-    head = f"{'method':>6} {'Ñ':>5} {'ñ':>5} {'k_F':>6} {'c_F':>8} {'max err °C':>11} {'offline s':>10} " \
+    head = f"{'method':>10} {'Ñ':>5} {'ñ':>5} {'k_F':>6} {'c_F':>8} {'max err °C':>11} {'offline s':>10} " \
            f"{'online s':>10} {'full s':>8} {'speed-up':>9}"
     lines = [head]
     for r in rows:
-        lines.append(f"{r.method:>6} {r.modes:5d} {r.order:5d} {r.k_F:6.3g} {r.c_F:8.2g} {r.max_error:11.4g} "
+        lines.append(f"{r.method:>10} {r.modes:5d} {r.order:5d} {r.k_F:6.3g} {r.c_F:8.2g} {r.max_error:11.4g} "
                      f"{r.offline_s:10.2f} {r.online_s:10.4f} {r.full_s:8.2f} {r.full_s / r.online_s:9.0f}")
     return "\n".join(lines)
 
@@ -141,13 +155,15 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--shipped", action="store_true", help="use data/wood_ver.npz and data/scenes/wood_s*.toml")
     parser.add_argument("--orders", type=int, nargs="+", default=[10, 20, 40, 80])
     parser.add_argument("--modes", type=int, nargs="+", default=[80, 160])
-    parser.add_argument("--methods", nargs="+", default=["aromm", "pod"])
+    parser.add_argument("--methods", nargs="+", default=["aromm", "pod", "aromm-seed"], choices=sorted(VARIANTS))
+    parser.add_argument("--refine", type=int, default=10,
+                        help="errors against the full model with dt / REFINE (1: the scene's dt)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows as JSON")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as work:
         systems = wood_scenarios(None if args.shipped else args.size, Path(work))
         print(f"scenario 1: {systems[0].n} DOFs, {'shipped VER' if args.shipped else f'generated {args.size}³'}")
-        rows = sweep(systems, args.orders, args.modes, methods=args.methods)
+        rows = sweep(systems, args.orders, args.modes, methods=args.methods, refine=args.refine)
     print(table(rows))
     print(f"peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB")
     if args.json is not None:

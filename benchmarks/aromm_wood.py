@@ -61,11 +61,14 @@ def main() -> None:
     parser.add_argument("--modes", type=int, default=240, help="detailed basis Ñ (Dirichlet + Steklov)")
     parser.add_argument("--fine-dt", type=float, default=None, help="also run the full model with this dt (s)")
     parser.add_argument("--seed-variant", action="store_true", help="also reduce without correction modes")
+    parser.add_argument("--cache", type=Path, default=None,
+                        help="cache folder kept between runs (default: a fresh temporary folder)")
     args = parser.parse_args()
 
     s1, s2, s3 = (assemble(load_scene(SCENES / f"wood_s{i}.toml")) for i in (1, 2, 3))
     print(f"shipped wood VER, scenario 1: {s1.n} DOFs; parameters {POINT}")
-    with tempfile.TemporaryDirectory() as cache:
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = str(args.cache) if args.cache is not None else tmp
         start = clock()
         rom = reduce(s1, order=args.order, modes=args.modes, references=[s2, s3], cache=cache, progress=True)
         off_wall, off_cpu = since(start)
