@@ -38,7 +38,7 @@ from scipy.sparse import csgraph
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
 from aromm.fem import FACES, face_mass
-from aromm.linalg import factorize
+from aromm.linalg import Factorization, factorize
 from aromm.system import FloatArray, Geometry, ThermalSystem
 
 #: Reference per-phase properties of the bases in seed 001 §3.1 (W/(m K), J/(m³ K)).
@@ -229,10 +229,9 @@ def _relative_residuals(k: sp.csr_array, m: sp.csr_array, lam: FloatArray, v: Fl
     return num / np.maximum(den, 1e-300)
 
 
-def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, method: str, label: str) -> tuple[
+def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, fac: Factorization, label: str) -> tuple[
         FloatArray, FloatArray]:
-    """ARPACK shift-invert with our own factorisation of ``A − σM`` as OPinv."""
-    fac = factorize(a - sigma * m, method)
+    """ARPACK shift-invert with our own factorisation ``fac`` of ``A − σM`` as OPinv."""
     op = spla.LinearOperator(a.shape, matvec=lambda x: fac.solve(np.asarray(x).ravel(), check=False),
                              dtype=float)
     try:
@@ -258,7 +257,7 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto") -
     if n_i <= DENSE_LIMIT:
         lam, vec = sla.eigh(k_ii.toarray(), c_ii.toarray(), subset_by_index=(0, count - 1))
     else:
-        lam, vec = _eigsh(k_ii, c_ii, count, 0.0, method=method, label="Dirichlet modes")
+        lam, vec = _eigsh(k_ii, c_ii, count, 0.0, fac=factorize(k_ii, method), label="Dirichlet modes")
     res = _relative_residuals(k_ii, c_ii, lam, vec)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(
@@ -297,7 +296,7 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> 
         fac = factorize(ops.stiffness - sigma * b, method)
     else:
         fac = factorize(ops.stiffness - sigma * b, method)
-        _, vec = _eigsh(ops.stiffness, b, want, sigma, method=method, label="Steklov modes")
+        _, vec = _eigsh(ops.stiffness, b, want, sigma, fac=fac, label="Steklov modes")
     # Purification: one application of (K0 − σζB)⁻¹ζB is the discrete harmonic extension of the trace.
     vec = fac.solve(b @ vec, check=False)
     # Rayleigh–Ritz on the purified subspace (ζB is SPD there: independent traces).
