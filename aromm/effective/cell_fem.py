@@ -11,16 +11,20 @@ symmetry planes x = 0, y = 0 of the full cell and its adiabatic sides, seed 002)
   isothermal plane at z = a) -> ``E_1bot`` of W1b.
 
 ``E = Q L / (lambda_m A dT)`` with the heat flow ``Q`` taken from the reaction at the fixed
-top face (equal to the discrete energy, so the P1 value is variational), ``L`` the height
-and ``A`` the cross-section of the domain (``pi a^2/4`` for the cylinder).
+top face (equal to the discrete energy), ``L`` the height and ``A`` the cross-section of the
+domain (``pi a^2/4`` for the cylinder).
 
 Meshes come from gmsh (OpenCASCADE booleans, headless), are handed over as meshio meshes with
 ``gmsh:physical`` tags 1 (filler) and 2 (matrix), and are assembled by
 :func:`aromm.effective.mesh_fem.assemble_mesh` with the contact resistance on split interface
-nodes.  ``h`` is the target element size in units of ``a``; the mesh is graded down to
+unknowns.  ``h`` is the target element size in units of ``a``; the mesh is graded down to
 ``h/4`` near the sphere so that curvature and the thin gaps are resolved.
-A voxel (staircase) sphere would overestimate the interface area by ~50 %; the polyhedral
-sphere of a conforming mesh converges to the true area at O(h^2).
+
+Elements are quadratic (P2) by default: with straight-sided tetrahedra the error is then the
+geometric one of the inscribed polyhedral sphere, O(h^2) and negative (-0.2 % of E - 1 at
+h = 0.3), against +2 % for P1 on the same mesh, whose energy error dominates
+(benchmarks/bounds_fem.py).  A voxel (staircase) sphere would overestimate the interface area
+by ~50 %; the polyhedral sphere converges to the true area at O(h^2).
 """
 
 from __future__ import annotations
@@ -46,7 +50,8 @@ KINDS: tuple[Kind, ...] = ("cell", "cylinder", "slab")
 FILLER, MATRIX = 1, 2
 PHASES = (PhaseSpec("filler", FILLER, 1.0), PhaseSpec("matrix", MATRIX, 1.0))
 INTERFACE = "filler|matrix"
-DEFAULT_H = 0.25
+DEFAULT_H = 0.3
+DEFAULT_ORDER = 2
 
 
 @contextmanager
@@ -134,6 +139,7 @@ def _size_field(kind: Kind, filler: int, matrix: int, *, h: float, a: float, gap
     faces_m = {t for _, t in gmsh.model.getBoundary([(3, matrix)], oriented=False)}
     dist = field.add("Distance")
     field.setNumbers(dist, "SurfacesList", sorted(faces_f & faces_m))
+    field.setNumber(dist, "Sampling", int(np.ceil(8.0 * a / h)) + 20)  # sample spacing < h/4 on the sphere
     fields = [_threshold(dist, 0.25 * h, h, 2.0 * h)]
     vertices = [t for _, t in gmsh.model.getEntities(0)]
     for axis in range(3):
@@ -167,10 +173,10 @@ def _threshold(distance: int, size_min: float, size_max: float, reach: float) ->
     field.setNumber(tag, "DistMax", reach)
     return tag
 
-def cell_system(mesh: meshio.Mesh, contact: bool) -> ThermalSystem:
+def cell_system(mesh: meshio.Mesh, contact: bool, order: int = DEFAULT_ORDER) -> ThermalSystem:
     """Steady system of an octant mesh: T = 0 on z0, T = 1 on z1, interface split if ``contact``."""
     return assemble_mesh(mesh, PHASES, [FaceSpec("z0", T=0.0), FaceSpec("z1", T=1.0)],
-                         interfaces={INTERFACE: 1.0} if contact else None)
+                         interfaces={INTERFACE: 1.0} if contact else None, order=order)
 
 
 @dataclass
@@ -185,6 +191,7 @@ class CellModel:
     kind: Kind
     B: float
     h: float = DEFAULT_H
+    order: int = DEFAULT_ORDER
     mesh: meshio.Mesh = field(init=False, repr=False)
     _systems: dict[bool, ThermalSystem] = field(init=False, repr=False, default_factory=dict)
 
@@ -201,7 +208,7 @@ class CellModel:
 
     def system(self, contact: bool) -> ThermalSystem:
         if contact not in self._systems:
-            self._systems[contact] = cell_system(self.mesh, contact)
+            self._systems[contact] = cell_system(self.mesh, contact, self.order)
         return self._systems[contact]
 
     @property
@@ -234,6 +241,6 @@ def conductance_from_reaction(system: ThermalSystem, values: dict[str, float]) -
 CELL_VALUES: tuple[tuple[str, Kind], ...] = (("E_c", "cell"), ("E_II", "cylinder"), ("E_1bot", "slab"))
 
 
-def cell_values(B: float, C: float, D: float, h: float = DEFAULT_H) -> dict[str, float]:
+def cell_values(B: float, C: float, D: float, h: float = DEFAULT_H, order: int = DEFAULT_ORDER) -> dict[str, float]:
     """``E_c``, ``E_II`` and ``E_1bot`` of the seed-002 cell by finite elements (three meshes)."""
-    return {name: CellModel(kind, B, h).E(C, D) for name, kind in CELL_VALUES}
+    return {name: CellModel(kind, B, h, order).E(C, D) for name, kind in CELL_VALUES}

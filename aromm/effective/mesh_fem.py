@@ -1,19 +1,21 @@
-"""P1 finite elements on conforming simplex meshes (any mesh meshio reads) into a ThermalSystem.
+"""Lagrange finite elements (P1 or P2) on conforming simplex meshes (any mesh meshio reads) into a ThermalSystem.
 
 Phases come from cell sets (``mesh.cell_sets[phase_name]``) or from an integer cell-data
 array (``gmsh:physical`` by default) matched against :attr:`aromm.fem.PhaseSpec.label`.
 A contact resistance ``R`` (m^2 K/W) between two phases (scene: ``[interfaces."fibre|gas"] R``)
-is modelled on **split interface nodes**: every node on the interface gets one copy per side,
-each phase's elements use their own copy, and the two copies are coupled by
+is modelled on **split interface unknowns**: every degree of freedom on the interface gets one
+copy per side, each phase's elements use their own copy, and the two copies are coupled by
 
     K_int = (1/R) J^T M_Gamma J,        (J T)_i = T_i^{fibre} - T_i^{gas},
 
-with ``M_Gamma`` the P1 facet mass matrix of the interface (scikit-fem ``FacetBasis`` on the
+with ``M_Gamma`` the facet mass matrix of the interface (scikit-fem ``FacetBasis`` on the
 interface facets), i.e. the weak form of the flux ``q_n = (T_fibre - T_gas)/R`` across it.
-The coefficient is the parameter ``"fibre|gas.h_c" = 1/R`` (W/(m^2 K)) so the system stays
-affine; ``R = 0`` means perfect contact (nodes not split).  Terms follow aromm.fem: ``K_<phase>``,
-``C_<phase>`` (transient only), ``H_<face>``/``U_<face>`` for faces, and ``G_<p>|<q>`` for an
-interface.  Faces ``x0 ... z1`` are the planes of the mesh's bounding box.
+Every matrix is assembled by scikit-fem on the original mesh, phase by phase, and its
+indices are then relabelled to the split unknowns.  The coefficient is the parameter
+``"fibre|gas.h_c" = 1/R`` (W/(m^2 K)) so the system stays affine; ``R = 0`` means perfect
+contact (nothing split).  Terms follow aromm.fem: ``K_<phase>``, ``C_<phase>`` (transient only),
+``H_<face>``/``U_<face>`` for faces, and ``G_<p>|<q>`` for an interface.  Faces ``x0 ... z1``
+are the planes of the mesh's bounding box.
 """
 
 from __future__ import annotations
@@ -25,15 +27,30 @@ import meshio
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
-from skfem import Basis, BilinearForm, ElementTetP1, ElementTriP1, FacetBasis, LinearForm, MeshTet, MeshTri
+from skfem import (
+    Basis,
+    BilinearForm,
+    ElementTetP1,
+    ElementTetP2,
+    ElementTriP1,
+    ElementTriP2,
+    FacetBasis,
+    LinearForm,
+    MeshTet,
+    MeshTri,
+)
 from skfem.helpers import dot, grad
 
 from aromm.errors import InputError
 from aromm.fem import FACES, FaceSpec, PhaseSpec, parameter_values
-from aromm.system import Affine, Coefficient, Dirichlet, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
+from aromm.system import Affine, Coefficient, Dirichlet, Geometry, Term, ThermalSystem, TimeGrid
 
 IntArray = npt.NDArray[np.int64]
-_SIMPLEX = {"tetra": (MeshTet, ElementTetP1, 3), "triangle": (MeshTri, ElementTriP1, 2)}
+_MESHES = {"tetra": (MeshTet, 3), "triangle": (MeshTri, 2)}
+_ELEMENTS = {("tetra", 1): ElementTetP1, ("tetra", 2): ElementTetP2, ("triangle", 1): ElementTriP1,
+             ("triangle", 2): ElementTriP2}
+_EXPORT_TYPE = {("tetra", 1): "tetra", ("tetra", 2): "tetra10", ("triangle", 1): "triangle",
+                ("triangle", 2): "triangle6"}
 
 
 @BilinearForm
@@ -60,29 +77,79 @@ def _directional(axis: int) -> BilinearForm:
 
 
 @dataclass(frozen=True)
-class SplitMesh:
-    """A simplex mesh whose resistive-interface nodes are duplicated, one copy per side.
+class DofSplit:
+    """Unknowns after splitting: ``dof[i, p]`` is the unknown of original dof ``i`` seen from phase ``p``
+    (-1 where phase p does not touch it); ``source[k]`` the original dof of unknown ``k``."""
 
-    ``points[k]`` is the position of unknown ``k``; ``elements`` (n_el, n_vertices) index
-    unknowns; ``phase`` is the phase index of each element; ``source`` maps an unknown to the
-    original mesh node.  ``interfaces`` maps a pair name ``"p|q"`` to ``(M, dof_p, dof_q)``:
-    the facet mass matrix on the original interface nodes ``nodes`` and each side's unknowns.
-    """
-
-    points: FloatArray
-    elements: IntArray
-    phase: IntArray
+    dof: IntArray
     source: IntArray
-    interfaces: Mapping[str, tuple[sp.csr_array, IntArray, IntArray]]
+
+    @property
+    def n(self) -> int:
+        return int(self.source.size)
+
+
+def _pair_name(a: str, b: str, resistances: Mapping[str, float]) -> str | None:
+    for key in (f"{a}|{b}", f"{b}|{a}"):
+        if key in resistances:
+            return key
+    return None
+
+
+def split_dofs(element_dofs: IntArray, phase: IntArray, n_dofs: int, names: Sequence[str],
+               resistances: Mapping[str, float]) -> DofSplit:
+    """Duplicate the degrees of freedom shared by phases in resistive contact.
+
+    ``element_dofs`` is (n_elements, n_local); ``resistances`` names the resistive pairs ``"p|q"``.
+    A dof shared by several phases gets one unknown per group of phases joined by perfect
+    contact (so triple lines are handled); the group with the lowest phase index keeps the
+    dof's number, the other copies are appended.
+    """
+    n_ph = len(names)
+    resistive = {(i, j) for i in range(n_ph) for j in range(n_ph)
+                 if i != j and _pair_name(names[i], names[j], resistances) is not None}
+    incident = np.zeros((n_dofs, n_ph), dtype=bool)
+    for p in range(n_ph):
+        incident[np.unique(element_dofs[phase == p]), p] = True
+    # rep[i, p]: lowest phase of the perfect-contact group of p at dof i (fixed point)
+    rep = np.tile(np.arange(n_ph), (n_dofs, 1))
+    for _ in range(n_ph):
+        for p in range(n_ph):
+            for q in range(n_ph):
+                if p != q and (p, q) not in resistive:
+                    both = incident[:, p] & incident[:, q]
+                    low = np.minimum(rep[both, p], rep[both, q])
+                    rep[both, p] = low
+                    rep[both, q] = low
+    present = np.zeros((n_dofs, n_ph), dtype=bool)
+    for p in range(n_ph):
+        present[np.flatnonzero(incident[:, p]), rep[incident[:, p], p]] = True
+    first = np.argmax(present, axis=1)
+    ids = np.full((n_dofs, n_ph), -1, dtype=np.int64)
+    keep = present & (np.arange(n_ph) == first[:, None])
+    ids[keep] = np.nonzero(keep)[0]
+    extra_dofs, extra_groups = np.nonzero(present & ~keep)
+    ids[extra_dofs, extra_groups] = n_dofs + np.arange(extra_dofs.size)
+    dof = np.where(incident, np.take_along_axis(ids, rep, axis=1), -1)
+    return DofSplit(dof=dof, source=np.concatenate([np.arange(n_dofs), extra_dofs]))
+
+
+def _relabel(matrix: sp.sparray | sp.spmatrix, dof_p: IntArray, n: int) -> sp.csr_array:
+    """A matrix assembled on the original dofs, restricted to one phase, in split numbering."""
+    coo = sp.coo_array(matrix)
+    keep = coo.data != 0.0
+    rows, cols = dof_p[coo.row[keep]], dof_p[coo.col[keep]]
+    if np.any(rows < 0) or np.any(cols < 0):
+        raise AssertionError("a phase matrix touches a dof outside that phase")
+    return sp.csr_array((coo.data[keep], (rows, cols)), shape=(n, n))
 
 
 def _volume_block(mesh: meshio.Mesh) -> tuple[str, int]:
-    for i, block in enumerate(mesh.cells):
-        if block.type in ("tetra", "triangle") and (block.type == "tetra" or not any(
-                b.type == "tetra" for b in mesh.cells)):
-            return block.type, i
-    kinds = sorted({b.type for b in mesh.cells})
-    raise InputError(f"the mesh needs tetra (3-D) or triangle (2-D) cells; it has {kinds}")
+    types = [b.type for b in mesh.cells]
+    for wanted in ("tetra", "triangle"):
+        if wanted in types:
+            return wanted, types.index(wanted)
+    raise InputError(f"the mesh needs tetra (3-D) or triangle (2-D) cells; it has {sorted(set(types))}")
 
 
 def _element_phases(mesh: meshio.Mesh, block: int, phases: Sequence[PhaseSpec], label_key: str) -> IntArray:
@@ -90,8 +157,7 @@ def _element_phases(mesh: meshio.Mesh, block: int, phases: Sequence[PhaseSpec], 
     out = np.full(n_el, -1, dtype=np.int64)
     for i, ph in enumerate(phases):
         if ph.name in mesh.cell_sets:
-            ids = np.asarray(mesh.cell_sets[ph.name][block], dtype=np.int64)
-            out[ids] = i
+            out[np.asarray(mesh.cell_sets[ph.name][block], dtype=np.int64)] = i
         elif label_key in mesh.cell_data:
             out[np.asarray(mesh.cell_data[label_key][block]) == ph.label] = i
         else:
@@ -103,80 +169,18 @@ def _element_phases(mesh: meshio.Mesh, block: int, phases: Sequence[PhaseSpec], 
     return out
 
 
-def _pair_name(a: str, b: str, resistances: Mapping[str, float]) -> str | None:
-    for key in (f"{a}|{b}", f"{b}|{a}"):
-        if key in resistances:
-            return key
-    return None
-
-
-def split_interfaces(points: FloatArray, elements: IntArray, phase: IntArray, names: Sequence[str],
-                     resistances: Mapping[str, float]) -> SplitMesh:
-    """Duplicate the nodes of every resistive interface and assemble its facet mass (scikit-fem).
-
-    ``resistances`` names the resistive pairs (``"p|q"``); every node of the mesh must belong
-    to an element.  A node shared by several phases gets one unknown per group of phases
-    joined by perfect contact (triple lines are handled); the group with the lowest phase
-    index keeps the node's number, the other copies are appended.  The interface facet mass
-    is computed on the original (unsplit) mesh.
-    """
-    mesh_cls, elem_cls, _ = _SIMPLEX["tetra" if elements.shape[1] == 4 else "triangle"]
-    n_nodes, n_ph = points.shape[0], len(names)
-    resistive = {(i, j) for i in range(n_ph) for j in range(n_ph)
-                 if i != j and _pair_name(names[i], names[j], resistances) is not None}
-    incident = np.zeros((n_nodes, n_ph), dtype=bool)
-    for p in range(n_ph):
-        incident[np.unique(elements[phase == p]), p] = True
-    # rep[node, p]: lowest phase of the perfect-contact group of p at that node (fixed point)
-    rep = np.tile(np.arange(n_ph), (n_nodes, 1))
-    for _ in range(n_ph):
-        for p in range(n_ph):
-            for q in range(n_ph):
-                if p != q and (p, q) not in resistive:
-                    both = incident[:, p] & incident[:, q]
-                    low = np.minimum(rep[both, p], rep[both, q])
-                    rep[both, p] = low
-                    rep[both, q] = low
-    present = np.zeros((n_nodes, n_ph), dtype=bool)
-    for p in range(n_ph):
-        present[np.flatnonzero(incident[:, p]), rep[incident[:, p], p]] = True
-    first = np.argmax(present, axis=1)
-    ids = np.full((n_nodes, n_ph), -1, dtype=np.int64)
-    keep = present & (np.arange(n_ph) == first[:, None])
-    ids[keep] = np.nonzero(keep)[0]
-    extra_nodes, extra_groups = np.nonzero(present & ~keep)
-    ids[extra_nodes, extra_groups] = n_nodes + np.arange(extra_nodes.size)
-    dof = np.take_along_axis(ids, rep, axis=1)  # unknown of (node, phase)
-    split_elements = dof[elements, phase[:, None]]
-
-    mesh = mesh_cls(np.ascontiguousarray(points.T), np.ascontiguousarray(elements.T), sort_t=False)
-    f2t = mesh.f2t
-    inner = np.flatnonzero(f2t[1] >= 0)
-    ph0, ph1 = phase[f2t[0, inner]], phase[f2t[1, inner]]
-    interfaces: dict[str, tuple[sp.csr_array, IntArray, IntArray]] = {}
-    for p, q in sorted(resistive):
-        key = _pair_name(names[p], names[q], resistances)
-        if p > q or key is None:
-            continue
-        facets = inner[((ph0 == p) & (ph1 == q)) | ((ph0 == q) & (ph1 == p))]
-        if facets.size == 0:
-            continue
-        m_full = sp.csr_array(_mass.assemble(FacetBasis(mesh, elem_cls(), facets=facets)))
-        nodes = np.unique(mesh.facets[:, facets])
-        side_a, side_b = (p, q) if key == f"{names[p]}|{names[q]}" else (q, p)
-        interfaces[key] = (sp.csr_array(m_full[nodes][:, nodes]), dof[nodes, side_a], dof[nodes, side_b])
-    source = np.concatenate([np.arange(n_nodes), extra_nodes])
-    return SplitMesh(points=points[source], elements=split_elements, phase=phase, source=source,
-                     interfaces=interfaces)
-
-
-def _face_facets(mesh: MeshTet | MeshTri, face: str, lo: FloatArray, hi: FloatArray) -> IntArray:
-    axis = "xyz".index(face[0])
-    plane = lo[axis] if face[1] == "0" else hi[axis]
-    tol = 1e-9 * float(np.max(hi - lo))
-    bf = mesh.boundary_facets()
-    on = np.all(np.abs(mesh.p[axis, mesh.facets[:, bf]] - plane) <= tol, axis=0)
-    return bf[on]
+def _check_interfaces(interfaces: Mapping[str, float] | None, names: Sequence[str]) -> dict[str, float]:
+    out = {}
+    for key, value in (interfaces or {}).items():
+        parts = key.split("|")
+        if len(parts) != 2 or any(p not in names for p in parts) or parts[0] == parts[1]:
+            raise InputError(f"interface {key!r}: expected 'phase|phase' with two different phases among {names}")
+        r = float(value)
+        if not (np.isfinite(r) and r >= 0):
+            raise InputError(f"interface {key!r}: contact resistance R must be finite and >= 0 m^2 K/W; got {value}")
+        if r > 0:
+            out[key] = r
+    return out
 
 
 def assemble_mesh(
@@ -189,32 +193,30 @@ def assemble_mesh(
     initial_T: float = 0.0,
     outputs: Sequence[str] = (),
     label_key: str = "gmsh:physical",
+    order: int = 1,
 ) -> ThermalSystem:
     """A :class:`ThermalSystem` from a conforming simplex mesh (tetra or triangle, coordinates in m).
 
     ``interfaces`` maps ``"p|q"`` to the contact resistance R (m^2 K/W, >= 0; 0 = perfect
     contact).  Boundary faces are the bounding-box planes ``x0 ... z1`` (FaceSpec as in
     aromm.fem: fixed T, entering flux, or convection h to T_ext); unlisted faces are adiabatic.
+    ``order`` is the Lagrange degree, 1 or 2 (straight-sided elements either way).
     """
-    resist = {k: float(v) for k, v in (interfaces or {}).items()}
     names = [p.name for p in phases]
-    for key, value in resist.items():
-        parts = key.split("|")
-        if len(parts) != 2 or any(p not in names for p in parts) or parts[0] == parts[1]:
-            raise InputError(f"interface {key!r}: expected 'phase|phase' with two different phases among {names}")
-        if not (np.isfinite(value) and value >= 0):
-            raise InputError(f"interface {key!r}: contact resistance R must be finite and >= 0 m^2 K/W; got {value}")
-    resist = {k: v for k, v in resist.items() if v > 0}
+    resist = _check_interfaces(interfaces, names)
+    if order not in (1, 2):
+        raise InputError(f"element order must be 1 or 2; got {order}")
     cell_type, block = _volume_block(mesh)
-    mesh_cls, elem_cls, dim = _SIMPLEX[cell_type]
-    used, elements = np.unique(np.asarray(mesh.cells[block].data, dtype=np.int64), return_inverse=True)
-    elements = elements.reshape(-1, dim + 1)
+    mesh_cls, dim = _MESHES[cell_type]
+    used, conn = np.unique(np.asarray(mesh.cells[block].data, dtype=np.int64), return_inverse=True)
+    conn = conn.reshape(-1, dim + 1)
     points = np.asarray(mesh.points, dtype=float)[used, :dim]  # nodes of lower-dimensional cells dropped
     phase = _element_phases(mesh, block, phases, label_key)
-    split = split_interfaces(points, elements, phase, names, resist)
-    fem_mesh = mesh_cls(np.ascontiguousarray(split.points.T), np.ascontiguousarray(split.elements.T), sort_t=False)
-    n = split.points.shape[0]
-    element = elem_cls()
+    fem_mesh = mesh_cls(np.ascontiguousarray(points.T), np.ascontiguousarray(conn.T), sort_t=False)
+    element = _ELEMENTS[(cell_type, order)]()
+    whole = Basis(fem_mesh, element)
+    split = split_dofs(whole.element_dofs.T, phase, whole.N, names, resist)
+    n = split.n
 
     conductance: list[Term] = []
     capacity: list[Term] = []
@@ -224,15 +226,17 @@ def assemble_mesh(
         if idx.size == 0:
             continue
         basis = Basis(fem_mesh, element, elements=idx)
+        dof_p = split.dof[:, i]
         if isinstance(ph.k, tuple):
             for ax in range(dim):
-                conductance.append(Term(f"K_{ph.name}_{'xyz'[ax]}", Coefficient((f"{ph.name}.k_{'xyz'[ax]}",)),
-                                        sp.csr_array(_directional(ax).assemble(basis))))
+                name = "xyz"[ax]
+                conductance.append(Term(f"K_{ph.name}_{name}", Coefficient((f"{ph.name}.k_{name}",)),
+                                        _relabel(_directional(ax).assemble(basis), dof_p, n)))
         else:
             conductance.append(Term(f"K_{ph.name}", Coefficient((f"{ph.name}.k",)),
-                                    sp.csr_array(_laplace.assemble(basis))))
+                                    _relabel(_laplace.assemble(basis), dof_p, n)))
         if time is not None or ph.q is not None:
-            mass = sp.csr_array(_mass.assemble(basis))
+            mass = _relabel(_mass.assemble(basis), dof_p, n)
             if time is not None:
                 if ph.c is None:
                     raise InputError(f"phase {ph.name!r} needs a capacity c for a transient scene")
@@ -241,44 +245,72 @@ def assemble_mesh(
                 load.append(Term(f"Q_{ph.name}", Coefficient((f"{ph.name}.q",)), mass @ np.ones(n)))
     params = parameter_values([p for i, p in enumerate(phases) if np.any(phase == i)], boundary, initial_T,
                               time is not None)
-    for key, (m_gamma, side_a, side_b) in split.interfaces.items():
-        k = side_a.size
-        jump = sp.csr_array((np.r_[np.ones(k), -np.ones(k)], (np.r_[np.arange(k), np.arange(k)],
-                                                              np.r_[side_a, side_b])), shape=(k, n))
-        conductance.append(Term(f"G_{key}", Coefficient((f"{key}.h_c",)), sp.csr_array(jump.T @ m_gamma @ jump)))
+
+    f2t = fem_mesh.f2t
+    inner = np.flatnonzero(f2t[1] >= 0)
+    ph0, ph1 = phase[f2t[0, inner]], phase[f2t[1, inner]]
+    for key in resist:
+        p, q = (names.index(part) for part in key.split("|"))
+        facets = inner[((ph0 == p) & (ph1 == q)) | ((ph0 == q) & (ph1 == p))]
+        if facets.size == 0:
+            continue
+        m_gamma = sp.csr_array(_mass.assemble(FacetBasis(fem_mesh, element, facets=facets)))
+        dofs = np.unique(whole.get_dofs(facets=facets).all())  # the dofs living on the interface
+        k = dofs.size
+        jump = sp.csr_array((np.r_[np.ones(k), -np.ones(k)],
+                             (np.r_[np.arange(k), np.arange(k)], np.r_[split.dof[dofs, p], split.dof[dofs, q]])),
+                            shape=(k, n))
+        operator = sp.csr_array(jump.T @ m_gamma[dofs][:, dofs] @ jump)
+        conductance.append(Term(f"G_{key}", Coefficient((f"{key}.h_c",)), operator))
         params[f"{key}.h_c"] = 1.0 / resist[key]
 
-    lo, hi = split.points.min(axis=0), split.points.max(axis=0)
-    dirichlet: list[Dirichlet] = []
-    face_loads: list[Term] = []
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    boundary_facets = fem_mesh.boundary_facets()
+    tol = 1e-9 * float(np.max(hi - lo))
 
-    def face_basis(face: str) -> FacetBasis:
+    def face_parts(face: str) -> list[tuple[FacetBasis, IntArray, IntArray]]:
+        """Facet bases of the face, one per phase touching it, with its facets and that phase's dof map."""
         if face not in FACES or "xyz".index(face[0]) >= dim:
             raise InputError(f"unknown face {face!r}; allowed: {', '.join(FACES[: 2 * dim])}")
-        facets = _face_facets(fem_mesh, face, lo, hi)
+        axis = "xyz".index(face[0])
+        plane = lo[axis] if face[1] == "0" else hi[axis]
+        on = np.all(np.abs(fem_mesh.p[axis, fem_mesh.facets[:, boundary_facets]] - plane) <= tol, axis=0)
+        facets = boundary_facets[on]
         if facets.size == 0:
             raise InputError(f"face {face!r}: no boundary facet of the mesh lies on that bounding-box plane")
-        return FacetBasis(fem_mesh, element, facets=facets)
+        owner = phase[f2t[0, facets]]
+        return [(FacetBasis(fem_mesh, element, facets=facets[owner == i]), facets[owner == i], split.dof[:, i])
+                for i in np.unique(owner)]
 
+    def face_matrix(face: str) -> sp.csr_array:
+        return sp.csr_array(sum((_relabel(_mass.assemble(fb), dof_p, n) for fb, _, dof_p in face_parts(face)),
+                                start=sp.csr_array((n, n))))
+
+    dirichlet: list[Dirichlet] = []
+    face_loads: list[Term] = []
     for f in boundary:
-        fb = face_basis(f.face)
         if f.T is not None:
-            dofs = np.unique(fem_mesh.facets[:, fb.find]).astype(np.int64)
-            dirichlet.append(Dirichlet(f"T_{f.face}", dofs, f"{f.face}.T"))
+            dofs = np.unique(np.concatenate([dof_p[whole.get_dofs(facets=facets).all()]
+                                             for _, facets, dof_p in face_parts(f.face)]))
+            dirichlet.append(Dirichlet(f"T_{f.face}", dofs.astype(np.int64), f"{f.face}.T"))
             continue
-        weights = np.asarray(_unit.assemble(fb))
+        mass = face_matrix(f.face)
+        weights = np.asarray(mass @ np.ones(n))
         if f.h is not None:
-            conductance.append(Term(f"H_{f.face}", Coefficient((f"{f.face}.h",)), sp.csr_array(_mass.assemble(fb))))
+            conductance.append(Term(f"H_{f.face}", Coefficient((f"{f.face}.h",)), mass))
             face_loads.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.h", f"{f.face}.T_ext")), weights))
         if f.flux is not None:
             load.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.flux",)), weights))
     load.extend(face_loads)
     observation = {}
     for face in outputs:
-        w = np.asarray(_unit.assemble(face_basis(face)))
+        w = np.asarray(face_matrix(face) @ np.ones(n))
         observation[face] = w / w.sum()
-    geometry = Geometry(split.points if dim == 3 else np.column_stack([split.points, np.zeros(n)]),
-                        split.elements, cell_type, {"phase": phase})
+
+    cells = split.dof[whole.element_dofs, phase[None, :]].T  # (n_el, n_local) in split numbering
+    locs = whole.doflocs.T[split.source]
+    geometry = Geometry(locs if dim == 3 else np.column_stack([locs, np.zeros(n)]), cells,
+                        _EXPORT_TYPE[(cell_type, order)], {"phase": phase})
     return ThermalSystem(n=n, conductance=Affine(tuple(conductance)), capacity=Affine(tuple(capacity)),
                          load=Affine(tuple(load)), dirichlet=tuple(dirichlet), observation=observation,
                          parameters=params, time=time, geometry=geometry)
