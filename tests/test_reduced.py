@@ -246,3 +246,42 @@ def test_correction_modes_make_the_steady_state_exact_at_their_samples(tmp_path)
     np.testing.assert_allclose(rom.steady(sample)[0], full, rtol=1e-9)
     seed_only = reduce(system, order=30, modes=60, corrections=False, cache=tmp_path)
     assert np.abs(seed_only.steady(sample)[0] - full).max() > 1e3 * np.abs(rom.steady(sample)[0] - full).max()
+
+
+def test_cli_reduce_json_and_cache(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from aromm.cli import main
+
+    np.savez(tmp_path / "img.npz", labels=random_labels(4, seed=10))
+    scene = tmp_path / "s1.toml"
+    scene.write_text("""
+[geometry]
+image = "img.npz"
+voxel_size = 5.0e-6
+[phases.fibre]
+label = 1
+k = 0.3
+c = 4.0e6
+[phases.gas]
+label = 0
+k = 0.025
+c = 1.2e3
+[boundary.z0]
+flux = 500.0
+[boundary.z1]
+h = 20.0
+T_ext = 0.0
+[time]
+end = 2.0
+dt = 0.1
+[outputs]
+mean_T = ["z0", "z1"]
+""")
+    args = ["reduce", str(scene), "--order", "12", "--modes", "40", "--cache-dir", str(tmp_path / "cache"), "--json"]
+    assert main(args) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert first["order"] == 12 and first["cached"] == 0 and first["outputs"] == ["z0", "z1"]
+    assert main(args) == 0
+    assert json.loads(capsys.readouterr().out)["cached"] == 1
+    assert main(["reduce", str(tmp_path / "missing.toml"), "--order", "5"]) == 2
