@@ -12,11 +12,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
+from scipy.optimize import brentq
 
 from aromm.effective.cell_fem import CellModel
 from aromm.effective.domain import cell_phi
 from aromm.effective.models import torquato_rintoul_lower, torquato_rintoul_upper
 from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
+from aromm.errors import NumericalError
 from aromm.system import FloatArray
 
 # Seed 002, Table 1: logarithmic deviation eps (%), average / min / max (W1b is not in the seed's table).
@@ -48,9 +51,9 @@ class Grid:
         return len(self.B) * len(self.C) * len(self.D)
 
 
-COARSE = Grid(B=(0.1, 0.3, 1.0), C=(0.0, 0.1, 1.0), D=(0.01, 0.1, 0.5), h=0.3)
+COARSE = Grid(B=(0.1, 0.3, 1.0), C=(0.0, 0.1, 1.0), D=(0.01, 0.1, 0.5), h=0.4)
 FULL = Grid(B=(0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0), C=(0.0, 0.01, 0.05, 0.1, 0.2, 0.5, 1.0, 5.0),
-            D=(0.001, 0.01, 0.05, 0.1, 0.2, 0.5, 1.0), h=0.25)
+            D=(0.001, 0.01, 0.05, 0.1, 0.2, 0.5, 1.0), h=0.3)
 
 
 @dataclass(frozen=True)
@@ -124,7 +127,7 @@ def ordering_violations(points: Sequence[GridPoint]) -> list[tuple[GridPoint, st
     return bad
 
 
-def preference_map(B: FloatArray, C: FloatArray, D: FloatArray) -> FloatArray:
+def preference_map(B: npt.ArrayLike, C: npt.ArrayLike, D: npt.ArrayLike) -> FloatArray:
     """``100 ln(E_V3L / E_W_inf_a)`` on the broadcast (B, C, D): > 0 where V3L is the tighter lower bound.
 
     Both bounds are closed forms, so the map is computed on fine grids (``D > 0``).
@@ -133,7 +136,7 @@ def preference_map(B: FloatArray, C: FloatArray, D: FloatArray) -> FloatArray:
     return np.asarray(100.0 * np.log(v3l / wall_inf_a(B, C, D)))
 
 
-def preference_thresholds(B: FloatArray, C: FloatArray, D: FloatArray) -> tuple[float, float]:
+def preference_thresholds(B: npt.ArrayLike, C: npt.ArrayLike, D: npt.ArrayLike) -> tuple[float, float]:
     """The seed's two statements as thresholds on the given 1-D axes.
 
     Returns ``(C*, D*)``: the largest C, and the largest D, at which W_inf_a is still the tighter
@@ -144,3 +147,45 @@ def preference_thresholds(B: FloatArray, C: FloatArray, D: FloatArray) -> tuple[
     if not np.any(w_tighter):
         return float("nan"), float("nan")
     return float(c[w_tighter].max()), float(d[w_tighter].max())
+
+
+@dataclass(frozen=True)
+class PreferenceBoundary:
+    """Where W_inf_a stops (or starts) being the tighter lower bound, for one cell parameter B.
+
+    ``d_star``: largest D at which W_inf_a is tighter with perfect contact (C = 0);
+    ``c_star``: largest C at which it is tighter for perfectly conducting spheres (D -> 0);
+    ``c_large``: C above which W_inf_a is tighter again for D -> 0 (the large-resistance region);
+    NaN where the region does not exist.
+    """
+
+    B: float
+    d_star: float
+    c_star: float
+    c_large: float
+
+
+_D_ZERO = 1e-12  # "perfectly conducting" in the closed forms, which need D > 0 for V3L
+
+
+def _crossings(f: Callable[[float], float], axis: FloatArray) -> list[float]:
+    """Roots of ``f`` bracketed by sign changes on ``axis`` (brentq, xtol 1e-12)."""
+    values = np.array([f(float(x)) for x in axis])
+    roots = []
+    for i in np.flatnonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0):
+        root, info = brentq(f, float(axis[i]), float(axis[i + 1]), xtol=1e-12, full_output=True)
+        if not info.converged:
+            raise NumericalError(f"brentq did not bracket the preference boundary: {info.flag}")
+        roots.append(float(root))
+    return roots
+
+
+def preference_boundary(B: float) -> PreferenceBoundary:
+    """The boundaries of the V3L / W_inf_a preference map on the axes C = 0 and D -> 0 (see class)."""
+    d_roots = _crossings(lambda d: float(preference_map(B, 0.0, d)), np.geomspace(1e-8, 1.0, 161))
+    c_roots = _crossings(lambda c: float(preference_map(B, c, _D_ZERO)), np.geomspace(1e-6, 100.0, 241))
+    w_at_zero = float(preference_map(B, 0.0, _D_ZERO)) < 0.0
+    c_star = c_roots[0] if (w_at_zero and c_roots) else float("nan")
+    rising = [r for r in c_roots if r != c_star]
+    return PreferenceBoundary(B=B, d_star=d_roots[0] if (w_at_zero and d_roots) else float("nan"),
+                              c_star=c_star, c_large=rising[0] if rising else float("nan"))
