@@ -7,7 +7,9 @@
 * :mod:`aromm.effective.mesh_fem`: a ThermalSystem from any conforming simplex mesh (meshio),
   phases from cell sets, contact resistance on split interface nodes;
 * :mod:`aromm.effective.cell_fem`: gmsh meshes of the seed-002 cell and its FE values
-  (E_c, E_II, E_1bot).
+  (E_c, E_II, E_1bot);
+* :mod:`aromm.effective.summary`: every model at once (``aromm bounds``);
+* :mod:`aromm.effective.study`: Table 1 and the preference map of seed 002.
 
 Every value is ``E = lambda_eff / lambda_m``.
 """
@@ -29,20 +31,24 @@ from aromm.effective.models import (
     wiener_series,
     zeta2_simple_cubic,
 )
+from aromm.effective.summary import MODEL_KEYS, every_model, material
 from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
 
 __all__ = [
+    "MODEL_KEYS",
     "CellModel",
     "assemble_mesh",
     "cell_B",
     "cell_mesh",
     "cell_phi",
     "cell_values",
+    "every_model",
     "hashin_shtrikman_lower",
     "hashin_shtrikman_upper",
     "hasselman_johnson",
     "hatta_taya",
     "lewis_nielsen",
+    "material",
     "maxwell_eucken",
     "rayleigh_simple_cubic",
     "torquato_rintoul_lower",
