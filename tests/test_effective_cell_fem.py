@@ -192,3 +192,29 @@ def test_bad_mesh_input(coarse_cell: CellModel) -> None:
         assemble_mesh(coarse_cell.mesh, phases[:1])
     with pytest.raises(InputError, match="D"):
         coarse_cell.E(0.1, 0.0)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_two_dimensional_triangle_mesh_with_contact_resistance_is_exact(order: int) -> None:
+    n = 6
+    g = np.linspace(0.0, 1.0, n + 1)
+    xx, yy = np.meshgrid(g, g, indexing="xy")
+    pts = np.column_stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)])
+    tri = []
+    for j in range(n):
+        for i in range(n):
+            a = i + (n + 1) * j
+            tri += [[a, a + 1, a + n + 2], [a, a + n + 2, a + n + 1]]
+    tri_a = np.asarray(tri)
+    labels = np.where(pts[tri_a].mean(axis=1)[:, 1] < 0.5, 1, 2)
+    mesh = meshio.Mesh(pts, [("triangle", tri_a)], cell_data={"gmsh:physical": [labels]})
+    system = assemble_mesh(mesh, [PhaseSpec("a", 1, 2.0), PhaseSpec("b", 2, 0.5)],
+                           [FaceSpec("y0", T=0.0), FaceSpec("y1", T=1.0)], interfaces={"a|b": 0.3}, order=order,
+                           outputs=["y1"])
+    field = simulate(system, fields=True).fields
+    assert field is not None
+    k = system.conductance.evaluate(system.values())
+    top = next(d.dofs for d in system.dirichlet if d.name == "T_y1")
+    assert float(np.sum((k @ field[0])[top])) == pytest.approx(1 / (0.25 + 0.3 + 1.0), rel=1e-12)
+    with pytest.raises(InputError, match="face"):
+        assemble_mesh(mesh, [PhaseSpec("a", 1, 2.0), PhaseSpec("b", 2, 0.5)], [FaceSpec("z0", T=0.0)])
