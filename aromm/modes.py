@@ -14,7 +14,8 @@ modes are ζB- and K0-orthogonal; a Dirichlet and a Steklov mode are K0-orthogon
 (``v_D`` vanishes on Γ, ``K0 v_S`` vanishes inside), but not C0-orthogonal (method note §3).
 
 Solvers (../shared/method/solvers.md): ARPACK shift-invert with a sparse Cholesky factorisation
-passed as ``OPinv`` (never eigsh's own SuperLU/COLAMD); Steklov with a small negative shift (K0 and
+passed as ``OPinv`` (never eigsh's own SuperLU/COLAMD), ordered by geometric nested dissection when
+the system has node coordinates (aromm.ordering); Steklov with a small negative shift (K0 and
 B are both singular), then one purification solve ``V ← (K0 − σζB)⁻¹ ζB V`` (the discrete harmonic
 extension, which removes the interior garbage shift-invert leaves with a singular B), then a
 Rayleigh–Ritz step.  Small systems use dense ``eigh`` (every mode).  Residuals and orthogonality
@@ -71,6 +72,7 @@ class ReferenceOperators:
     boundary: sp.csr_array
     zeta: float
     values: Mapping[str, float]
+    points: FloatArray | None = None  # node coordinates (m): nested-dissection ordering of the factorisations
 
     @property
     def n(self) -> int:
@@ -198,7 +200,8 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
     heat = float(c0.sum())
     if not (heat > 0 and area > 0):
         raise InputError("reference capacity and boundary area must be positive to build the bases")
-    return ReferenceOperators(sp.csr_array(k0), sp.csr_array(c0), b, heat / area, vals)
+    points = system.geometry.points if system.geometry is not None and system.geometry.points.shape[0] == n else None
+    return ReferenceOperators(sp.csr_array(k0), sp.csr_array(c0), b, heat / area, vals, points)
 
 
 def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
@@ -259,7 +262,8 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto") -
     if n_i <= DENSE_LIMIT:
         lam, vec = sla.eigh(k_ii.toarray(), c_ii.toarray(), subset_by_index=(0, count - 1))
     else:
-        lam, vec = _eigsh(k_ii, c_ii, count, 0.0, fac=factorize(k_ii, method), label="Dirichlet modes")
+        pts = ops.points[interior] if ops.points is not None else None
+        lam, vec = _eigsh(k_ii, c_ii, count, 0.0, fac=factorize(k_ii, method, points=pts), label="Dirichlet modes")
     res = _relative_residuals(k_ii, c_ii, lam, vec)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(
@@ -295,9 +299,9 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> 
         # eigenvalues ν of (K0 − σζB)⁻¹ ζB are 1/(λ − σ); the largest give the smallest λ.
         nu, w = sla.eigh(b.toarray(), shifted, subset_by_index=(ops.n - want, ops.n - 1))
         vec = w[:, np.argsort(-nu)]
-        fac = factorize(ops.stiffness - sigma * b, method)
+        fac = factorize(ops.stiffness - sigma * b, method, points=ops.points)
     else:
-        fac = factorize(ops.stiffness - sigma * b, method)
+        fac = factorize(ops.stiffness - sigma * b, method, points=ops.points)
         _, vec = _eigsh(ops.stiffness, b, want, sigma, fac=fac, label="Steklov modes")
     # Purification: one application of (K0 − σζB)⁻¹ζB is the discrete harmonic extension of the trace.
     vec = fac.solve(b @ vec, check=False)
@@ -442,7 +446,7 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
         if not exchange:
             c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
             k_mat = sp.csr_array(k_mat + 1e-8 * (k_mat.diagonal().sum() / c_mat.diagonal().sum()) * c_mat)
-        fac = factorize(k_mat, method)
+        fac = factorize(k_mat, method, points=ops.points)
         for t in system.load.terms:
             x = fac.solve(np.asarray(t.operator, dtype=float))
             cols.append(x)
