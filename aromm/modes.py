@@ -451,6 +451,7 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
             x = fac.solve(np.asarray(t.operator, dtype=float))
             cols.append(x)
             cols.extend(fac.solve(c @ x) for c in c_terms)
+        del fac  # one factorisation alive at a time (peak memory)
     x = np.column_stack(cols)
     x = x / np.sqrt(np.maximum(np.einsum("ij,ij->j", x, ops.capacity @ x), 1e-300))
     z = basis.vectors[:, basis.zero_modes]  # the constants are kept anyway: remove them first
