@@ -11,7 +11,8 @@ Typical use::
     c_t = calibrate(packing, 7.5, bonds=bonds).c_t
     cut = packing.cut(packing.lower, packing.lower + packing.box)
     net = Network(cut, build_bonds(cut, gap=bonds.gap_threshold), c_t, np.zeros(cut.n, dtype=int))
-    system = net.system({"matrix.k": 33.0, "matrix.c": 7.02e3, "y0.T": 25.0, "y1.T": 100.0},
+    values = {"matrix.k": 33.0, "matrix.c": 7.02e3, "y0.T": 25.0, "y1.T": 100.0, "initial.T": 25.0}
+    system = net.system(values,
                         fixed=("y0", "y1"), profile=("y", 20), time=TimeGrid(0.2, 1e-3))
     obs = simulate_explicit(system)            # or aromm.simulate(system): implicit
 """
