@@ -88,7 +88,7 @@ def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None 
     p = Path(path)
     allowed = tuple(faces) if faces is not None else None
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # tolerates the byte-order mark of spreadsheet exports
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(f"{p}: cannot read the measurement file ({err})") from None
     rows = [(i + 1, r) for i, r in enumerate(csv.reader(text.splitlines())) if any(c.strip() for c in r)]

@@ -64,6 +64,13 @@ def test_csv_refusals_name_file_line_and_allowed(tmp_path: Path, text: str, need
         assert needle in msg
 
 
+def test_spreadsheet_csv_with_bom_and_crlf_is_read(tmp_path: Path) -> None:
+    path = tmp_path / "excel.csv"
+    path.write_bytes("\ufefft,z0\r\n1,2.5\r\n2,3.5\r\n".encode())
+    m = load_measurements(path, ["z0"])
+    np.testing.assert_array_equal(m.values["z0"], [2.5, 3.5])
+
+
 def test_missing_file_is_input_error(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="cannot read"):
         load_measurements(tmp_path / "absent.csv")
