@@ -29,8 +29,9 @@ from aromm.errors import InputError
 from aromm.fem import FaceSpec, PhaseSpec
 from aromm.scene import Scene, assemble
 from aromm.solve import steady_field
-from aromm.system import FloatArray
+from aromm.system import FloatArray, TimeGrid
 
+MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
 
 
@@ -70,19 +71,26 @@ def _probe(scene: Scene, hot: FaceSpec, cold: FaceSpec) -> Scene:
 
 
 def mean_capacity(scene: Scene) -> float:
-    """Volume-averaged volumetric heat capacity c̄ (J/(m^3 K)), seed 001 eq. 14."""
+    """Volume-averaged volumetric heat capacity c̄ (J/(m^3 K)), seed 001 eq. 14.
+
+    The phase volumes are ``1ᵀ C_p 1`` of the assembled per-phase capacity matrices (exact for
+    voxels and for any conforming mesh).
+    """
     missing = [ph.name for ph in scene.phases if ph.c is None]
     if missing:
         raise InputError(f"mean capacity needs c for every phase; missing for {missing}")
-    fractions = scene.volume_fractions()
-    return float(sum(fractions[ph.name] * float(ph.c) for ph in scene.phases if ph.c is not None))
+    system = assemble(scene.with_boundary((), (), time=TimeGrid(1.0, 1.0)))
+    ones = np.ones(system.n)
+    volumes = {t.coefficient.params[0]: float(ones @ (t.operator @ ones)) for t in system.capacity.terms}
+    values = system.values()
+    return sum(float(np.asarray(values[name])) * vol for name, vol in volumes.items()) / sum(volumes.values())
 
 
 def homogeneous_twin(scene: Scene, k: FloatArray, c: float, name: str = "homogeneous") -> Scene:
     """The homogeneous orthotropic model of seed 001 eq. 1 on the same box and boundary conditions.
 
     Material: one phase with k = diag(k) and capacity c.  Its mesh keeps the scene's
-    resolution only along axes that carry a face condition; along the others one element
+    resolution (32 elements for a mesh scene) only along axes that carry a face condition; along the others one element
     spans the box, which is exact because the solution does not vary along an axis whose
     faces are both adiabatic (uniform face conditions, diagonal k).
     """
@@ -90,8 +98,9 @@ def homogeneous_twin(scene: Scene, k: FloatArray, c: float, name: str = "homogen
     if np.any(~np.isfinite(diag)) or np.any(diag <= 0):
         raise InputError(f"homogeneous model needs positive finite k_xx, k_yy, k_zz, got {diag.tolist()}")
     loaded = {f.face[0] for f in scene.boundary}
-    shape = tuple(n if ax in loaded else 1 for n, ax in zip(scene.labels.shape, "xyz", strict=True))
-    vx, vy, vz = (h if ax in loaded else L for h, L, ax in zip(scene.voxel_size, scene.size, "xyz", strict=True))
+    cells = scene.labels.shape if scene.mesh is None else (MESH_TWIN_CELLS,) * 3
+    shape = tuple(n if ax in loaded else 1 for n, ax in zip(cells, "xyz", strict=True))
+    vx, vy, vz = (L / n for n, L in zip(shape, scene.size, strict=True))
     phase = PhaseSpec(name, 0, (float(diag[0]), float(diag[1]), float(diag[2])), float(c))
     return replace(scene, labels=np.zeros(shape, dtype=np.int64), voxel_size=(vx, vy, vz), phases=(phase,),
-                   interfaces={})
+                   interfaces={}, mesh=None)

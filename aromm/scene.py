@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import meshio
 import numpy as np
 
 from aromm import microstructure
@@ -29,7 +30,8 @@ FACE_KEYS = ("flux", "h", "T_ext", "T")
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A validated scene: voxel labels (indexed [x, y, z]), phases, face conditions, time grid, outputs."""
+    """A validated scene: voxel labels (indexed [x, y, z]) or a conforming mesh, phases, face conditions,
+    time grid, outputs and (mesh scenes) interface contact resistances."""
 
     labels: np.ndarray
     voxel_size: tuple[float, float, float]
@@ -40,6 +42,8 @@ class Scene:
     outputs: tuple[str, ...] = ()
     interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
     path: Path | None = None
+    mesh: meshio.Mesh | None = None
+    mesh_order: int = 1
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -48,12 +52,12 @@ class Scene:
 
     @property
     def size(self) -> tuple[float, float, float]:
-        """Edge lengths of the box (m)."""
+        """Edge lengths of the box (m): the voxel image, or the mesh's bounding box."""
+        if self.mesh is not None:
+            extent = np.ptp(np.asarray(self.mesh.points, dtype=float), axis=0)
+            return (float(extent[0]), float(extent[1]), float(extent[2]))
         nx, ny, nz = self.labels.shape
         return (nx * self.voxel_size[0], ny * self.voxel_size[1], nz * self.voxel_size[2])
-
-    def volume_fractions(self) -> dict[str, float]:
-        return {ph.name: float(np.mean(self.labels == ph.label)) for ph in self.phases}
 
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> Scene:
@@ -62,11 +66,22 @@ class Scene:
 
 
 def assemble(scene: Scene) -> ThermalSystem:
-    """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for."""
+    """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for.
+
+    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem).  Mesh scenes: Lagrange simplices with
+    the interface conductance 1/R on split interface nodes (aromm.effective.mesh_fem).
+    """
+    if scene.mesh is not None:
+        from aromm.effective.mesh_fem import assemble_mesh
+
+        return assemble_mesh(scene.mesh, scene.phases, scene.boundary,
+                             interfaces={f"{a}|{b}": r for (a, b), r in scene.interfaces.items()},
+                             time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs,
+                             order=scene.mesh_order)
     if scene.interfaces:
         raise InputError(
-            f"{_where(scene.path)}[interfaces]: contact resistance needs a conforming mesh; voxel images have"
-            " no interface surface to put it on"
+            f"{_where(scene.path)}[interfaces]: contact resistance needs a conforming mesh (geometry.mesh); voxel"
+            " images have no interface surface to put it on"
         )
     return assemble_voxels(scene.labels, scene.voxel_size, scene.phases, scene.boundary,
                            time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs)
@@ -129,7 +144,13 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
-    labels, voxel_size = _geometry(r, r.table(data, "geometry", None), path)
+    geo = r.table(data, "geometry", None)
+    if "mesh" in geo:
+        mesh, order = _mesh(r, geo, path)
+        labels, voxel_size = _mesh_labels(mesh), (1.0, 1.0, 1.0)
+    else:
+        mesh, order = None, 1
+        labels, voxel_size = _geometry(r, geo, path)
     phases = _phases(r, data, labels)
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
@@ -141,7 +162,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
                 raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
     outputs = _outputs(r, data)
     interfaces = _interfaces(r, data, {ph.name for ph in phases})
-    return Scene(labels, voxel_size, phases, boundary, initial_T, time, outputs, interfaces, path)
+    return Scene(labels, voxel_size, phases, boundary, initial_T, time, outputs, interfaces, path, mesh, order)
 
 
 def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.ndarray, tuple[float, float, float]]:
@@ -186,6 +207,40 @@ def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.nd
     else:
         raise r.fail("geometry.voxel_size", "missing: give the voxel edge in m, a number or [dx, dy, dz]")
     return labels, voxel
+
+
+MESH_LABEL_KEY = "gmsh:physical"
+
+
+def _mesh(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Mesh, int]:
+    """A conforming tetrahedral mesh (any format meshio reads; coordinates in m, phases by cell tag)."""
+    unknown = sorted(set(geo) - {"mesh", "order"})
+    if unknown:
+        raise r.fail(f"geometry.{unknown[0]}", "unknown key for a mesh scene; allowed: mesh, order")
+    file = Path(str(geo["mesh"]))
+    if not file.is_absolute() and path is not None:
+        file = path.parent / file
+    if not file.is_file():
+        raise r.fail("geometry.mesh", f"file not found: {file}")
+    try:
+        mesh = meshio.read(file)
+    except (meshio.ReadError, ValueError, KeyError, OSError) as err:
+        raise r.fail("geometry.mesh", f"cannot read {file} with meshio ({err})") from None
+    if not any(block.type == "tetra" for block in mesh.cells):
+        raise r.fail("geometry.mesh", f"{file} has no tetrahedra (cells: {sorted({b.type for b in mesh.cells})})")
+    if MESH_LABEL_KEY not in mesh.cell_data:
+        raise r.fail("geometry.mesh", f"{file} has no cell tags {MESH_LABEL_KEY!r} to tell the phases apart")
+    order = geo.get("order", 1)
+    if order not in (1, 2):
+        raise r.fail("geometry.order", f"element order must be 1 or 2, got {order!r}")
+    return mesh, int(order)
+
+
+def _mesh_labels(mesh: meshio.Mesh) -> np.ndarray:
+    """Tags of the tetrahedra, as a 3-D array so that the phase checks of voxel scenes apply."""
+    tags = [np.asarray(data) for block, data in zip(mesh.cells, mesh.cell_data[MESH_LABEL_KEY], strict=True)
+            if block.type == "tetra"]
+    return np.concatenate(tags).astype(np.int64).reshape(-1, 1, 1)
 
 
 def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float]:
