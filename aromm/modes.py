@@ -54,7 +54,7 @@ ORTHOGONALITY_TOL = 1e-6
 #: Largest condition number of the combined capacity Gram matrix ``Φᵀ C0 Φ`` accepted.
 GRAM_CONDITION_MAX = 1e12
 
-_BASIS_VERSION = 1
+_BASIS_VERSION = 2
 #: Default conductivity factors of the correction samples (each conduction parameter in turn); on the
 #: generated 10³ wood image (0.1, 1, 3) was as accurate as (0.1, 0.3, 1, 3) with two fewer factorisations
 #: per parameter, and (1,) alone 100× less accurate at k_F = 0.05.

@@ -318,7 +318,7 @@ SEED001_REFERENCE_VALUES: Mapping[str, float] = {"fibre.k": 0.1, "fibre.c": 1.2e
 RELAXATION_T0 = 30.0
 RELAXATION_H = 20.0
 METHODS = ("aromm", "pod")
-_ROM_VERSION = 1
+_ROM_VERSION = 2
 
 
 @dataclass(frozen=True)
