@@ -331,6 +331,12 @@ class ReferenceCase:
     name: str = "reference"
 
 
+def default_modes(order: int) -> int:
+    """Default detailed basis size Ñ = 1.5 ñ + 20 (ñ = 200 → Ñ = 320: on the shipped wood VER Ñ = 300 gave
+    0.002 °C at ñ = 200 within 252 s of CPU, benchmarks/aromm_wood.py)."""
+    return int(1.5 * order) + 20
+
+
 def default_reference_values(system: ThermalSystem) -> dict[str, float]:
     """The system's parameters with the seed 001 reference properties for phases named fibre/gas."""
     out = {k: float(v) for k, v in system.parameters.items()}
@@ -391,7 +397,7 @@ def reduce(
 
     * Detailed basis: constants + Steklov + Dirichlet modes (aromm.modes) at ``basis_values``
       (default: the system's parameters with the seed's reference properties for fibre/gas),
-      ``modes`` = Ñ in total (default ``2 * order``), split evenly unless ``n_dirichlet`` /
+      ``modes`` = Ñ in total (default :func:`default_modes`), split evenly unless ``n_dirichlet`` /
       ``n_steklov`` are given (``n_steklov`` counts the constants).
     * Reference cases (exact simulations of the detailed modal model): the system itself at
       ``reference_values`` (default: seed 001 §3.2, k_F = 0.1, c_F = 1.2e6), each of
@@ -410,7 +416,7 @@ def reduce(
         raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
-    total = int(modes) if modes is not None else 2 * int(order)
+    total = int(modes) if modes is not None else default_modes(int(order))
     if n_dirichlet is None and n_steklov is None:
         n_d, n_s = split_modes(system, total)
     else:

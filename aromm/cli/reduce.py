@@ -20,7 +20,7 @@ from aromm.scene import assemble, load_scene
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced order ñ (number of amalgamated modes, seed 001 eq. 9).")
 @click.option("--modes", type=click.IntRange(min=1), default=None,
-              help="Detailed basis size Ñ (Dirichlet + Steklov modes); default 2 × order.")
+              help="Detailed basis size Ñ (Dirichlet + Steklov modes); default 1.5 × order + 20.")
 @click.option("--method", type=click.Choice(REDUCTIONS), default="aromm", show_default=True,
               help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
