@@ -10,11 +10,7 @@ import sys
 
 import click
 
-from aromm.cli import bounds
-from aromm.cli import dem
-from aromm.cli import forward
-from aromm.cli import identify
-from aromm.cli import reduce
+from aromm.cli import bounds, dem, forward, identify, reduce
 from aromm.cli.common import run_guarded
 
 COMMANDS: list[click.Command] = [*forward.COMMANDS, *dem.COMMANDS, *identify.COMMANDS, *reduce.COMMANDS,

@@ -60,7 +60,7 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
 @SOLVER
 @JSON
-def simulate_cmd(scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str,
+def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str,
                  as_json: bool) -> None:
     """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
     sc = load_scene(scene)
@@ -123,7 +123,7 @@ def measure_homogeneous(sc: Scene, perturb: float, solver: str) -> tuple[Observa
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @SOLVER
 @JSON
-def measure_cmd(scene: Path, homogeneous: bool, noise: float, seed: int, perturb: float, out: Path,
+def measure_cmd(*, scene: Path, homogeneous: bool, noise: float, seed: int, perturb: float, out: Path,
                 solver: str, as_json: bool) -> None:
     """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model."""
     sc = load_scene(scene)
