@@ -121,3 +121,23 @@ def test_cli_singular_problem_exits_1(scene_dir: Path, capsys: pytest.CaptureFix
     text = GOOD.replace("[boundary.z1]\nh = 20.0\nT_ext = 0.0\n", "").replace("[time]\nend = 1.0\ndt = 0.1\n", "")
     assert main(["simulate", str(_write(scene_dir, text))]) == 1
     assert "numerical failure" in capsys.readouterr().err
+
+
+def test_cli_measure_of_a_homogeneous_body_equals_its_simulation(scene_dir: Path) -> None:
+    """One-phase image: the homogeneous twin is the body itself (k̄ = k, c̄ = c), so both give one curve."""
+    np.save(scene_dir / "img.npy", np.ones((4, 4, 4), dtype=np.uint8))
+    text = GOOD.replace("[phases.gas]\nlabel = 0\nk = 0.025\nc = 1.2e3\n", "")
+    path = _write(scene_dir, text)
+    assert main(["measure", str(path), "--homogeneous", "--out", str(scene_dir / "m.csv")]) == 0
+    assert main(["simulate", str(path), "--out", str(scene_dir / "sim")]) == 0
+    measured = np.loadtxt(scene_dir / "m.csv", delimiter=",", skiprows=1)
+    simulated = np.loadtxt(scene_dir / "sim" / "observables.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(measured, simulated, rtol=1e-9)
+    assert (scene_dir / "sim" / "field.vtu").is_file()
+    assert main(["measure", str(path), "--homogeneous", "--noise", "0.1", "--seed", "3",
+                 "--out", str(scene_dir / "n1.csv")]) == 0
+    assert main(["measure", str(path), "--homogeneous", "--noise", "0.1", "--seed", "3",
+                 "--out", str(scene_dir / "n2.csv")]) == 0
+    noisy = np.loadtxt(scene_dir / "n1.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(noisy, np.loadtxt(scene_dir / "n2.csv", delimiter=",", skiprows=1))
+    assert 0.02 < np.std(noisy[:, 1:] - measured[:, 1:]) < 0.5

@@ -11,12 +11,12 @@ import numpy as np
 
 from aromm.cli.common import echo_json
 from aromm.errors import InputError
-from aromm.homogenize import BOUNDARIES, homogeneous_twin, homogenize, mean_capacity
+from aromm.homogenize import BOUNDARIES, homogenize, mean_capacity
 from aromm.linalg import METHODS
-from aromm.scene import Scene, assemble, load_scene
+from aromm.scene import assemble, load_scene
 from aromm.solve import simulate as simulate_full
 from aromm.system import Observables, ThermalSystem
-from inverse.measurements import Measurements, save_measurements
+from inverse.measurements import Measurements, homogeneous_measurements, save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
@@ -101,16 +101,6 @@ def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> No
     click.echo(f"c̄ (J/(m³ K)): {c:.6g}" if c is not None else "c̄: (a phase has no c)")
 
 
-def measure_homogeneous(sc: Scene, perturb: float, solver: str) -> tuple[Observables, np.ndarray, float]:
-    """Face means of the homogeneous orthotropic twin (seed 001 eq. 1, 13, 14), properties × (1 + perturb)."""
-    if sc.time is None:
-        raise InputError(f"{sc.path}: measurements need a transient scene ([time] with end and dt)")
-    k = homogenize(sc, method=solver) * (1.0 + perturb)
-    c = mean_capacity(sc) * (1.0 + perturb)
-    twin = homogeneous_twin(sc, k, c)
-    return simulate_full(assemble(twin), method=solver), k, c
-
-
 @click.command("measure")
 @SCENE
 @click.option("--homogeneous", is_flag=True, required=True,
@@ -127,17 +117,18 @@ def measure_cmd(*, scene: Path, homogeneous: bool, noise: float, seed: int, pert
                 solver: str, as_json: bool) -> None:
     """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model."""
     sc = load_scene(scene)
-    obs, k, c = measure_homogeneous(sc, perturb, solver)
-    data = Measurements(obs.t, obs.mean_T, str(out))
+    k, c = homogenize(sc, method=solver), mean_capacity(sc)
+    data = homogeneous_measurements(sc, k, c, perturbation=perturb, method=solver)
+    k, c = k * (1.0 + perturb), c * (1.0 + perturb)
     if noise > 0:
         data = data.with_noise(noise, np.random.default_rng(seed))
     save_measurements(data, out)
-    summary = {"out": str(out), "k": k, "c": c, "noise": noise, "seed": seed, "times": len(obs.t)}
+    summary = {"out": str(out), "k": k, "c": c, "noise": noise, "seed": seed, "times": len(data.t)}
     if as_json:
         echo_json(summary)
     else:
         click.echo(f"k̄ = diag({k[0, 0]:.5g}, {k[1, 1]:.5g}, {k[2, 2]:.5g}) W/(m K), c̄ = {c:.5g} J/(m³ K)")
-        click.echo(f"wrote {len(obs.t)} times × {len(obs.mean_T)} faces to {out}")
+        click.echo(f"wrote {len(data.t)} times × {len(data.faces)} faces to {out}")
 
 
 COMMANDS: list[click.Command] = [simulate_cmd, homogenize_cmd, measure_cmd]
