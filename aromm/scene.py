@@ -172,14 +172,7 @@ def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.nd
         raise r.fail("geometry", "give exactly one of image or generator")
     file_voxel: tuple[float, float, float] | None = None
     if "image" in geo:
-        unknown = sorted(set(geo) - {"image", "voxel_size", "shape", "dtype"})
-        if unknown:
-            raise r.fail(f"geometry.{unknown[0]}", "unknown key; allowed: image, voxel_size, shape, dtype")
-        image = Path(str(geo["image"]))
-        if not image.is_absolute() and path is not None:
-            image = path.parent / image
-        if not image.exists():
-            raise r.fail("geometry.image", f"file not found: {image}")
+        image = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
         shape = geo.get("shape")
         labels, vs = microstructure.load_image(image, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
         file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
@@ -212,16 +205,22 @@ def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.nd
 MESH_LABEL_KEY = "gmsh:physical"
 
 
-def _mesh(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Mesh, int]:
-    """A conforming tetrahedral mesh (any format meshio reads; coordinates in m, phases by cell tag)."""
-    unknown = sorted(set(geo) - {"mesh", "order"})
+def _input_file(r: _Reader, geo: dict[str, Any], key: str, allowed: tuple[str, ...], path: Path | None) -> Path:
+    """The file named by ``geometry.<key>`` (relative to the scene file), after checking the other keys."""
+    unknown = sorted(set(geo) - set(allowed))
     if unknown:
-        raise r.fail(f"geometry.{unknown[0]}", "unknown key for a mesh scene; allowed: mesh, order")
-    file = Path(str(geo["mesh"]))
+        raise r.fail(f"geometry.{unknown[0]}", f"unknown key with {key}; allowed: {', '.join(allowed)}")
+    file = Path(str(geo[key]))
     if not file.is_absolute() and path is not None:
         file = path.parent / file
-    if not file.is_file():
-        raise r.fail("geometry.mesh", f"file not found: {file}")
+    if not file.exists():
+        raise r.fail(f"geometry.{key}", f"file not found: {file}")
+    return file
+
+
+def _mesh(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Mesh, int]:
+    """A conforming tetrahedral mesh (any format meshio reads; coordinates in m, phases by cell tag)."""
+    file = _input_file(r, geo, "mesh", ("mesh", "order"), path)
     try:
         mesh = meshio.read(file)
     except (meshio.ReadError, ValueError, KeyError, OSError) as err:
