@@ -44,6 +44,7 @@ import scipy.sparse as sp
 from aromm.dem.bonds import Bonds, IntArray
 from aromm.dem.packing import Packing
 from aromm.errors import InputError
+from aromm.fem import FACES
 from aromm.system import (
     Affine,
     Coefficient,
@@ -55,7 +56,6 @@ from aromm.system import (
     TimeGrid,
 )
 
-FACES = ("x0", "x1", "y0", "y1", "z0", "z1")
 AXES = "xyz"
 Radius = Literal["pair", "global"]
 
