@@ -22,6 +22,8 @@ from aromm.homogenize import homogenize, mean_capacity
 from aromm.model import ForwardModel
 from aromm.scene import Scene, assemble, load_scene, scene_from_dict
 from aromm.system import FloatArray, ThermalSystem, TimeGrid
+from inverse import optimisers as opt
+from inverse.criterion import LeastSquares, Scenario
 from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, identify
 from inverse.measurements import Measurements, homogeneous_measurements
 
@@ -143,6 +145,29 @@ def run(label: str, model: ForwardModel | Sequence[tuple[ForwardModel, Measureme
     result = identify(model, measurements, unknowns, seed=seed, particles=particles, iterations=iterations,
                       refine=refine, description=description)
     return Run(label, result, relative_errors(result.estimates, truth))
+
+
+def refine_from(label: str, model: ForwardModel, measurements: Measurements, start: Mapping[str, float],
+                truth: Mapping[str, float], *, unknowns: Mapping[str, tuple[float, float]] = UNKNOWNS,
+                max_iterations: int = 12) -> dict[str, object]:
+    """Least-squares refinement alone (no swarm) from ``start``: for models too costly for a swarm.
+
+    E.g. the full model on the shipped VER, started from a reduced-model estimate.
+    """
+    box = opt.Box.from_bounds(unknowns)
+    criterion = LeastSquares([Scenario(model, measurements)], box.names)
+    begin = time.perf_counter()
+    local = opt.refine(lambda u: criterion.residuals(box.to_physical(u)),
+                   box.to_unit(np.array([start[n] for n in box.names])), max_iterations=max_iterations)
+    estimates = dict(zip(box.names, box.to_physical(local.u).tolist(), strict=True))
+    errors = relative_errors(estimates, truth)
+    out: dict[str, object] = {"run": label}
+    for name in box.names:
+        out[name] = estimates[name]
+        out[f"err {name} %"] = 100 * errors[name]
+    out.update({"J": local.cost, "evaluations": criterion.evaluations, "seconds": time.perf_counter() - begin,
+                "stop": local.message})
+    return out
 
 
 def budget_sweep(model: ForwardModel, measurements: Measurements, truth: Mapping[str, float],
