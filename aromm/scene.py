@@ -59,6 +59,15 @@ class Scene:
         nx, ny, nz = self.labels.shape
         return (nx * self.voxel_size[0], ny * self.voxel_size[1], nz * self.voxel_size[2])
 
+    def volume_fractions(self) -> dict[str, float]:
+        """Volume fraction of each phase, ``1ᵀ C_p 1 / |Ω|`` from the assembled phase masses (voxels or mesh)."""
+        unit = tuple(replace(ph, c=1.0) for ph in self.phases)
+        system = assemble(replace(self, phases=unit, boundary=(), outputs=(), time=TimeGrid(1.0, 1.0)))
+        ones = np.ones(system.n)
+        volumes = {t.name.removeprefix("C_"): float(ones @ (t.operator @ ones)) for t in system.capacity.terms}
+        total = sum(volumes.values())
+        return {ph.name: volumes.get(ph.name, 0.0) / total for ph in self.phases}
+
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> Scene:
         """The same material under other face conditions (used by homogenisation and measurements)."""
