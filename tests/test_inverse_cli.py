@@ -8,40 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from inverse_cases import TRUTH, tracheids
+from scene_text import scenario_1
 
 from aromm.cli import main
 from aromm.scene import assemble, load_scene
 from aromm.solve import FullModel
 from inverse.measurements import save_measurements, simulate_measurements
-
-SCENE = """
-[geometry]
-image = "labels.npy"
-voxel_size = {voxel}
-
-[phases.fibre]
-label = 1
-k = 0.3
-c = 4.0e6
-
-[phases.gas]
-label = 0
-k = 0.025
-c = 1.2e3
-
-[boundary.z0]
-flux = 500.0
-[boundary.z1]
-h = 20.0
-T_ext = 0.0
-
-[time]
-end = 20.0
-dt = 1.0
-
-[outputs]
-mean_T = ["z0", "z1"]
-"""
 
 
 @pytest.fixture
@@ -49,7 +21,7 @@ def case(tmp_path: Path) -> tuple[Path, Path]:
     """A 4³ scene and noise-free measurements made by its own full model at the truth."""
     np.save(tmp_path / "labels.npy", tracheids(4))
     scene = tmp_path / "scene.toml"
-    scene.write_text(SCENE.format(voxel=231e-6 / 4), encoding="utf-8")
+    scene.write_text(scenario_1("labels.npy", repr(231e-6 / 4), "20.0", "1.0"), encoding="utf-8")
     model = FullModel(assemble(load_scene(scene)))
     csv = tmp_path / "y.csv"
     save_measurements(simulate_measurements(model, TRUTH), csv)

@@ -11,6 +11,7 @@ import pytest
 import scipy.linalg as sla
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scene_text import scenario_1
 
 from aromm.amalgam import amalgam
 from aromm.errors import InputError
@@ -255,29 +256,7 @@ def test_cli_reduce_json_and_cache(tmp_path, capsys: pytest.CaptureFixture[str])
 
     np.savez(tmp_path / "img.npz", labels=random_labels(4, seed=10))
     scene = tmp_path / "s1.toml"
-    scene.write_text("""
-[geometry]
-image = "img.npz"
-voxel_size = 5.0e-6
-[phases.fibre]
-label = 1
-k = 0.3
-c = 4.0e6
-[phases.gas]
-label = 0
-k = 0.025
-c = 1.2e3
-[boundary.z0]
-flux = 500.0
-[boundary.z1]
-h = 20.0
-T_ext = 0.0
-[time]
-end = 2.0
-dt = 0.1
-[outputs]
-mean_T = ["z0", "z1"]
-""")
+    scene.write_text(scenario_1("img.npz", "5.0e-6", "2.0", "0.1"))
     args = ["reduce", str(scene), "--order", "12", "--modes", "40", "--cache-dir", str(tmp_path / "cache"), "--json"]
     assert main(args) == 0
     first = json.loads(capsys.readouterr().out)

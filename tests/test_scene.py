@@ -7,42 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scene_text import scenario_1
 
 from aromm.cli import main
 from aromm.errors import InputError
 from aromm.scene import load_scene
 
-GOOD = """
-[geometry]
-image = "img.npy"
-voxel_size = 1.0e-4
-
-[phases.fibre]
-label = 1
-k = 0.3
-c = 4.0e6
-
-[phases.gas]
-label = 0
-k = 0.025
-c = 1.2e3
-
-[boundary.z0]
-flux = 500.0
-[boundary.z1]
-h = 20.0
-T_ext = 0.0
-
-[initial]
-T = 0.0
-
-[time]
-end = 1.0
-dt = 0.1
-
-[outputs]
-mean_T = ["z0", "z1"]
-"""
+GOOD = scenario_1("img.npy", "1.0e-4", "1.0", "0.1")
 
 
 @pytest.fixture
