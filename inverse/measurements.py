@@ -4,7 +4,9 @@ A measurement file is a CSV with a header ``t,<face>,...`` (times in s, temperat
 one row per time, times strictly increasing.  Synthetic measurements come from any forward
 model; the seed's measurements (§ 4.2) come from the *homogeneous orthotropic* twin of the
 sample: one phase of conductivity diag(k̄_xx, k̄_yy, k̄_zz) (eq. 13) and capacity c̄ (eq. 14)
-on the same box under the same scenario, see :func:`homogeneous_measurements`.
+on the same box under the same scenario, see :func:`homogeneous_measurements`.  As in § 4.2, k̄ along
+the loaded axis is best taken from the heterogeneous sample under that same scenario
+(:func:`aromm.homogenize.fluxmetric`): the twin then has the sample's steady face means exactly.
 """
 
 from __future__ import annotations
@@ -176,11 +178,13 @@ def homogeneous_measurements(scene: Scene, k: npt.ArrayLike, c: float, *, pertur
                              method: str = "auto") -> Measurements:
     """Face means of the homogeneous orthotropic twin of ``scene`` (seed 001 eq. 1, § 4.2).
 
-    ``k`` is the effective conductivity tensor (3x3, W/(m K); ``aromm.homogenize(scene)``, eq. 13)
-    and ``c`` the mean capacity (J/(m^3 K); ``aromm.mean_capacity(scene)``, eq. 14).  Every
-    homogeneous property is multiplied by ``1 + perturbation`` (§ 4.3 studies +2 %: 0.02).
-    The twin (``aromm.homogeneous_twin``) has the scene's box, face conditions, time grid and
-    outputs; it is simulated by the full model with the linear solver ``method``.
+    ``k`` is the effective conductivity (W/(m K)): a 3x3 tensor (``aromm.homogenize``) or, for a
+    scenario loaded along one axis, the scalar ``aromm.homogenize.fluxmetric(scene).k`` (seed 001
+    § 4.2; the unloaded axes carry no heat); ``c`` the mean capacity (J/(m^3 K);
+    ``aromm.mean_capacity(scene)``, eq. 14).  Every homogeneous property is multiplied by
+    ``1 + perturbation`` (§ 4.3 studies +2 %: 0.02).  The twin (``aromm.homogeneous_twin``) has the
+    scene's box, face conditions, time grid and outputs; it is simulated by the full model
+    with the linear solver ``method``.
     """
     if scene.time is None:
         raise InputError(f"{scene.path or 'scene'}: measurements need a transient scene ([time] with end and dt)")

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from aromm.errors import InputError
-from aromm.fem import PhaseSpec
-from aromm.homogenize import homogeneous_twin, homogenize, mean_capacity
+from aromm.fem import FaceSpec, PhaseSpec
+from aromm.homogenize import fluxmetric, homogeneous_twin, homogenize, mean_capacity
 from aromm.scene import Scene, scene_from_dict
 
 PHI_SPHERE = 4.0 * np.pi / 81.0  # sphere of radius L/3 in a cube of side L
@@ -85,3 +85,51 @@ def test_homogeneous_twin_reproduces_the_orthotropic_tensor() -> None:
     np.testing.assert_allclose(homogenize(twin), k, rtol=1e-10)
     with pytest.raises(InputError, match="positive"):
         homogeneous_twin(scene, np.zeros((3, 3)), 1e6)
+
+
+def _laminate_along_z(h: float | None, T: float | None = None) -> Scene:
+    """Layers normal to x (conduction along the layers in z), flux 1e3 W/m² into z0, S2 = z1."""
+    scene = _scene({"generator": "laminate", "shape": [8, 2, 6], "axis": "x", "layer_voxels": [3, 1, 3, 1],
+                    "voxel_size": 1e-3}, 1.0, 20.0)
+    return replace(scene, boundary=(FaceSpec("z0", flux=1e3), FaceSpec("z1", h=h, T=T)))
+
+
+def test_fluxmetric_is_harmonic_across_layers_whatever_the_cooled_face() -> None:
+    """Layers normal to the heat flow: every face stays isothermal, k = harmonic mean exactly (seed 001 eq. 13)."""
+    scene = _scene({"generator": "laminate", "shape": [3, 3, 8], "axis": "z", "layer_voxels": [1, 3, 2, 2],
+                    "voxel_size": [1e-3, 1e-3, 0.5e-3]}, 2.0, 30.0)
+    frac = scene.labels.mean()
+    harmonic = 1.0 / ((1 - frac) / 2.0 + frac / 30.0)
+    for cooled in (FaceSpec("z0", h=7.0), FaceSpec("z0", T=3.0)):
+        result = fluxmetric(replace(scene, boundary=(FaceSpec("z1", flux=-250.0), cooled)))
+        assert (result.axis, result.heated, result.cooled) == ("z", "z1", "z0")
+        assert result.k == pytest.approx(harmonic, rel=1e-10)
+
+
+def test_fluxmetric_tends_to_eq13_with_an_isothermal_cooled_face() -> None:
+    """Along the layers S2 is not isothermal under convection; as h → ∞ it becomes the T = 0 face of eq. 13."""
+    along = homogenize(_laminate_along_z(None, 0.0))[2, 2]
+    assert fluxmetric(_laminate_along_z(None, T=0.0)).k == pytest.approx(along, rel=1e-10)
+    ks = np.array([fluxmetric(_laminate_along_z(h)).k for h in (10.0, 1e6, 1e8, 1e10)])
+    gaps = 1.0 - ks / along
+    assert gaps[0] > 0.1  # a weak convection face is far from isothermal: k much lower than eq. 13's
+    # the gap closes like 1/h (first order in the face's thermal resistance): x100 in h, /100 in gap
+    np.testing.assert_allclose(gaps[1:-1] / gaps[2:], 100.0, rtol=0.02)
+
+
+@pytest.mark.parametrize(("faces", "match"), [
+    ((), "exactly one"),
+    ((FaceSpec("z0", flux=1.0), FaceSpec("x0", flux=2.0)), "exactly one"),
+    ((FaceSpec("z0", flux=1.0),), "z1"),
+    ((FaceSpec("z0", flux=1.0), FaceSpec("z1", h=5.0), FaceSpec("x1", h=5.0)), "x1"),
+])
+def test_fluxmetric_refuses_a_scene_that_is_not_a_table1_scenario(faces: tuple[FaceSpec, ...], match: str) -> None:
+    scene = replace(_laminate_along_z(5.0), boundary=faces)
+    with pytest.raises(InputError, match=match):
+        fluxmetric(scene)
+
+
+def test_scalar_twin_is_isotropic() -> None:
+    scene = _laminate_along_z(5.0)
+    twin = homogeneous_twin(scene, 0.7, 1e6)
+    assert twin.phases[0].k == (0.7, 0.7, 0.7)

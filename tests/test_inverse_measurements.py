@@ -12,7 +12,9 @@ from inverse_cases import scenario_model
 
 from aromm.errors import InputError
 from aromm.fem import FaceSpec, PhaseSpec
-from aromm.scene import Scene
+from aromm.homogenize import fluxmetric, homogenize, mean_capacity
+from aromm.scene import Scene, assemble
+from aromm.solve import simulate
 from aromm.system import TimeGrid
 from inverse.measurements import (
     Measurements,
@@ -117,6 +119,22 @@ def test_homogeneous_twin_reaches_the_analytic_steady_state(axis: str) -> None:
     hot, cold = y.values[f"{axis}0"][-1], y.values[f"{axis}1"][-1]
     assert cold == pytest.approx(500.0 / 20.0, rel=1e-6)
     assert hot - cold == pytest.approx(500.0 * 2e-4 / kii, rel=1e-6)
+
+
+def test_fluxmetric_twin_ends_at_the_heterogeneous_steady_state_and_eq13_twin_does_not() -> None:
+    """Seed 001 § 4.2: k̄ from the scenario itself makes the twin's late face means those of the sample.
+
+    Loading along the layers (4³ two-phase laminate, contrast 12); 400 s is 20 time constants c̄ L / h.
+    """
+    scene = _slab_scene("z")
+    sample = simulate(assemble(scene)).mean_T
+    c = mean_capacity(scene)
+    twin = homogeneous_measurements(scene, fluxmetric(scene).k, c).values
+    eq13 = homogeneous_measurements(scene, homogenize(scene), c).values
+    for face in ("z0", "z1"):
+        assert twin[face][-1] == pytest.approx(sample[face][-1], rel=1e-7)
+    drop = sample["z0"][-1] - sample["z1"][-1]
+    assert abs((eq13["z0"][-1] - eq13["z1"][-1]) / drop - 1.0) > 0.01  # isothermal-S2 k̄: a biased twin
 
 
 def test_twin_ignores_transverse_conductivities_and_applies_the_perturbation() -> None:

@@ -11,7 +11,7 @@ import numpy as np
 
 from aromm.cli.common import echo_json
 from aromm.errors import InputError
-from aromm.homogenize import BOUNDARIES, homogenize, mean_capacity
+from aromm.homogenize import BOUNDARIES, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import METHODS
 from aromm.scene import assemble, load_scene
 from aromm.solve import simulate as simulate_full
@@ -105,6 +105,9 @@ def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> No
 @SCENE
 @click.option("--homogeneous", is_flag=True, required=True,
               help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as seed 001 does.")
+@click.option("--conductivity", type=click.Choice(("scenario", *BOUNDARIES)), default="scenario", show_default=True,
+              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces (seed 001 § 4.2; the twin then "
+                   "has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
 @click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
@@ -113,21 +116,31 @@ def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> No
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @SOLVER
 @JSON
-def measure_cmd(*, scene: Path, homogeneous: bool, noise: float, seed: int, perturb: float, out: Path,
-                solver: str, as_json: bool) -> None:
+def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: float, seed: int, perturb: float,
+                out: Path, solver: str, as_json: bool) -> None:
     """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model."""
     sc = load_scene(scene)
-    k, c = homogenize(sc, method=solver), mean_capacity(sc)
+    if conductivity == "scenario":
+        k = fluxmetric(sc, method=solver).k * np.eye(3)  # isotropic twin = orthotropic one along the loaded axis
+    else:
+        k = homogenize(sc, boundary=conductivity, method=solver)
+    c = mean_capacity(sc)
     data = homogeneous_measurements(sc, k, c, perturbation=perturb, method=solver)
     k, c = k * (1.0 + perturb), c * (1.0 + perturb)
     if noise > 0:
         data = data.with_noise(noise, np.random.default_rng(seed))
     save_measurements(data, out)
-    summary = {"out": str(out), "k": k, "c": c, "noise": noise, "seed": seed, "times": len(data.t)}
+    summary = {"out": str(out), "conductivity": conductivity, "k": k, "c": c, "noise": noise, "seed": seed,
+               "times": len(data.t)}
     if as_json:
         echo_json(summary)
     else:
-        click.echo(f"k̄ = diag({k[0, 0]:.5g}, {k[1, 1]:.5g}, {k[2, 2]:.5g}) W/(m K), c̄ = {c:.5g} J/(m³ K)")
+        if conductivity == "scenario":
+            loaded = sorted({f.face[0] for f in sc.boundary})
+            click.echo(f"k̄_{loaded[0] * 2} = {k[0, 0]:.5g} W/(m K) (eq. 13 under the scene's faces), "
+                       f"c̄ = {c:.5g} J/(m³ K)")
+        else:
+            click.echo(f"k̄ = diag({k[0, 0]:.5g}, {k[1, 1]:.5g}, {k[2, 2]:.5g}) W/(m K), c̄ = {c:.5g} J/(m³ K)")
         click.echo(f"wrote {len(data.t)} times × {len(data.faces)} faces to {out}")
 
 
