@@ -94,6 +94,27 @@ def test_cli_singular_problem_exits_1(scene_dir: Path, capsys: pytest.CaptureFix
     assert "numerical failure" in capsys.readouterr().err
 
 
+def test_cli_measure_uses_the_scenario_fluxmetric_k_by_default(scene_dir: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """Seed 001 § 4.2: k̄ from the scenario itself, so the twin ends at the sample's steady face means;
+    eq. 13 with an isothermal S2 (--conductivity flux) gives a larger k̄ along the layers, a smaller drop."""
+    labels = np.zeros((4, 4, 4), dtype=np.uint8)
+    labels[::2] = 1  # layers normal to x, loaded along z
+    np.save(scene_dir / "img.npy", labels)
+    path = _write(scene_dir, scenario_1("img.npy", "5.0e-5", "400.0", "4.0"))  # 20 time constants c̄ L / h
+    assert main(["simulate", str(path), "--out", str(scene_dir / "sim")]) == 0
+    sample = np.loadtxt(scene_dir / "sim" / "observables.csv", delimiter=",", skiprows=1)[-1]
+    assert main(["measure", str(path), "--homogeneous", "--out", str(scene_dir / "m.csv")]) == 0
+    twin = np.loadtxt(scene_dir / "m.csv", delimiter=",", skiprows=1)[-1]
+    np.testing.assert_allclose(twin, sample, rtol=1e-7)
+    capsys.readouterr()
+    assert main(["measure", str(path), "--homogeneous", "--conductivity", "flux", "--json",
+                 "--out", str(scene_dir / "f.csv")]) == 0
+    assert json.loads(capsys.readouterr().out)["conductivity"] == "flux"
+    eq13 = np.loadtxt(scene_dir / "f.csv", delimiter=",", skiprows=1)[-1]
+    assert eq13[1] - eq13[2] < 0.99 * (sample[1] - sample[2])
+
+
 def test_cli_measure_of_a_homogeneous_body_equals_its_simulation(scene_dir: Path) -> None:
     """One-phase image: the homogeneous twin is the body itself (k̄ = k, c̄ = c), so both give one curve."""
     np.save(scene_dir / "img.npy", np.ones((4, 4, 4), dtype=np.uint8))
