@@ -11,13 +11,13 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from aromm.errors import InputError
+from aromm.files import atomic_write
 from inverse.measurements import Measurements
 
 
@@ -38,17 +38,10 @@ def problem_key(description: Mapping[str, object]) -> str:
 
 
 def save(path: str | os.PathLike[str], problem: str, arrays: Mapping[str, np.ndarray]) -> None:
-    """Write ``arrays`` and the ``problem`` key to ``path`` (temp file in the same folder, then rename)."""
-    p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".npz", dir=p.parent if str(p.parent) else ".")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            payload = {"problem": np.asarray(problem), **{k: np.asarray(v) for k, v in arrays.items()}}
-            np.savez(fh, **payload)  # type: ignore[arg-type]  # numpy's stub confuses **arrays with allow_pickle
-        os.replace(tmp, p)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    """Write ``arrays`` and the ``problem`` key to ``path``, atomically (:func:`aromm.files.atomic_write`)."""
+    with atomic_write(path, "identification checkpoint", binary=True) as fh:
+        payload = {"problem": np.asarray(problem), **{k: np.asarray(v) for k, v in arrays.items()}}
+        np.savez(fh, **payload)  # type: ignore[arg-type]  # numpy's stub confuses **arrays with allow_pickle
 
 
 def load(path: str | os.PathLike[str], problem: str) -> dict[str, np.ndarray]:

@@ -14,7 +14,6 @@ from __future__ import annotations
 import csv
 import math
 import os
-import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError
+from aromm.files import atomic_write
 from aromm.homogenize import homogeneous_twin
 from aromm.model import ForwardModel
 from aromm.scene import Scene, assemble
@@ -134,19 +134,15 @@ def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None 
 
 
 def save_measurements(measurements: Measurements, path: str | os.PathLike[str]) -> None:
-    """Write the ``t,<face>,...`` CSV (full float precision), atomically (temp file + rename)."""
-    p = Path(path)
+    """Write the ``t,<face>,...`` CSV (full float precision), atomically (:func:`aromm.files.atomic_write`).
+
+    Missing parent folders are created; a path that cannot be written raises InputError naming it.
+    """
     arr = np.column_stack([np.asarray(measurements.t, dtype=float), measurements.as_array()])
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=p.parent if str(p.parent) else ".")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            w = csv.writer(fh, lineterminator="\n")
-            w.writerow(["t", *measurements.faces])
-            w.writerows([[repr(float(v)) for v in row] for row in arr])
-        os.replace(tmp, p)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    with atomic_write(path, "measurement file") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["t", *measurements.faces])
+        w.writerows([[repr(float(v)) for v in row] for row in arr])
 
 
 def simulate_measurements(

@@ -14,6 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from aromm.files import output_path
 from inverse.identify import Identification
 
 
@@ -54,6 +55,6 @@ def identification_figure(result: Identification) -> Figure:
 
 def save_identification_plot(result: Identification, path: str | os.PathLike[str], dpi: int = 120) -> Path:
     """Write :func:`identification_figure` to ``path`` (format from the suffix, e.g. ``.png``)."""
-    p = Path(path)
+    p = output_path(path, "plot")
     identification_figure(result).savefig(p, dpi=dpi)
     return p

@@ -40,6 +40,18 @@ def test_csv_round_trip_is_exact(tmp_path_factory: pytest.TempPathFactory, rows:
     np.testing.assert_array_equal(back.as_array(), m.as_array())
 
 
+def test_save_creates_missing_folders_and_names_an_unwritable_path(tmp_path: Path) -> None:
+    m = Measurements(np.array([1.0, 2.0]), {"z0": np.array([0.5, 0.7])})
+    path = tmp_path / "out" / "run 1" / "y.csv"  # the README's first command writes into a fresh out/
+    save_measurements(m, path)
+    np.testing.assert_array_equal(load_measurements(path).as_array(), m.as_array())
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    with pytest.raises(InputError, match="cannot write the measurement file"):
+        save_measurements(m, blocker / "y.csv")
+    assert [p.name for p in (tmp_path / "out" / "run 1").iterdir()] == ["y.csv"]  # no temporary left
+
+
 @pytest.mark.parametrize(("text", "needles"), [
     ("", ["empty file"]),
     ("time,z0\n1,2\n", ["line 1", "header must be 't,<face>,...'"]),

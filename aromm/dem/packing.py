@@ -30,6 +30,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from aromm.errors import InputError, NumericalError
+from aromm.files import output_path
 from aromm.system import FloatArray
 
 TRUNCATION = 2.5  # radii are kept within mean +- TRUNCATION * sd
@@ -74,7 +75,7 @@ class Packing:
     def save(self, path: str | Path) -> None:
         """Write a ``.npz`` (plain arrays, readable with ``allow_pickle=False``)."""
         np.savez_compressed(
-            Path(path), centers=self.centers, radii=self.radii, box=self.box, lower=self.lower,
+            output_path(path, "packing"), centers=self.centers, radii=self.radii, box=self.box, lower=self.lower,
             periodic=np.array(self.periodic),
         )
 

@@ -29,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError
+from aromm.files import output_path
 
 VoxelSize = tuple[float, float, float]
 LabelImage = npt.NDArray[np.int32]
@@ -277,6 +278,7 @@ def save_image(path: str | Path, labels: npt.ArrayLike, voxel_size: object | Non
     if path.suffix.lower() != ".npz":
         raise InputError(f"{path}: save_image writes .npz files only")
     image = as_labels(labels, str(path))
+    path = output_path(path, "label image")
     if voxel_size is None:
         np.savez_compressed(path, labels=image)
     else:
