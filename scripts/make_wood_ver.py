@@ -1,13 +1,14 @@
 """Reproducible generator call for data/wood_ver.npz, and the record of how it was tuned.
 
-    python scripts/make_wood_ver.py                 # write data/wood_ver.npz, print phi and c̄
-    python scripts/make_wood_ver.py --check         # + k by a private Q1 flux-method solve (scripts/wood_flux_fe.py)
+    python scripts/make_wood_ver.py                 # write data/wood_ver.npz, print phi, c̄ and k̄ (scenarios)
+    python scripts/make_wood_ver.py --check         # + k with an isothermal S2 by a private Q1 solve (wood_flux_fe.py)
     python scripts/make_wood_ver.py --homogenize    # + k by aromm.homogenize on data/scenes/wood_homogenize.toml
-    python scripts/make_wood_ver.py --search 400    # replay the random search that chose PARAMS
+    python scripts/make_wood_ver.py --search 1000   # replay the random search that chose PARAMS
 
 Target (seed 001 § 4.2, k_F = 0.3, k_G = 0.025, c_F = 4e6, c_G = 1.2e3): k̄ = (0.087, 0.099, 0.123) W/(m K)
-by the flux method (eq. 13) and c̄ = 1.558e6 J/(m^3 K) (eq. 14, i.e. fibre fraction 0.3893), on a
-231 µm cube; here 46^3 voxels of 5 µm = 230 µm.
+by the fluxmetric technique (eq. 13) applied to the heterogeneous model under the three scenarios of
+Table 1 (flux 500 W/m² on S1, h = 20 W/(m² K) on S2: ``aromm.homogenize.fluxmetric``), and
+c̄ = 1.558e6 J/(m^3 K) (eq. 14, i.e. fibre fraction 0.3893), on a 231 µm cube; here 46^3 voxels of 5 µm.
 """
 
 from __future__ import annotations
@@ -16,10 +17,14 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from aromm.fem import FaceSpec, PhaseSpec
+from aromm.homogenize import fluxmetric
 from aromm.microstructure import save_image, wood
+from aromm.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "data" / "wood_ver.npz"
@@ -29,17 +34,18 @@ K = {1: 0.3, 0: 0.025}  # fibre, gas, W/(m K)
 C = {1: 4.0e6, 0: 1.2e3}  # J/(m^3 K)
 TARGET_K = np.array([0.087, 0.099, 0.123])
 TARGET_C = 1.558e6
+FLUX, H = 500.0, 20.0  # seed 001 Table 1: W/m² on S1, W/(m² K) on S2
 
-# chosen by `--search 1087` (best draw: image seed 735, max error 0.7 %), parameters then rounded
-# to three significant digits (max error 1.2 %); see data/README.md
-SEED = 735
+# chosen by `--search 1000` with the scenario objective (best draw: image seed 347, max error 1.12 %),
+# parameters then rounded to three significant digits (max error 1.06 %); see data/README.md
+SEED = 347
 PARAMS: dict[str, float | None] = {
-    "cell_size_radial": 22.0e-6,
-    "cell_size_tangential": 28.8e-6,
-    "wall_thickness": 5.47e-6,
-    "size_jitter": 0.099,
-    "tracheid_length": 106e-6,
-    "grain_angle": 0.157,  # rad (9.0 degrees)
+    "cell_size_radial": 19.7e-6,
+    "cell_size_tangential": 29.2e-6,
+    "wall_thickness": 4.76e-6,
+    "size_jitter": 0.147,
+    "tracheid_length": 134e-6,
+    "grain_angle": 0.150,  # rad (8.6 degrees)
 }
 
 
@@ -53,10 +59,22 @@ def capacity(labels: np.ndarray) -> float:
 
 
 def flux_k(labels: np.ndarray) -> np.ndarray:
+    """Eq. 13 with an isothermal S2 (T = 0), by the private Q1 solve of scripts/wood_flux_fe.py."""
     sys.path.insert(0, str(ROOT / "scripts"))
     from wood_flux_fe import flux_conductivity
 
     return flux_conductivity(labels, (VOXEL,) * 3, K)
+
+
+def scenario_k(labels: np.ndarray) -> np.ndarray:
+    """Eq. 13 under each Table 1 scenario (seed 001 § 4.2), k̄_xx, k̄_yy, k̄_zz by aromm.homogenize.fluxmetric."""
+    phases = (PhaseSpec("gas", 0, K[0], C[0]), PhaseSpec("fibre", 1, K[1], C[1]))
+    material = Scene(labels, (VOXEL,) * 3, phases)
+    out = []
+    for axis in "xyz":
+        faces = (FaceSpec(f"{axis}0", flux=FLUX), FaceSpec(f"{axis}1", h=H, T_ext=0.0))
+        out.append(fluxmetric(material.with_boundary(faces, (f"{axis}0", f"{axis}1")), method="amg").k)
+    return np.array(out)
 
 
 def score(k: np.ndarray, c: float) -> float:
@@ -65,15 +83,15 @@ def score(k: np.ndarray, c: float) -> float:
 
 # search ranges (m, rad): radial cell size, tangential/radial ratio, wall, jitter, tracheid length,
 # probability of no tips, grain angle.  Earlier searches (data/README.md) had no grain angle.
-RANGES = {"radial": (19e-6, 25e-6), "ratio": (1.15, 1.5), "wall": (4.5e-6, 6.5e-6), "jitter": (0.08, 0.22),
-          "tracheid": (50e-6, 200e-6), "no_tips": 0.5, "grain": (0.05, 0.30)}
+RANGES: dict[str, Any] = {"radial": (19e-6, 25e-6), "ratio": (1.15, 1.5), "wall": (4.5e-6, 6.5e-6),
+                          "jitter": (0.08, 0.22), "tracheid": (50e-6, 200e-6), "no_tips": 0.5, "grain": (0.05, 0.30)}
 
 
-def search(n: int, seed: int = 2024) -> None:
+def search(n: int, seed: int = 2026) -> None:
     """Random search: draw parameters, keep images whose c̄ is within 1.5 %, solve k, print the best."""
     rng = np.random.default_rng(seed)
     ranges = RANGES
-    best = (np.inf, None)
+    best: tuple[float, tuple[int, dict[str, Any]] | None] = (np.inf, None)
     print("   seed  radial  tangent  wall  jitter  tracheid  grain°   phi     k_xx    k_yy    k_zz   max err")
     for _ in range(n):
         a = rng.uniform(*ranges["radial"])
@@ -90,7 +108,7 @@ def search(n: int, seed: int = 2024) -> None:
         c = capacity(labels)
         if abs(c / TARGET_C - 1) > 0.015:
             continue
-        k = flux_k(labels)
+        k = scenario_k(labels)
         err = score(k, c)
         length = params["tracheid_length"]
         print(
@@ -109,7 +127,7 @@ def search(n: int, seed: int = 2024) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--search", type=int, metavar="N", help="replay the random search with N draws")
-    parser.add_argument("--check", action="store_true", help="solve k with the private Q1 flux script")
+    parser.add_argument("--check", action="store_true", help="also k with an isothermal S2 (private Q1 script)")
     parser.add_argument("--homogenize", action="store_true", help="confirm with aromm.homogenize")
     args = parser.parse_args()
     if args.search:
@@ -119,10 +137,15 @@ def main() -> None:
     save_image(OUT, labels, VOXEL)
     print(f"wrote {OUT.relative_to(ROOT)}: shape {labels.shape}, voxel {VOXEL} m, fibre fraction {labels.mean():.4f},"
           f" c̄ = {capacity(labels):.4e} J/(m^3 K) (target {TARGET_C:.4e})")
+    start = time.perf_counter()
+    k = scenario_k(labels)
+    print(f"eq. 13 under the scenarios (aromm.homogenize.fluxmetric): k = {np.round(k, 5).tolist()} W/(m K)"
+          f" (target {TARGET_K.tolist()}), max rel. error {score(k, capacity(labels)):.4f},"
+          f" {time.perf_counter() - start:.1f} s")
     if args.check:
         start = time.perf_counter()
         k = flux_k(labels)
-        print(f"Q1 flux method (scripts/wood_flux_fe.py): k = {np.round(k, 4).tolist()} W/(m K)"
+        print(f"isothermal S2, Q1 flux method (scripts/wood_flux_fe.py): k = {np.round(k, 4).tolist()} W/(m K)"
               f" (target {TARGET_K.tolist()}), max rel. error {score(k, capacity(labels)):.4f},"
               f" {time.perf_counter() - start:.1f} s")
     if args.homogenize:

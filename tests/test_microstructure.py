@@ -468,9 +468,9 @@ def test_sphere_scene_is_the_seed_000_cell() -> None:
 
 def test_wood_ver_is_reproduced_by_a_generator_scene() -> None:
     scene_module = pytest.importorskip("aromm.scene")
-    geometry = {"generator": "wood", "shape": [46, 46, 46], "voxel_size": 5.0e-6, "seed": 735,
-                "cell_size_radial": 22.0e-6, "cell_size_tangential": 28.8e-6, "wall_thickness": 5.47e-6,
-                "size_jitter": 0.099, "tracheid_length": 106e-6, "grain_angle": 0.157}
+    geometry = {"generator": "wood", "shape": [46, 46, 46], "voxel_size": 5.0e-6, "seed": 347,
+                "cell_size_radial": 19.7e-6, "cell_size_tangential": 29.2e-6, "wall_thickness": 4.76e-6,
+                "size_jitter": 0.147, "tracheid_length": 134e-6, "grain_angle": 0.150}
     phases = {"fibre": {"label": 1, "k": K_F}, "gas": {"label": 0, "k": K_G}}
     scene = scene_module.scene_from_dict({"geometry": geometry, "phases": phases})
     np.testing.assert_array_equal(scene.labels, load_image(DATA / "wood_ver.npz")[0])
@@ -478,8 +478,9 @@ def test_wood_ver_is_reproduced_by_a_generator_scene() -> None:
 
 @pytest.mark.slow
 def test_wood_ver_homogenised_conductivity_matches_seed_001() -> None:
-    """Eq. 13 on the shipped VER within 5 % of seed 001 (a few seconds idle, minutes on a loaded machine),
-    with an isothermal S2 and under the three scenarios' own faces as seed 001 § 4.2 does."""
+    """Eq. 13 on the shipped VER against seed 001 § 4.2 (a few seconds idle, minutes on a loaded machine):
+    under the three scenarios' own faces, as the seed does and as the VER was tuned, within 1.5 %;
+    with an isothermal S2 (`aromm.homogenize`) within issue 2's 5 %."""
     homogenize = pytest.importorskip("aromm.homogenize")
     load_scene = pytest.importorskip("aromm.scene").load_scene
     scene = load_scene(DATA / "scenes" / "wood_homogenize.toml")
@@ -487,5 +488,5 @@ def test_wood_ver_homogenised_conductivity_matches_seed_001() -> None:
     np.testing.assert_allclose(np.diag(k), SEED_001_K, rtol=0.05)
     scenarios = [load_scene(DATA / "scenes" / f"wood_s{i}.toml") for i in (2, 3, 1)]  # loaded along x, y, z
     k_scenario = [homogenize.fluxmetric(sc, method="amg").k for sc in scenarios]
-    np.testing.assert_allclose(k_scenario, SEED_001_K, rtol=0.05)
-    assert homogenize.mean_capacity(scene) == pytest.approx(SEED_001_C, rel=0.05)
+    np.testing.assert_allclose(k_scenario, SEED_001_K, rtol=0.015)
+    assert homogenize.mean_capacity(scene) == pytest.approx(SEED_001_C, rel=0.015)
