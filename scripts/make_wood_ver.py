@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -124,6 +125,14 @@ def search(n: int, seed: int = 2026) -> None:
     print("best:", best)
 
 
+def report(method: str, conductivity: Callable[[np.ndarray], np.ndarray], labels: np.ndarray) -> None:
+    """Print k̄ of ``labels`` by ``conductivity``, its max relative error against the targets, and the seconds."""
+    start = time.perf_counter()
+    k = conductivity(labels)
+    print(f"{method}: k = {np.round(k, 5).tolist()} W/(m K) (target {TARGET_K.tolist()}),"
+          f" max rel. error {score(k, capacity(labels)):.4f}, {time.perf_counter() - start:.1f} s")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--search", type=int, metavar="N", help="replay the random search with N draws")
@@ -137,17 +146,9 @@ def main() -> None:
     save_image(OUT, labels, VOXEL)
     print(f"wrote {OUT.relative_to(ROOT)}: shape {labels.shape}, voxel {VOXEL} m, fibre fraction {labels.mean():.4f},"
           f" c̄ = {capacity(labels):.4e} J/(m^3 K) (target {TARGET_C:.4e})")
-    start = time.perf_counter()
-    k = scenario_k(labels)
-    print(f"eq. 13 under the scenarios (aromm.homogenize.fluxmetric): k = {np.round(k, 5).tolist()} W/(m K)"
-          f" (target {TARGET_K.tolist()}), max rel. error {score(k, capacity(labels)):.4f},"
-          f" {time.perf_counter() - start:.1f} s")
+    report("eq. 13 under the scenarios (aromm.homogenize.fluxmetric)", scenario_k, labels)
     if args.check:
-        start = time.perf_counter()
-        k = flux_k(labels)
-        print(f"isothermal S2, Q1 flux method (scripts/wood_flux_fe.py): k = {np.round(k, 4).tolist()} W/(m K)"
-              f" (target {TARGET_K.tolist()}), max rel. error {score(k, capacity(labels)):.4f},"
-              f" {time.perf_counter() - start:.1f} s")
+        report("isothermal S2, Q1 flux method (scripts/wood_flux_fe.py)", flux_k, labels)
     if args.homogenize:
         from aromm.homogenize import homogenize, mean_capacity
         from aromm.scene import load_scene
