@@ -99,7 +99,7 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     >>> round(fluxmetric(slab).k, 9)  # homogeneous slab: k itself (W/(m K))
     2.0
     """
-    where = f"{scene.path}: " if scene.path is not None else "scene: "
+    where = scene.where
     heated = [f for f in scene.boundary if f.flux is not None and f.flux != 0.0]
     if len(heated) != 1:
         raise InputError(f"{where}the fluxmetric conductivity (seed 001 eq. 13) needs exactly one [boundary] face "

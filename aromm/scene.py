@@ -51,6 +51,11 @@ class Scene:
         return parameter_values(self.phases, self.boundary, self.initial_T, self.time is not None)
 
     @property
+    def where(self) -> str:
+        """Prefix naming the scene in messages: ``"<file>: "``, or ``"scene: "`` for one built in Python."""
+        return _where(self.path)
+
+    @property
     def size(self) -> tuple[float, float, float]:
         """Edge lengths of the box (m): the voxel image, or the mesh's bounding box."""
         if self.mesh is not None:
@@ -89,7 +94,7 @@ def assemble(scene: Scene) -> ThermalSystem:
                              order=scene.mesh_order)
     if scene.interfaces:
         raise InputError(
-            f"{_where(scene.path)}[interfaces]: contact resistance needs a conforming mesh (geometry.mesh); voxel"
+            f"{scene.where}[interfaces]: contact resistance needs a conforming mesh (geometry.mesh); voxel"
             " images have no interface surface to put it on"
         )
     return assemble_voxels(scene.labels, scene.voxel_size, scene.phases, scene.boundary,

@@ -183,7 +183,7 @@ def homogeneous_measurements(scene: Scene, k: npt.ArrayLike, c: float, *, pertur
     with the linear solver ``method``.
     """
     if scene.time is None:
-        raise InputError(f"{scene.path or 'scene'}: measurements need a transient scene ([time] with end and dt)")
+        raise InputError(f"{scene.where}measurements need a transient scene ([time] with end and dt)")
     if not (math.isfinite(perturbation) and perturbation > -1):
         raise InputError(f"perturbation must be a finite fraction > -1, got {perturbation!r}")
     scale = 1.0 + perturbation

@@ -115,6 +115,16 @@ def test_cli_measure_uses_the_scenario_fluxmetric_k_by_default(scene_dir: Path,
     assert eq13[1] - eq13[2] < 0.99 * (sample[1] - sample[2])
 
 
+def test_cli_measure_refuses_a_scene_that_is_not_a_table1_scenario(scene_dir: Path,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    np.save(scene_dir / "img.npy", np.arange(8).reshape(2, 2, 2) % 2)
+    path = _write(scene_dir, GOOD.replace("[boundary.z1]\nh = 20.0\nT_ext = 0.0", "[boundary.z1]\nflux = 20.0"))
+    assert main(["measure", str(path), "--homogeneous", "--out", str(scene_dir / "m.csv")]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "exactly one" in err and "z0" in err and "z1" in err
+    assert not (scene_dir / "m.csv").exists()
+
+
 def test_cli_measure_of_a_homogeneous_body_equals_its_simulation(scene_dir: Path) -> None:
     """One-phase image: the homogeneous twin is the body itself (k̄ = k, c̄ = c), so both give one curve."""
     np.save(scene_dir / "img.npy", np.ones((4, 4, 4), dtype=np.uint8))

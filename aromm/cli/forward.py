@@ -121,7 +121,8 @@ def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: flo
     """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model."""
     sc = load_scene(scene)
     if conductivity == "scenario":
-        k = fluxmetric(sc, method=solver).k * np.eye(3)  # isotropic twin = orthotropic one along the loaded axis
+        probe = fluxmetric(sc, method=solver)
+        k = probe.k * np.eye(3)  # isotropic twin = orthotropic one along the loaded axis
     else:
         k = homogenize(sc, boundary=conductivity, method=solver)
     c = mean_capacity(sc)
@@ -136,8 +137,7 @@ def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: flo
         echo_json(summary)
     else:
         if conductivity == "scenario":
-            loaded = sorted({f.face[0] for f in sc.boundary})
-            click.echo(f"k̄_{loaded[0] * 2} = {k[0, 0]:.5g} W/(m K) (eq. 13 under the scene's faces), "
+            click.echo(f"k̄_{probe.axis * 2} = {k[0, 0]:.5g} W/(m K) (eq. 13 under the scene's faces), "
                        f"c̄ = {c:.5g} J/(m³ K)")
         else:
             click.echo(f"k̄ = diag({k[0, 0]:.5g}, {k[1, 1]:.5g}, {k[2, 2]:.5g}) W/(m K), c̄ = {c:.5g} J/(m³ K)")
