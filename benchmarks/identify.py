@@ -30,9 +30,8 @@ import numpy as np
 
 from aromm.model import ForwardModel
 from aromm.reduced import reduce
-from aromm.scene import Scene, assemble
 from aromm.solve import FullModel
-from aromm.system import TimeGrid
+from aromm.system import ThermalSystem, TimeGrid
 from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
 from inverse.measurements import Measurements, load_measurements, save_measurements, simulate_measurements
 from inverse.study import (
@@ -77,15 +76,15 @@ def coverage(model: ForwardModel, exact: Measurements, truth: dict[str, float], 
     return {**{f"inside {k}": f"{v}/{reps}" for k, v in inside.items()}, "mean s": float(np.mean(seconds))}
 
 
-def full_model_data(scene: Scene, truth: dict[str, float], refine: int, path: Path | None) -> Measurements:
-    """Face means of the heterogeneous full model at the truth, at the scene's times, time step dt / ``refine``."""
+def full_model_data(system: ThermalSystem, truth: dict[str, float], refine: int, path: Path | None) -> Measurements:
+    """Face means of the heterogeneous full model at the truth, at the system's times, time step dt / ``refine``."""
     if path is not None and path.exists():
         print(f"twin-test data read from {path}")
         return load_measurements(path)
-    grid = scene.time
+    grid = system.time
     assert grid is not None
     start = time.perf_counter()
-    fine = assemble(replace(scene, time=TimeGrid(grid.end, grid.dt / refine)))
+    fine = replace(system, time=TimeGrid(grid.end, grid.dt / refine))
     data = simulate_measurements(FullModel(fine), truth, grid.times)
     print(f"twin-test data: full model, dt = {grid.dt / refine:g} s, {time.perf_counter() - start:.0f} s", flush=True)
     if path is not None:
@@ -154,7 +153,7 @@ def main() -> None:
     section(f"3. Twin tests (loading along {axis}): data from the heterogeneous full model at dt / "
             f"{args.data_refine}; noise σ = {args.noise} °C, {args.reps} seeded repetitions")
     twin, rom = cases[axis], roms[axis]
-    exact = full_model_data(twin.scene, truth, args.data_refine, args.twin_data)
+    exact = full_model_data(twin.system, truth, args.data_refine, args.twin_data)
     own = simulate_measurements(rom, truth)
     print(f"max |full data - reduced {order}| at the truth: {np.abs(exact.as_array() - own.as_array()).max():.2g} °C")
     full_twin = FullModel(twin.system)
