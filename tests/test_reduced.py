@@ -1,4 +1,4 @@
-"""AROMM reduced model (aromm.reduced, aromm.amalgam, aromm.pod) against exact solutions and conservation laws.
+"""The reduced model (aromm.reduction, aromm.rom, aromm.amalgam, aromm.pod) against exact solutions and conservation laws.
 
 The reference ("truth") is the exact solution of the full semi-discrete system ``C dT/dt + K T = F`` computed
 here independently with a dense generalised eigendecomposition of the full matrices (small images).
@@ -267,3 +267,29 @@ def test_cli_reduce_json_and_cache(tmp_path, capsys: pytest.CaptureFixture[str])
     assert main(args) == 0
     assert json.loads(capsys.readouterr().out)["cached"] == 1
     assert main(["reduce", str(tmp_path / "missing.toml"), "--order", "5"]) == 2
+
+
+class SlowestModes:
+    """A reductor written outside aromm (modal truncation): the constants and the slowest other modes."""
+
+    name = "slowest"
+
+    def coefficients(self, detailed, order: int) -> np.ndarray:
+        zero = detailed.basis.zero_modes
+        rates = np.where(np.isnan(detailed.basis.eigenvalues), np.inf, detailed.basis.eigenvalues)
+        others = [i for i in np.argsort(rates, kind="stable") if i not in set(zero)]
+        keep = [*zero, *others[: order - zero.size]]
+        return np.eye(detailed.size)[:, keep]
+
+
+def test_a_reductor_from_outside_plugs_in_and_conserves_energy(tmp_path) -> None:
+    # Any reductor that keeps the constant mode conserves the stored heat of an adiabatic body heated by q:
+    # 1ᵀ C T̃ = q A t exactly, whatever else it drops.
+    n, q = 5, 500.0
+    system = system_of(random_labels(n, seed=5), [FaceSpec("z0", flux=q)], end=4.0)
+    rom = reduce(system, order=6, modes=40, method=SlowestModes(), cache=tmp_path)
+    assert rom.order == 6 and rom.info["method"] == "slowest"
+    t = np.linspace(0.0, 4.0, 9)
+    np.testing.assert_allclose(energy(rom, {}, t), q * (n * H) ** 2 * t, rtol=1e-9, atol=1e-18)
+    with pytest.raises(InputError, match="Reductor"):
+        reduce(system, order=6, modes=40, method=object(), cache=tmp_path)  # type: ignore[arg-type]

@@ -31,11 +31,11 @@ class DifferentialEvolution:
             state: State | None = None, callback: Callable[[Step], None] | None = None) -> Outcome:
         generation = 0
 
-        def report(intermediate: so.OptimizeResult) -> None:
+        def report(intermediate_result: so.OptimizeResult) -> None:  # scipy passes the result by this name
             nonlocal generation
             generation += 1
             if callback is not None:
-                callback(Step(generation, self.generations, float(intermediate.fun)))
+                callback(Step(generation, self.generations, float(intermediate_result.fun)))
 
         def cost(u: FloatArray) -> FloatArray:
             return problem.costs(np.asarray(u).T)  # scipy passes (dim, m) when vectorised
