@@ -162,9 +162,10 @@ def test_differential_evolution_then_refinement_is_a_drop_in_chain() -> None:
 
 
 def test_identify_accepts_an_optimiser_chain_and_refuses_what_is_not_one() -> None:
+    from inverse_cases import LinearModel
+
     from inverse import Measurements, identify
     from inverse.optimisers import DifferentialEvolution, LeastSquaresRefinement
-    from inverse_cases import LinearModel
 
     t = np.arange(1.0, 9.0)
     model = LinearModel(np.column_stack([np.ones_like(t), t]), ("a", "b"))  # y = a + b t
