@@ -1,4 +1,4 @@
-"""The reduced model (aromm.reduction, aromm.rom, aromm.amalgam, aromm.pod) against exact solutions and conservation laws.
+"""The reduced model (aromm.reduction, aromm.rom, aromm.amalgam, aromm.pod) against exact solutions and conservation.
 
 The reference ("truth") is the exact solution of the full semi-discrete system ``C dT/dt + K T = F`` computed
 here independently with a dense generalised eigendecomposition of the full matrices (small images).
