@@ -105,7 +105,8 @@ def pack(*, particles: int, seed: int, phi: float, cv: float, box: float, out: P
 @Z
 @RADIUS
 @click.option("--boundary", type=click.Choice(["periodic", "slab"]), default="periodic", show_default=True,
-              help="periodic: imposed gradient on the periodic network; slab: seed Figure 3 test on the cut box.")
+              help="periodic: imposed gradient on the periodic network; "
+                   "slab: the test of [Hassan2019, Fig. 3] on the cut box.")
 @JSON
 @QUIET
 def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, boundary: str,
@@ -132,7 +133,8 @@ def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float,
               help="Direction(s) of the imposed gradient; E is averaged over them.")
 @click.option("--boundary", type=click.Choice(["periodic", "faces"]), default="periodic", show_default=True,
               help="periodic: cell of a cubic array (= isothermal/adiabatic faces by symmetry); "
-                   "faces: cut packing with two faces at fixed T (the seed's set-up, cut layer included).")
+                   "faces: cut packing with two faces at fixed T "
+                   "(the set-up of [Hassan2019, § 3.2], cut layer included).")
 @JSON
 @QUIET
 def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, ratio: float,
