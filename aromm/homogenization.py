@@ -15,7 +15,7 @@ exact for laminates in both directions and for mirror-symmetric periodic cells.
 
 Both give the principal values along the image axes (the material is taken orthotropic
 in those axes, as in [Chavez2020]); the off-diagonal entries of the returned tensor are zero.  The effective
-capacity is the volume average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
+capacity is the volume average (eq. 14): ``c̄ = Σ_phases c_p |Ω_p| / |Ω|``.
 
 [Chavez2020, § 4.2] applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
 experimental technique on the heterogeneous model *according to the three scenarios of Table 1*", i.e.

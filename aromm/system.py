@@ -130,7 +130,7 @@ class Affine:
         return np.stack([np.broadcast_to(t.coefficient(values), (m,)) for t in self.terms], axis=1)
 
     def stack(self, values: Mapping[str, FloatArray], m: int) -> FloatArray:
-        """``Σ_j c_j(p_i) A_j`` for m parameter sets at once, for dense operators: shape (m, *operator shape)."""
+        """``Σ_j c_j(p_i) A_j`` for m parameter sets at once, for dense operators: shape ``(m, *operator.shape)``."""
         ops = np.stack([np.asarray(t.operator) for t in self.terms])
         return np.tensordot(self.coefficients(values, m), ops, axes=(1, 0))
 

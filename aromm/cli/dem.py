@@ -171,7 +171,8 @@ def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float
 @click.option("--cp", type=click.FloatRange(min=0, min_open=True), default=0.9, show_default=True,
               help="Specific heat, J/(kg K) [Hassan2019, Table 1 prints 0.9].")
 @click.option("--times", default="0.05,0.1,0.2", show_default=True, help="Output times (s), comma-separated.")
-@click.option("--scheme", type=click.Choice(["explicit", "implicit"]), default="explicit", show_default=True)
+@click.option("--scheme", type=click.Choice(["explicit", "implicit"]), default="explicit", show_default=True,
+              help="explicit: forward Euler as [Hassan2019, eq. 5]; implicit: backward Euler on the network.")
 @click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Time step (s); explicit default 0.9 x stability limit, implicit default end/400.")
 @click.option("--bins", type=click.IntRange(min=1), default=10, show_default=True,

@@ -60,7 +60,7 @@ def solver_for(n: int, method: str = "auto") -> str:
 
 def periodic_field(packing: Packing, bonds: Bonds, conductances: FloatArray, gradients: FloatArray,
                    method: str = "auto") -> FloatArray:
-    """Periodic fluctuations t (K) with ``T_p = G . x_p + t_p`` at balance, one column per gradient.
+    """Periodic fluctuations t (K) with ``T_p = G·x_p + t_p`` at balance, one column per gradient.
 
     ``gradients`` is (3,) or (3, k) (K/m).  Solves ``L t = b``, ``b_p = sum_q H_pq G . (x_q - x_p)``
     with particle 0 pinned (the periodic Laplacian has the constants as kernel).  ``method``:
