@@ -19,7 +19,7 @@ sys.path.insert(0, str(DOCS / "_ext"))
 
 project = "aromm"
 author = "the aromm developers"
-copyright = "aromm developers"  # noqa: A001 (Sphinx's name)
+copyright = "aromm developers"
 
 extensions = [
     "myst_nb",  # Markdown (MyST) pages and stored notebooks
@@ -32,7 +32,8 @@ extensions = [
     "reference_keys",  # docs/_ext: [Chavez2020, eq. 13] in docstrings links to the references page
 ]
 
-source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}  # .rst first: autosummary writes .rst
+# .rst first: autosummary writes its pages with the first suffix
+source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
 root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "notebooks/.ipynb_checkpoints", "**/.ipynb_checkpoints"]
 

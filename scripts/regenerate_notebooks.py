@@ -9,8 +9,8 @@ Each notebook is executed in a kernel with ``AROMM_FULL=1`` and ``MPLBACKEND=Agg
 documentation renders the stored outputs without executing anything.  The run is recorded in the
 notebook's metadata under ``aromm``: ``full`` (true), the date, the wall seconds, the CPU seconds of
 the kernel (a child process, counted once it has exited), the load average at start and end and the
-number of cores (the machine may be shared: read the seconds with the load).  The tests (tests/test_notebooks.py) execute the notebooks at small sizes in memory and never
-write them.
+number of cores (the machine may be shared: read the seconds with the load).  The tests
+(tests/test_notebooks.py) execute the notebooks at small sizes in memory and never write them.
 
 The reduced models are built in a fresh temporary cache unless ``--cache DIR`` is given, so the offline
 seconds printed in the outputs are measured, not read from an earlier run.
