@@ -4,9 +4,11 @@
     python scripts/regenerate_notebooks.py table2 bounds        # only these (file stems)
     nice -n 10 python scripts/regenerate_notebooks.py dem --cache ~/.cache/aromm
 
-Each notebook is executed in a kernel with ``AROMM_FULL=1`` and ``MPLBACKEND=Agg`` from the folder
-``notebooks/`` and written back in place (atomically, only when every cell ran without error), so the
-documentation renders the stored outputs without executing anything.  The run is recorded in the
+Each notebook is executed in a kernel with ``AROMM_FULL=1`` from the folder ``notebooks/``, with the
+kernel's own inline matplotlib backend so that the figures are stored (``MPLBACKEND`` is removed from
+the environment: a non-interactive backend such as Agg would leave the notebook without figures), and
+written back in place (atomically, only when every cell ran without error), so the documentation
+renders the stored outputs without executing anything.  The run is recorded in the
 notebook's metadata under ``aromm``: ``full`` (true), the date, the wall seconds, the CPU seconds of
 the kernel (a child process, counted once it has exited), the load average at start and end and the
 number of cores (the machine may be shared: read the seconds with the load).  The tests
@@ -37,7 +39,8 @@ NOTEBOOKS = ROOT / "notebooks"
 def regenerate(path: Path, cache: Path, timeout: int | None = None) -> float:
     """Execute the notebook at ``path`` with ``AROMM_FULL=1`` and store it with its outputs; wall seconds."""
     nb = nbformat.read(path, as_version=4)
-    env = dict(os.environ, AROMM_FULL="1", AROMM_CACHE_DIR=str(cache), MPLBACKEND="Agg")
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    env.update(AROMM_FULL="1", AROMM_CACHE_DIR=str(cache))
     load_start = os.getloadavg()
     cpu_start = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
