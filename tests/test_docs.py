@@ -63,14 +63,26 @@ def test_help_text_is_complete_and_cites_by_key(path: str, command: click.Comman
     assert not re.search(r"\bseed'?s\b(?! of)|\bthe seed\b|seed[- ]00\d", text, re.IGNORECASE), text
 
 
+# Notebooks whose run at the papers' sizes did not finish on the shared machine in the session of issue 15; they are
+# stored at the tests' sizes (scripts/regenerate_notebooks.py --small). Remove a name once its full run is stored.
+STORED_SMALL: set[str] = set()
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
-def test_stored_notebook_has_full_size_outputs_and_a_figure(path: Path) -> None:
+def test_stored_notebook_shows_its_results_with_a_figure(path: Path) -> None:
     nb = nbformat.read(path, as_version=4)
-    run = nb.metadata.get("aromm", {})
-    assert run.get("full") is True, f"{path.name}: not stored from an AROMM_FULL=1 run " \
-                                     "(python scripts/regenerate_notebooks.py)"
     code = [c for c in nb.cells if c.cell_type == "code"]
     assert all(c.execution_count is not None for c in code), f"{path.name}: a code cell was not executed"
     outputs = [o for c in code for o in c.outputs]
     assert not [o for o in outputs if o.output_type == "error"]
     assert any("image/png" in o.get("data", {}) for o in outputs), f"{path.name}: no figure"
+    assert "aromm" in nb.metadata, f"{path.name}: not stored by scripts/regenerate_notebooks.py"
+
+
+@pytest.mark.parametrize("path", [
+    pytest.param(p, marks=pytest.mark.xfail(strict=True, reason="stored at the tests' sizes, full run pending"))
+    if p.stem in STORED_SMALL else p for p in NOTEBOOKS], ids=[p.stem for p in NOTEBOOKS])
+def test_stored_notebook_was_computed_at_the_papers_sizes(path: Path) -> None:
+    run = nbformat.read(path, as_version=4).metadata.get("aromm", {})
+    assert run.get("full") is True, f"{path.name}: not stored from an AROMM_FULL=1 run " \
+                                     "(python scripts/regenerate_notebooks.py)"
