@@ -27,6 +27,7 @@ extensions = [
     "sphinx.ext.autosummary",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # MathJax 3 copied into the site: equations render without a network
     "sphinx.ext.viewcode",
     "sphinx_click",
     "reference_keys",  # docs/_ext: [Chavez2020, eq. 13] in docstrings links to the references page
