@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -26,6 +27,12 @@ SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "int
 GENERATORS = ("wood", "sphere_in_cube", "simple_cubic", "laminate")
 PHASE_KEYS = ("label", "k", "c")
 FACE_KEYS = ("flux", "h", "T_ext", "T")
+REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
+
+
+def physical_memory() -> float:
+    """Bytes of physical memory of this machine (the default budget of :meth:`Scene.refined`)."""
+    return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +79,40 @@ class Scene:
         volumes = {t.name.removeprefix("C_"): float(ones @ (t.operator @ ones)) for t in system.capacity.terms}
         total = sum(volumes.values())
         return {ph.name: volumes.get(ph.name, 0.0) / total for ph in self.phases}
+
+    def refined(self, factor: int, bytes_per_voxel: float = REFINE_BYTES_PER_VOXEL,
+                budget: float | None = None) -> Scene:
+        """The same scene with each voxel split into ``factor``³ sub-voxel elements.
+
+        Labels are repeated ``factor`` times along each axis and ``voxel_size`` is divided by ``factor``: the
+        geometry, the phases and the face conditions are unchanged, only the Q1 discretisation is finer
+        (``aromm ... --refine R``).  Refused with :class:`InputError` when ``factor`` is not a positive
+        integer, when the scene is a mesh, or when the refined problem's estimate
+        ``factor³ · n_voxels · bytes_per_voxel`` exceeds ``budget`` (bytes; default: the machine's memory).
+
+        >>> phases = (PhaseSpec("a", 0, 1.0), PhaseSpec("b", 1, 2.0))
+        >>> s = Scene(np.arange(2).reshape(2, 1, 1), (2e-3, 1e-3, 1e-3), phases)
+        >>> r = s.refined(2)
+        >>> r.labels[:, 0, 0].tolist(), r.voxel_size, r.size == s.size
+        ([0, 0, 1, 1], (0.001, 0.0005, 0.0005), True)
+        """
+        if isinstance(factor, bool) or not isinstance(factor, int | np.integer) or factor < 1:
+            raise InputError(f"{self.where}refine: the refinement factor must be a positive integer, got {factor!r}")
+        if self.mesh is not None:
+            raise InputError(f"{self.where}refine: a mesh scene has no voxels to split; refine the mesh instead")
+        if factor == 1:
+            return self
+        limit = physical_memory() if budget is None else float(budget)
+        need = float(self.labels.size) * factor**3 * bytes_per_voxel
+        if need > limit:
+            shape = "×".join(str(n * factor) for n in self.labels.shape)
+            raise InputError(f"{self.where}refine: {factor}× gives {shape} voxels, about {need / 1e9:.3g} GB "
+                             f"at {bytes_per_voxel:g} B/voxel, more than the {limit / 1e9:.3g} GB available")
+        labels = self.labels
+        for axis in range(3):
+            labels = np.repeat(labels, factor, axis=axis)
+        voxel = (self.voxel_size[0] / factor, self.voxel_size[1] / factor, self.voxel_size[2] / factor)
+        return replace(self, labels=labels, voxel_size=voxel)
 
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> Scene:

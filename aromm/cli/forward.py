@@ -9,11 +9,11 @@ import click
 import meshio
 import numpy as np
 
-from aromm.cli.common import echo_json
+from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json, refine_scene
 from aromm.errors import InputError
 from aromm.homogenize import BOUNDARIES, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import METHODS
-from aromm.scene import assemble, load_scene
+from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from aromm.solve import simulate as simulate_full
 from aromm.system import Observables, ThermalSystem
 from inverse.measurements import Measurements, homogeneous_measurements, save_measurements
@@ -59,11 +59,12 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
               help="Folder for observables.csv and field.vtu (final field, full model).")
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
 @SOLVER
+@REFINE
 @JSON
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str,
+def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str, refine: int,
                  as_json: bool) -> None:
     """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
-    sc = load_scene(scene)
+    sc = refine_scene(load_scene(scene), refine)
     system = assemble(sc)
     if model == "reduced":
         from aromm.reduced import reduce
@@ -86,10 +87,12 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 @click.option("--boundary", type=click.Choice(BOUNDARIES), default="flux", show_default=True,
               help="flux: seed 001 eq. 13 (flux in, fixed T out); temperature: fixed T on both faces.")
 @SOLVER
+@REFINE
 @JSON
-def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> None:
+def homogenize_cmd(scene: Path, boundary: str, solver: str, refine: int, as_json: bool) -> None:
     """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
-    sc = load_scene(scene)
+    direct = solver in ("cholmod", "splu")
+    sc = refine_scene(load_scene(scene), refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
     k = homogenize(sc, boundary=boundary, method=solver)
     c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
     if as_json:

@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from aromm.cache import NpzCache
-from aromm.cli.common import echo_json
+from aromm.cli.common import REFINE, echo_json, refine_scene
 from aromm.linalg import METHODS
 from aromm.reduced import METHODS as REDUCTIONS
 from aromm.reduced import reduce
@@ -30,12 +30,13 @@ from aromm.scene import assemble, load_scene
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
               help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")
+@REFINE
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
-               cache_dir: Path | None, no_cache: bool, as_json: bool) -> None:
+               cache_dir: Path | None, no_cache: bool, refine: int, as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant)."""
-    system = assemble(load_scene(scene))
-    refs = [assemble(load_scene(path)) for path in references]
+    system = assemble(refine_scene(load_scene(scene), refine))
+    refs = [assemble(refine_scene(load_scene(path), refine)) for path in references]
     cache = False if no_cache else NpzCache(cache_dir)
     rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
                  progress=sys.stderr.isatty())
