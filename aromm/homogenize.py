@@ -1,21 +1,11 @@
-"""Homogenisation of a two-phase (or n-phase) voxel scene (seed 001 section 4.2).
+"""Homogenisation of a voxel scene (seed 001 section 4.2): effective conductivity tensor and capacity.
 
-Effective conductivity by the flux method (seed 001 eq. 13): for each axis i a uniform
-flux q enters face i0, face i1 is held at T = 0, the four other faces are adiabatic,
-and at steady state
-
-    k_ii = q L_i / (T̄_{i0} - T̄_{i1}),
-
-with T̄ the face-mean temperatures (``boundary="flux"``, the default).  Imposing a
-uniform flux is a static (Neumann-type) condition: along the layers of a laminate it
-gives less than the arithmetic mean, because the heated face is not isothermal.
-``boundary="temperature"`` holds both faces at fixed temperatures instead (T = 1 on i0,
-T = 0 on i1) and takes the heat flow Q from the reaction at i0, k_ii = Q L_i / (A_i ΔT):
-exact for laminates in both directions and for mirror-symmetric periodic cells.
-
-Both give the principal values along the image axes (the material is taken orthotropic
-in those axes, as in the seed); the off-diagonal entries of the returned tensor are zero.  The effective capacity is the
-volume average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
+:func:`homogenize` solves the cell problems of :mod:`aromm.cell_problems` under one of three boundary
+conditions: ``"periodic"`` (the default: full tensor with its off-diagonal terms, the value that converges
+to the effective property of the medium), ``"flux"`` (seed 001 eq. 13: uniform flux into face i0, T = 0 on
+face i1, adiabatic sides — a lower-bound type condition) and ``"temperature"`` (T fixed on both faces —
+upper-bound type; exact for laminates and mirror-symmetric cells).  The effective capacity is the volume
+average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
 
 Seed 001 § 4.2 applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
 experimental technique on the heterogeneous model *according to the three scenarios of Table 1*", i.e.
@@ -32,46 +22,27 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
-import scipy.sparse as sp
 
+from aromm.cell_problems import BOUNDARIES, effective_conductivity
 from aromm.errors import InputError, NumericalError
-from aromm.fem import FaceSpec, PhaseSpec
+from aromm.fem import FaceSpec, PhaseSpec  # noqa: F401  (FaceSpec: used by the doctest of fluxmetric)
 from aromm.scene import Scene, assemble
 from aromm.solve import steady_field
 from aromm.system import FloatArray
 
+__all__ = ["BOUNDARIES", "Fluxmetric", "fluxmetric", "homogeneous_twin", "homogenize", "mean_capacity"]
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
-PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
 
 
-BOUNDARIES = ("flux", "temperature")
+def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto") -> FloatArray:
+    """Effective conductivity tensor (3x3, W/(m K)) of the scene's image under ``boundary``.
 
-
-def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto") -> FloatArray:
-    """Effective conductivity tensor (3x3, W/(m K)); ``boundary="flux"`` is seed 001 eq. 13.
-
-    Uses the scene's geometry and phases only; it applies the boundary conditions itself.
-    ``method`` is the linear solver (aromm.linalg).
+    ``boundary``: ``"periodic"`` (default), ``"flux"`` (seed 001 eq. 13) or ``"temperature"`` — their meaning
+    and bounds in :mod:`aromm.cell_problems`.  Uses the scene's geometry and phases only; it applies the
+    boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a linear solver of
+    aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on).
     """
-    if boundary not in BOUNDARIES:
-        raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
-    k = np.zeros((3, 3))
-    size = scene.size
-    for i, axis in enumerate("xyz"):
-        hot, cold = f"{axis}0", f"{axis}1"
-        area = size[0] * size[1] * size[2] / size[i]
-        if boundary == "flux":
-            system = assemble(_probe(scene, FaceSpec(hot, flux=PROBE_FLUX), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            drop = float(system.observation[hot] @ field - system.observation[cold] @ field)
-            k[i, i] = PROBE_FLUX * size[i] / drop
-        else:
-            system = assemble(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            reaction = sp.csr_array(system.conductance.evaluate(system.values())) @ field
-            heat_flow = float(reaction[system.dirichlet[0].dofs].sum())
-            k[i, i] = heat_flow * size[i] / area
-    return k
+    return effective_conductivity(scene, boundary, method).k
 
 
 @dataclass(frozen=True)
@@ -123,11 +94,6 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
         raise NumericalError(f"{where}steady face-mean drop T̄_{s1.face} − T̄_{opposite} = {drop:g} K has not the sign "
                              f"of the flux {flux:g} W/m²; cannot define a conductivity")
     return Fluxmetric(axis, s1.face, opposite, flux, drop, flux * length / drop)
-
-
-def _probe(scene: Scene, hot: FaceSpec, cold: FaceSpec) -> Scene:
-    """The scene's material, steady, with only the two probe faces loaded."""
-    return scene.with_boundary((hot, cold), (hot.face, cold.face), time=None)
 
 
 def mean_capacity(scene: Scene) -> float:

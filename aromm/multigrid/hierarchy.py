@@ -56,12 +56,14 @@ def prolongation_1d(n: int, periodic: bool) -> sp.csr_array:
     nc = (n + 1) // 2
     fine = n if periodic else n + 1
     coarse = nc if periodic else nc + 1
-    rows, cols, vals = [], [], []
+    rows: list[int] = []
+    cols: list[int] = []
+    vals: list[float] = []
     for f in range(fine):
-        if f % 2 == 0:
-            rows.append(f), cols.append(f // 2), vals.append(1.0)
-        elif not periodic and f == n:
-            rows.append(f), cols.append(nc), vals.append(1.0)
+        if f % 2 == 0 or (not periodic and f == n):
+            rows.append(f)
+            cols.append(f // 2 if f % 2 == 0 else nc)
+            vals.append(1.0)
         else:
             rows += [f, f]
             cols += [f // 2, (f // 2 + 1) % coarse]
@@ -168,7 +170,7 @@ def mask_fixed(values: FloatArray, fixed: tuple[str, ...], k0: int, nz: int) -> 
         else:
             element = 0 if first else values.shape[3 + axis] - 1
         for c in classes:
-            sl = [slice(None)] * 6
+            sl: list[slice | int] = [slice(None)] * 6
             sl[axis] = c
             sl[3 + axis] = element
             values[tuple(sl)] = 0.0

@@ -60,8 +60,6 @@ class VoxelOperator:
             raise InputError(f"voxel operator needs a 3-D image, got shape {self.phase.shape}")
         if self.periodic and self.fixed:
             raise InputError("a periodic voxel operator has no faces to fix")
-        if self.periodic and min(self.phase.shape) < 2:
-            raise InputError(f"a periodic cell needs at least 2 voxels per axis, got {self.phase.shape}")
 
     @property
     def elements(self) -> tuple[int, int, int]:
@@ -127,9 +125,8 @@ class VoxelOperator:
 
         Computed in the vector's precision: float32 for a preconditioner, float64 otherwise.
         """
-        u = np.asarray(x)
-        dtype = np.dtype(np.float32) if u.dtype == np.float32 else np.dtype(np.float64)
-        u = u.astype(dtype, copy=False).reshape(self.node_shape)
+        dtype = np.dtype(np.float32) if np.asarray(x).dtype == np.float32 else np.dtype(np.float64)
+        u = np.asarray(x, dtype=dtype).reshape(self.node_shape)
         y = np.zeros(self.node_shape, dtype=dtype)
         table = self._weight_table(dtype)
         mask = constrained and bool(self.fixed)
@@ -178,7 +175,7 @@ class VoxelOperator:
         for k0 in range(0, nz, step):
             yield k0, min(nz, k0 + step)
 
-    def _gather(self, u: FloatArray, k0: int, k1: int, copy: bool) -> FloatArray:
+    def _gather(self, u: np.ndarray, k0: int, k1: int, copy: bool) -> FloatArray:
         """Node planes k0..k1 of the elements [k0, k1), with the ghost row/column of a periodic grid."""
         if not self.periodic:
             return u[k0:k1 + 1].copy() if copy else u[k0:k1 + 1]
@@ -245,6 +242,12 @@ class VoxelOperator:
         y[k0:k1] += out[:-1, :-1, :-1]
         y[k1 % self.elements[0]] += out[-1, :-1, :-1]
 
+    def node_points(self) -> FloatArray:
+        """(n, 3) node coordinates x, y, z (m) in the flat node order (for the nested-dissection ordering)."""
+        z, y, x = np.meshgrid(*(np.arange(s) * h for s, h in zip(self.node_shape, self.voxel_size[::-1],
+                                                                  strict=True)), indexing="ij")
+        return np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+
     def to_csr(self) -> sp.csr_array:
         """The constrained operator assembled (27-point rows): for direct solvers and tests."""
         from aromm.multigrid.hierarchy import ElementLevel
@@ -276,6 +279,7 @@ def _adjoint(s: FloatArray | None, d: FloatArray | None, stride: int) -> FloatAr
     out = np.empty(n + stride, dtype=ref.dtype)
     out[n:] = 0.0
     if s is None:
+        assert d is not None
         np.negative(d, out=out[:n])
         out[stride:] += d
     elif d is None:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 
 from aromm.errors import InputError, NumericalError
@@ -47,7 +48,7 @@ class _Level:
     lam: float
     shape: tuple[int, int, int]
     prolongations: tuple[sp.csr_array, sp.csr_array, sp.csr_array]
-    fixed: FloatArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    fixed: npt.NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
 
 @dataclass(eq=False)
@@ -71,7 +72,7 @@ class MultigridSolver:
         op = self.operator
         self.levels = [_Level(op, (1.0 / op.diagonal()).astype(dtype), _element_bound(op), op.node_shape,
                               _prolongations(op.elements, op.periodic, dtype))]
-        level = ElementLevel.coarse_of(op) if _coarsenable(op.elements, op.n, self.coarsest) else None
+        level = ElementLevel.coarse_of(op) if _coarsenable(op.elements, op.n, 0) else None  # ≥ 2 levels
         while level is not None:
             matrix = level.to_csr()
             coarser = _coarsenable(level.elements, matrix.shape[0], self.coarsest)
@@ -120,7 +121,7 @@ class MultigridSolver:
         r = b - a @ x if x0 is not None else b.copy()
         total = 0
         while True:
-            x, r, its = _pcg(a, self.precondition, x, r, self.rtol * nb, MAX_ITERATIONS - total)
+            x, r, its = _pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total)
             total += its
             r = b - a @ x  # the recursive residual drifts: restart from the true one until it is converged
             res = float(np.linalg.norm(r)) / nb
@@ -134,7 +135,7 @@ class MultigridSolver:
                                      f"iterations, above the tolerance {self.rtol:.0e}")
 
 
-def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, target: float, budget: int
+def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float, budget: int
          ) -> tuple[FloatArray, FloatArray, int]:
     z = m(r)  # type: ignore[operator]
     p = z.copy()
@@ -226,21 +227,23 @@ def _row_bound(matrix: sp.csr_array) -> float:
     return float(np.max(row / matrix.diagonal()))
 
 
+def pinned(matrix: sp.csr_array) -> sp.csr_array:
+    """A singular periodic operator with node 0's row and column replaced by the identity (T̃_0 = 0)."""
+    keep = np.ones(matrix.shape[0])
+    keep[0] = 0.0
+    pin = sp.diags_array(keep)
+    return sp.csr_array(pin @ matrix @ pin + sp.diags_array(1.0 - keep))
+
+
 def _direct(matrix: sp.csr_array, periodic: bool) -> object:
     """Coarsest-grid solve; a periodic (singular) operator has node 0 pinned and mean-free right-hand sides."""
-    if periodic:
-        keep = np.ones(matrix.shape[0])
-        keep[0] = 0.0
-        pin = sp.diags_array(keep)
-        matrix = sp.csr_array(pin @ matrix @ pin + sp.diags_array(1.0 - keep))
-    method = resolve_method("auto")
-    factor = factorize(matrix, method)
+    factor = factorize(pinned(matrix) if periodic else matrix, resolve_method("auto"))
 
     def solve(b: FloatArray) -> FloatArray:
-        rhs = b - b.mean() if periodic else b
-        if periodic:
-            rhs = rhs.copy()
-            rhs[0] = 0.0
+        if not periodic:
+            return factor.solve(b, check=False)
+        rhs = b - b.mean()
+        rhs[0] = 0.0
         return factor.solve(rhs, check=False)
 
     return solve
