@@ -133,7 +133,7 @@ class ElementLevel:
         shape = self.node_shape
         n = int(np.prod(shape))
         z, y, x = np.meshgrid(*(np.arange(s) for s in shape), indexing="ij")
-        cols = np.empty((n, 27), dtype=np.int64)
+        cols = np.empty((n, 27), dtype=np.int32 if 27 * n < 2**31 else np.int64)
         for offset, (oz, oy, ox) in enumerate(np.ndindex(3, 3, 3)):
             zz, yy, xx = z + oz - 1, y + oy - 1, x + ox - 1
             if self.periodic:
@@ -143,7 +143,9 @@ class ElementLevel:
                 index = np.where(inside, np.ravel_multi_index((zz, yy, xx), shape, mode="clip"),
                                  np.arange(n).reshape(shape))
             cols[:, offset] = index.ravel()
+        del z, y, x
         data = stencil.reshape(27, n).T.copy()
+        del stencil
         diag = data[:, 13]
         for face in self.fixed:
             axis = 2 - "xyz".index(face[0])
