@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from aromm.cell_problems import effective_conductivity, resolve_solver
+from aromm.cli import main
 from aromm.errors import InputError, NumericalError
 from aromm.fem import PhaseSpec
 from aromm.multigrid import solver as mg_solver
@@ -157,3 +161,18 @@ def test_solver_and_boundary_choices_are_checked() -> None:
         effective_conductivity(_random(4, 10.0), "mixed")
     with pytest.raises(InputError, match=r"\(0, 1\)"):
         effective_conductivity(_random(6, 10.0), "periodic", "mg", rtol=2.0)
+
+
+def test_cli_homogenize_periodic_by_default_with_multigrid(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    labels = np.zeros((6, 6, 6), dtype=np.uint8)
+    labels[:, :, :3] = 1
+    np.save(tmp_path / "img.npy", labels)
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[geometry]\nimage = "img.npy"\nvoxel_size = 1e-3\n[phases.a]\nlabel = 0\nk = 1.0\n'
+                     '[phases.b]\nlabel = 1\nk = 10.0\n', encoding="utf-8")
+    assert main(["homogenize", str(scene), "--solver", "mg", "--rtol", "1e-10", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["boundary"], out["solver"]) == ("periodic", "mg")
+    np.testing.assert_allclose(out["k"], np.diag([5.5, 5.5, 2 / 1.1]), rtol=1e-8, atol=1e-8)
+    assert main(["homogenize", str(scene), "--rtol", "0"]) == 2
+    assert main(["homogenize", str(scene), "--solver", "gmres"]) == 2
