@@ -150,13 +150,11 @@ class VoxelOperator:
 
     def diagonal(self) -> FloatArray:
         """Diagonal of the constrained operator: Σ_e (g_x + g_y + g_z)/9 over the elements at each node."""
-        if "diag" not in self._cache:
-            per_phase = self.conductances.sum(axis=1) / 9.0
-            d = self.spread(per_phase[self.phase], "SSS")
-            for axis, index in self.fixed_planes():
-                d.reshape(self.node_shape)[_plane(axis, index)] = 1.0
-            self._cache["diag"] = d
-        return self._cache["diag"]
+        per_phase = self.conductances.sum(axis=1) / 9.0
+        d = self.spread(per_phase[self.phase], "SSS")
+        for axis, index in self.fixed_planes():
+            d.reshape(self.node_shape)[_plane(axis, index)] = 1.0
+        return d
 
     def spread(self, element: FloatArray, pattern: str) -> FloatArray:
         """Adjoint of one Haar combination: nodes ← elements, e.g. ``"SSS"`` gives each element to its 8 nodes."""
