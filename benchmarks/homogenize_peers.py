@@ -94,7 +94,8 @@ def run(spec: dict[str, object]) -> dict[str, object]:
     proc = subprocess.run([sys.executable, __file__, "--worker", json.dumps(spec)], capture_output=True, text=True,
                           check=False)
     if proc.returncode != 0:
-        return {"skipped": f"failed: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}"}
+        last = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else f"exit {proc.returncode}"
+        return {"skipped": f"failed: {last}"}
     return {**json.loads(proc.stdout.strip().splitlines()[-1]), "load": os.getloadavg()[0]}
 
 
