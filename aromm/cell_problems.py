@@ -19,7 +19,7 @@ whose weight falls like 1/n with the image size n, and bracket one another [Huet
 
 ``flux`` and ``temperature`` give the principal values along the image axes (off-diagonal zero).  Solvers:
 ``mg`` (geometric multigrid CG, :mod:`aromm.multigrid`, ≈ 200 B/voxel) or a direct/AMG method of
-:mod:`aromm.linalg` on the assembled operator; ``auto`` takes ``mg`` from ``MG_CROSSOVER_VOXELS`` voxels on
+:mod:`aromm.linalg` on the assembled operator; ``auto`` takes ``mg`` from ``MG_CROSSOVER_VOXELS`` (20³) voxels on
 (benchmarks/homogenize_peers.py measures the crossover).
 """
 
@@ -40,7 +40,7 @@ from aromm.system import FloatArray
 
 BOUNDARIES = ("periodic", "flux", "temperature")
 SOLVERS = (*METHODS, "mg")
-MG_CROSSOVER_VOXELS = 40**3  # measured crossover with CHOLMOD, benchmarks/homogenize_peers.py
+MG_CROSSOVER_VOXELS = 20**3  # multigrid beats CHOLMOD and pyamg SA from 16³–24³ on (homogenize_peers.py)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
 
 

@@ -90,7 +90,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
                    "fixed T out; lower-bound type); temperature: fixed T on both faces (upper-bound type).")
 @click.option("--solver", type=click.Choice(SOLVERS), default="auto", show_default=True,
               help="mg: geometric multigrid CG (matrix-free, ~200 B/voxel); cholmod, splu: direct; amg: pyamg + CG; "
-                   "auto: mg from 40³ voxels on, else cholmod.")
+                   "auto: mg from 20³ voxels on, else cholmod.")
 @click.option("--rtol", type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
               show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach.")
 @REFINE
