@@ -39,7 +39,7 @@ from aromm.scene import Scene
 from aromm.system import FloatArray
 
 BOUNDARIES = ("periodic", "flux", "temperature")
-SOLVERS = (*METHODS, "mg")
+SOLVERS = METHODS
 MG_CROSSOVER_VOXELS = 20**3  # multigrid beats CHOLMOD and pyamg SA from 16³–24³ on (homogenize_peers.py)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
 

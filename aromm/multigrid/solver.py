@@ -23,6 +23,7 @@ import scipy.sparse as sp
 
 from aromm.errors import InputError, NumericalError
 from aromm.linalg import DEFAULT_RTOL, factorize, resolve_method
+from aromm.multigrid.assembled import GridMatrix, galerkin
 from aromm.multigrid.hierarchy import ElementLevel, prolongation_1d
 from aromm.multigrid.operator import VoxelOperator
 from aromm.system import FloatArray
@@ -55,13 +56,14 @@ class _Level:
 class MultigridSolver:
     """``solve(b)`` for the constrained voxel operator; ``iterations`` lists the CG count of every solve."""
 
-    operator: VoxelOperator
+    operator: VoxelOperator | GridMatrix
     rtol: float = DEFAULT_RTOL
     coarsest: int = COARSEST_NODES
     precision: str = "single"
     levels: list[_Level] = field(init=False)
     coarse_solve: object = field(init=False)
     iterations: list[int] = field(default_factory=list)
+    _matrix: sp.csr_array | None = field(init=False, default=None)  # float64 operator of CG when assembled
 
     def __post_init__(self) -> None:
         if not 0 < self.rtol < 1:
@@ -70,6 +72,9 @@ class MultigridSolver:
             raise InputError(f"multigrid precision {self.precision!r}; allowed: {', '.join(PRECISIONS)}")
         dtype = PRECISIONS[self.precision]
         op = self.operator
+        if not isinstance(op, VoxelOperator):
+            self._assembled(op, dtype)
+            return
         self.levels = [_Level(op, (1.0 / op.diagonal()).astype(dtype), _element_bound(op), op.node_shape,
                               _prolongations(op.elements, op.periodic, dtype))]
         level = ElementLevel.coarse_of(op) if _coarsenable(op.elements, op.n, 0) else None  # ≥ 2 levels
@@ -86,6 +91,22 @@ class MultigridSolver:
                                       _prolongations(level.elements, op.periodic, dtype), fixed))
             level = level.coarse()
         self.coarse_solve = None  # single level: Chebyshev-preconditioned CG only
+
+    def _assembled(self, grid: GridMatrix, dtype: type) -> None:
+        """Levels of an assembled grid matrix (aromm.multigrid.assembled): Galerkin products by scipy."""
+        a, shape, fixed = grid.full(), grid.shape, grid.missing()
+        self._matrix = a
+        self.levels = []
+        while True:
+            elements = (shape[0] - 1, shape[1] - 1, shape[2] - 1)
+            last = bool(self.levels) and not _coarsenable(elements, a.shape[0], self.coarsest)
+            if last or min(elements) < 4:  # coarsest (the fine grid itself if too small: then a direct solve)
+                self.levels.append(_Level(a, np.zeros(0), 0.0, shape, (), np.flatnonzero(fixed)))  # type: ignore[arg-type]
+                self.coarse_solve = _direct(a, periodic=False)
+                return
+            self.levels.append(_Level(a.astype(dtype), (1.0 / a.diagonal()).astype(dtype), _row_bound(a), shape,
+                                      _prolongations(elements, False, dtype), np.flatnonzero(fixed)))
+            a, shape, fixed = galerkin(a, shape, fixed)
 
     def precondition(self, r: FloatArray) -> FloatArray:
         """One V-cycle from a zero guess, in the solver's precision; the result in float64."""
@@ -116,7 +137,7 @@ class MultigridSolver:
         if nb == 0.0:
             self.iterations.append(0)
             return np.zeros_like(b)
-        a = self.operator
+        a: _Operator = self.operator if self._matrix is None else self._matrix  # type: ignore[assignment]
         x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float)
         r = b - a @ x if x0 is not None else b.copy()
         total = 0
