@@ -22,7 +22,8 @@ from inverse.measurements import Measurements, homogeneous_measurements, save_me
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
-                      help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG; mg: geometric multigrid + CG).")
+                      help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG; "
+                           "mg: geometric multigrid + CG).")
 
 
 def _table(obs: Observables, rows: int = 10) -> str:
