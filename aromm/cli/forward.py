@@ -88,7 +88,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 @SCENE
 @click.option("--boundary", type=click.Choice(BOUNDARIES), default="periodic", show_default=True,
               help="periodic: full tensor, converges to the effective property; flux: seed 001 eq. 13 (flux in, "
-                   "fixed T out; lower-bound type); temperature: fixed T on both faces (upper-bound type).")
+                   "fixed T out; lower-bound type); temperature: fixed T on both faces (mixed, exact on laminates).")
 @click.option("--solver", type=click.Choice(SOLVERS), default="auto", show_default=True,
               help="mg: geometric multigrid CG (matrix-free, ~200 B/voxel); cholmod, splu: direct; amg: pyamg + CG; "
                    "auto: mg from 20³ voxels on, else cholmod.")
