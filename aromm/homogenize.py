@@ -4,8 +4,8 @@
 conditions: ``"periodic"`` (the default: full tensor with its off-diagonal terms, the value that converges
 to the effective property of the medium), ``"flux"`` (seed 001 eq. 13: uniform flux into face i0, T = 0 on
 face i1, adiabatic sides — a lower-bound type condition) and ``"temperature"`` (T fixed on both faces,
-adiabatic sides — a mixed condition, exact for laminates and mirror-symmetric cells).  The effective capacity is the volume
-average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
+adiabatic sides — a mixed condition, exact for laminates and mirror-symmetric cells).  The effective
+capacity is the volume average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
 
 Seed 001 § 4.2 applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
 experimental technique on the heterogeneous model *according to the three scenarios of Table 1*", i.e.
