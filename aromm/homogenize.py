@@ -22,10 +22,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse as sp
 
-from aromm.cell_problems import BOUNDARIES, effective_conductivity
+from aromm.cell_problems import BOUNDARIES, PROBE_FLUX, effective_conductivity
 from aromm.errors import InputError, NumericalError
-from aromm.fem import FaceSpec, PhaseSpec  # noqa: F401  (FaceSpec: used by the doctest of fluxmetric)
+from aromm.fem import FaceSpec, PhaseSpec
 from aromm.scene import Scene, assemble
 from aromm.solve import steady_field
 from aromm.system import FloatArray
@@ -41,8 +42,33 @@ def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto") -
     and bounds in :mod:`aromm.cell_problems`.  Uses the scene's geometry and phases only; it applies the
     boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a linear solver of
     aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on).
+    A mesh scene takes ``"flux"`` or ``"temperature"`` (principal values, assembled mesh model).
     """
-    return effective_conductivity(scene, boundary, method).k
+    if scene.mesh is None:
+        return effective_conductivity(scene, boundary, method).k
+    if boundary not in ("flux", "temperature"):
+        raise InputError(f"{scene.where}a mesh scene is homogenised with boundary 'flux' or 'temperature' "
+                         f"(periodic conditions need a voxel image), got {boundary!r}")
+    return _mesh_tensor(scene, boundary, method)
+
+
+def _mesh_tensor(scene: Scene, boundary: str, method: str) -> FloatArray:
+    """Principal values on a mesh scene, by the assembled model: eq. 13 (``flux``) or fixed temperatures."""
+    k = np.zeros((3, 3))
+    size = scene.size
+    for i, axis in enumerate("xyz"):
+        hot, cold = f"{axis}0", f"{axis}1"
+        area = size[0] * size[1] * size[2] / size[i]
+        probe = FaceSpec(hot, flux=PROBE_FLUX) if boundary == "flux" else FaceSpec(hot, T=1.0)
+        system = assemble(scene.with_boundary((probe, FaceSpec(cold, T=0.0)), (hot, cold), time=None))
+        field = steady_field(system, method=method)
+        if boundary == "flux":
+            drop = float(system.observation[hot] @ field - system.observation[cold] @ field)
+            k[i, i] = PROBE_FLUX * size[i] / drop
+        else:
+            reaction = sp.csr_array(system.conductance.evaluate(system.values())) @ field
+            k[i, i] = float(reaction[system.dirichlet[0].dofs].sum()) * size[i] / area
+    return k
 
 
 @dataclass(frozen=True)

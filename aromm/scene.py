@@ -98,10 +98,10 @@ class Scene:
         """
         if isinstance(factor, bool) or not isinstance(factor, int | np.integer) or factor < 1:
             raise InputError(f"{self.where}refine: the refinement factor must be a positive integer, got {factor!r}")
-        if self.mesh is not None:
-            raise InputError(f"{self.where}refine: a mesh scene has no voxels to split; refine the mesh instead")
         if factor == 1:
             return self
+        if self.mesh is not None:
+            raise InputError(f"{self.where}refine: a mesh scene has no voxels to split; refine the mesh instead")
         limit = physical_memory() if budget is None else float(budget)
         need = float(self.labels.size) * factor**3 * bytes_per_voxel
         if need > limit:

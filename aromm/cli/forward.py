@@ -9,7 +9,7 @@ import click
 import meshio
 import numpy as np
 
-from aromm.cell_problems import SOLVERS, effective_conductivity
+from aromm.cell_problems import SOLVERS, CellResult, effective_conductivity
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json, refine_scene
 from aromm.errors import InputError
 from aromm.homogenize import BOUNDARIES, fluxmetric, homogenize, mean_capacity
@@ -86,9 +86,10 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 
 @click.command("homogenize")
 @SCENE
-@click.option("--boundary", type=click.Choice(BOUNDARIES), default="periodic", show_default=True,
-              help="periodic: full tensor, converges to the effective property; flux: seed 001 eq. 13 (flux in, "
-                   "fixed T out; lower-bound type); temperature: fixed T on both faces (mixed, exact on laminates).")
+@click.option("--boundary", type=click.Choice(BOUNDARIES), default=None,
+              help="periodic (default for images): full tensor, converges to the effective property; flux: seed 001 "
+                   "eq. 13 (flux in, fixed T out; lower-bound type; default for mesh scenes); temperature: fixed T on "
+                   "both faces (mixed, exact on laminates).")
 @click.option("--solver", type=click.Choice(SOLVERS), default="auto", show_default=True,
               help="mg: geometric multigrid CG (matrix-free, ~200 B/voxel); cholmod, splu: direct; amg: pyamg + CG; "
                    "auto: mg from 20³ voxels on, else cholmod.")
@@ -96,11 +97,18 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
               show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach.")
 @REFINE
 @JSON
-def homogenize_cmd(scene: Path, *, boundary: str, solver: str, rtol: float, refine: int, as_json: bool) -> None:
+def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, refine: int,
+                   as_json: bool) -> None:
     """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
     direct = solver in ("cholmod", "splu")
     sc = refine_scene(load_scene(scene), refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
-    result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
+    if sc.mesh is not None:
+        boundary = boundary or "flux"
+        k = homogenize(sc, boundary=boundary, method=solver)
+        result = CellResult(k, boundary, solver)
+    else:
+        boundary = boundary or "periodic"
+        result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
     k = result.k
     c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
     if as_json:
