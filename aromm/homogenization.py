@@ -38,7 +38,8 @@ from aromm.geometry import VoxelGeometry
 from aromm.scene import Scene, assemble
 from aromm.solve import reaction_heat_flow, steady_field
 from aromm.system import FloatArray
-from aromm.vocabulary import FaceSpec, PhaseSpec, opposite
+from aromm.profiles import Profile
+from aromm.vocabulary import FaceSpec, PhaseSpec, held, opposite
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
@@ -99,7 +100,7 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     2.0
     """
     where = scene.where
-    heated = [f for f in scene.boundary if f.flux is not None and f.flux != 0.0]
+    heated = [f for f in scene.boundary if isinstance(f.flux, Profile) or (f.flux is not None and f.flux != 0.0)]
     if len(heated) != 1:
         raise InputError(f"{where}the fluxmetric conductivity [Chavez2020, eq. 13] needs exactly one [boundary] face "
                          f"with a non-zero flux (S1); found {[f.face for f in heated] or 'none'}")
@@ -112,12 +113,13 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
         raise InputError(f"{where}the fluxmetric conductivity needs face {cold} (opposite S1 = {s1.face}) under "
                          f"convection (h) or a fixed temperature (T) and every other face adiabatic; "
                          f"faces with other conditions: {others or 'none'}")
-    steady = scene.with_boundary(scene.boundary, (s1.face, cold), time=None)
-    system = assemble(steady)
+    # a history is replaced by its held value, the heated face's by the probe flux (the problem is linear)
+    flux = PROBE_FLUX if isinstance(s1.flux, Profile) else float(s1.flux)  # type: ignore[arg-type]
+    faces = tuple(FaceSpec(f.face, flux=flux) if f is s1 else held(f) for f in scene.boundary)
+    system = assemble(scene.with_boundary(faces, (s1.face, cold), time=None))
     field = steady_field(system, method=method)
     drop = float(system.observation[s1.face] @ field - system.observation[cold] @ field)
     length = scene.size["xyz".index(axis)]
-    flux = float(s1.flux)  # type: ignore[arg-type]
     if not (np.isfinite(drop) and drop * flux > 0):
         raise NumericalError(f"{where}steady face-mean drop T̄_{s1.face} − T̄_{cold} = {drop:g} K has not the sign "
                              f"of the flux {flux:g} W/m²; cannot define a conductivity")
