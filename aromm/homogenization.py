@@ -35,10 +35,10 @@ import numpy.typing as npt
 
 from aromm.errors import InputError, NumericalError
 from aromm.geometry import VoxelGeometry
+from aromm.profiles import Profile
 from aromm.scene import Scene, assemble
 from aromm.solve import reaction_heat_flow, steady_field
 from aromm.system import FloatArray
-from aromm.profiles import Profile
 from aromm.vocabulary import FaceSpec, PhaseSpec, held, opposite
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)

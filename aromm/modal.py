@@ -20,6 +20,7 @@ requested times inside each interval are evaluated at once.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -95,7 +96,7 @@ class ModalForm:
         knots = np.unique(np.concatenate([g.breakpoints for _, g in self.timed] or [np.zeros(0)]))
         edges = np.concatenate([[0.0], knots[(knots > 0.0) & (knots < ts[-1])], [ts[-1]]])
         y = self.y0
-        for a, b in zip(edges[:-1], edges[1:], strict=True):
+        for a, b in itertools.pairwise(edges):
             b0, b1 = self._inputs(float(a), float(b))
             stop = int(np.searchsorted(ts, b, side="right"))
             if stop > pos:

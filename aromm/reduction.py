@@ -210,7 +210,7 @@ def reduce(
     detailed = DetailedModel(basis, model, np.hstack(snapshots))
     stages.next(f"{reductor.name} to order {order}")
     coefficients = np.eye(basis.size) if order >= basis.size else reductor.coefficients(detailed, int(order))
-    rom = model.transform(coefficients)
+    rom = model.transform(independent(coefficients, basis.gram))
     check_t = snapshot_times(system.time)
     own = {k: v for k, v in cases[0].values.items() if k in model.parameter_names}
     err = float(np.abs(rom.simulate(own, check_t).as_array() - model.simulate(own, check_t).as_array()).max(
@@ -231,6 +231,24 @@ def reduce(
     if store is not None:
         store.save("rom", key, to_arrays(rom))
     return rom
+
+
+#: Reduced columns whose capacity Gram eigenvalue is below this fraction of the largest are dependent.
+DEPENDENT_COLUMNS = 1e-10
+
+
+def independent(coefficients: FloatArray, gram: FloatArray) -> FloatArray:
+    """The coefficients A unchanged when the columns of Ψ = Φ A are independent in the capacity product
+    (``AᵀGA``, G = ΦᵀC0Φ); otherwise an orthonormal basis of their span without the dependent directions
+    (the Galerkin model depends on the span only).  Kept correction vectors can fall in the span of the
+    amalgamated modes when the detailed basis is complete (tiny bodies) and make L singular."""
+    g = coefficients.T @ gram @ coefficients
+    w, u = np.linalg.eigh((g + g.T) / 2)
+    keep = w > DEPENDENT_COLUMNS * float(w.max(initial=0.0))
+    if np.all(keep):
+        return coefficients
+    log.info("reduce: %d dependent reduced column(s) dropped", int(np.count_nonzero(~keep)))
+    return (coefficients @ u[:, keep]) / np.sqrt(w[keep])
 
 
 def _lifted(case: ThermalSystem | ReferenceCase, values: Mapping[str, float], solver: str) -> ThermalSystem | \
