@@ -93,6 +93,8 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     under convection or a fixed temperature, every other face adiabatic.  The steady state of the
     heterogeneous model is solved (no capacity is assembled) and k = φ L / (T̄_S1 − T̄_S2).  Along a
     loaded axis a homogeneous twin of conductivity k then has the same steady face means as the sample.
+    A history on S1 (a pulse, :mod:`aromm.profiles`) is replaced by the constant probe flux and the other
+    histories by their held final values: k does not depend on them (the problem is linear).
 
     >>> slab = Scene(VoxelGeometry(np.zeros((4, 1, 1), dtype=int), (1e-3, 1e-3, 1e-3)), (PhaseSpec("m", 0, 2.0),),
     ...              (FaceSpec("x0", flux=100.0), FaceSpec("x1", h=10.0)))

@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError
-from aromm.model import ForwardModel
+from aromm.model import ForwardModel, one_set
 from aromm.observables import Observables
 from aromm.system import FloatArray
 
@@ -54,9 +54,7 @@ class TimeShifted:
 
     def simulate(self, params: Mapping[str, float] | None = None,
                  times: npt.ArrayLike | None = None) -> Observables:
-        t = self._times(times)
-        y = self.simulate_batch({k: [v] for k, v in (params or {}).items()}, t)[0]
-        return Observables(t=t, mean_T={name: y[:, i] for i, name in enumerate(self.outputs)})
+        return one_set(self, params, self._times(times))
 
     def simulate_batch(self, params: Mapping[str, npt.ArrayLike],
                        times: npt.ArrayLike | None = None) -> FloatArray:

@@ -38,6 +38,7 @@ from threadpoolctl import ThreadpoolController
 
 from aromm.errors import InputError, NumericalError
 from aromm.modal import ModalForm
+from aromm.model import one_set
 from aromm.observables import Observables
 from aromm.profiles import Profile
 from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
@@ -170,9 +171,7 @@ class ReducedModel:
     def simulate(self, params: Mapping[str, float] | None = None,
                  times: npt.ArrayLike | None = None) -> Observables:
         """One parameter set (overrides of the scene's values) → face means at ``times`` (exact in time)."""
-        t = self._times(times)
-        y = self.simulate_batch({k: [v] for k, v in (params or {}).items()}, t)[0]
-        return Observables(t=t, mean_T={name: y[:, i] for i, name in enumerate(self.outputs)})
+        return one_set(self, params, self._times(times))
 
     def simulate_batch(self, params: Mapping[str, npt.ArrayLike],
                        times: npt.ArrayLike | None = None) -> FloatArray:
