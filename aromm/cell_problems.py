@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from aromm.errors import InputError
+from aromm.geometry import VoxelGeometry
 from aromm.linalg import DEFAULT_RTOL, METHODS, check_residual, factorize, resolve_method
 from aromm.multigrid.operator import VoxelOperator
 from aromm.multigrid.solver import MultigridSolver, pinned
@@ -72,9 +73,8 @@ def resolve_solver(method: str, voxels: int) -> str:
 
 def voxel_operator(scene: Scene, periodic: bool = False, fixed: tuple[str, ...] = ()) -> VoxelOperator:
     """The scene's conduction operator on its voxel grid (arrays in (z, y, x) order)."""
-    if scene.mesh is not None:
-        raise InputError(f"{scene.where}homogenisation runs on voxel images; this scene is a mesh")
-    labels = np.asarray(scene.labels)
+    image = _image(scene)
+    labels = np.asarray(image.labels)
     known = {ph.label: i for i, ph in enumerate(scene.phases)}
     present = np.unique(labels)
     missing = sorted(set(present.tolist()) - set(known))
@@ -85,7 +85,13 @@ def voxel_operator(scene: Scene, periodic: bool = False, fixed: tuple[str, ...] 
         lookup[label - int(present.min())] = known[label]
     phase = np.ascontiguousarray(lookup[labels - int(present.min())].transpose(2, 1, 0))
     table = np.array([ph.k if isinstance(ph.k, tuple) else (ph.k,) * 3 for ph in scene.phases], dtype=float)
-    return VoxelOperator(phase, table, scene.voxel_size, periodic=periodic, fixed=fixed)
+    return VoxelOperator(phase, table, image.voxel_size, periodic=periodic, fixed=fixed)
+
+
+def _image(scene: Scene) -> VoxelGeometry:
+    if not isinstance(scene.geometry, VoxelGeometry):
+        raise InputError(f"{scene.where}the cell problems run on voxel images; this scene is a mesh")
+    return scene.geometry
 
 
 def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str = "auto",
@@ -93,7 +99,7 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
     """Apparent conductivity tensor of the scene's image under ``boundary`` (see the module docstring)."""
     if boundary not in BOUNDARIES:
         raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
-    name = resolve_solver(method, int(np.asarray(scene.labels).size))
+    name = resolve_solver(method, int(np.asarray(_image(scene).labels).size))
     result = CellResult(np.zeros((3, 3)), boundary, name)
     if boundary == "periodic":
         _periodic(scene, name, rtol, result)
@@ -144,7 +150,7 @@ def _periodic(scene: Scene, method: str, rtol: float, result: CellResult) -> Non
     solve = _solver(op, method, rtol, result)
     volume = float(np.prod(scene.size))
     fractions = np.bincount(op.phase.ravel(), minlength=len(op.conductivity)) / op.phase.size
-    loads = [-op.spread(op.conductances[:, j][op.phase] * scene.voxel_size[j] / 4.0, pattern)  # −Qᵀ A g_j
+    loads = [-op.spread(op.conductances[:, j][op.phase] * op.voxel_size[j] / 4.0, pattern)  # −Qᵀ A g_j
              for j, pattern in enumerate(("DSS", "SDS", "SSD"))]
     for j in range(3):
         field_ = _timed(result, solve, loads[j])  # T̃_j, used at once: three loads and one field held
@@ -182,10 +188,11 @@ def _faces(scene: Scene, axis: int, boundary: str, *, method: str, rtol: float, 
 
 def _face_weights(scene: Scene, axis: int) -> FloatArray:
     """Nodal areas ∫ φ_n of the face normal to ``axis`` (array order: the two other axes, slowest first)."""
+    image = _image(scene)
     others = [a for a in (2, 1, 0) if a != axis]  # z, y, x order
     ones = []
     for a in others:
-        w = np.full(scene.labels.shape[a] + 1, scene.voxel_size[a])
+        w = np.full(image.labels.shape[a] + 1, image.voxel_size[a])
         w[[0, -1]] *= 0.5
         ones.append(w)
     return np.outer(ones[0], ones[1])

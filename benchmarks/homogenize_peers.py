@@ -75,10 +75,11 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
                "threads": torch.get_num_threads()}
     else:
         from aromm.cell_problems import effective_conductivity
-        from aromm.fem import PhaseSpec
+        from aromm.geometry import VoxelGeometry
         from aromm.scene import Scene
+        from aromm.vocabulary import PhaseSpec
 
-        scene = Scene(labels, (1e-3 / n,) * 3, (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)))
+        scene = Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)))
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         method, boundary = tool.split("-")
         cpu, wall = time.process_time(), time.perf_counter()

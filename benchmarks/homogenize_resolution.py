@@ -42,11 +42,12 @@ SLOPE = (maxwell(PHI + 1e-6) - maxwell(PHI - 1e-6)) / 2e-6
 
 
 def _scene(labels: np.ndarray, k1: float = 10.0):  # type: ignore[no-untyped-def]
-    from aromm.fem import PhaseSpec
+    from aromm.geometry import VoxelGeometry
     from aromm.scene import Scene
+    from aromm.vocabulary import PhaseSpec
 
     n = labels.shape[0]
-    return Scene(labels, (1e-3 / n,) * 3, (PhaseSpec("m", 0, 1.0), PhaseSpec("i", 1, k1)))
+    return Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, 1.0), PhaseSpec("i", 1, k1)))
 
 
 def sphere(n: int) -> np.ndarray:
@@ -105,7 +106,7 @@ def refine_worker(factor: int) -> dict[str, object]:
     result = effective_conductivity(scene, "periodic", "mg")
     return {"k": np.diag(result.k).tolist(), "cpu": time.process_time() - cpu, "wall": time.perf_counter() - wall,
             "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, "base": base,
-            "shape": list(scene.labels.shape), "iterations": result.iterations}
+            "shape": list(scene.geometry.labels.shape), "iterations": result.iterations}
 
 
 def observed_order(values: list[float]) -> tuple[float, float]:

@@ -11,18 +11,19 @@ import pytest
 from aromm.cell_problems import effective_conductivity, resolve_solver
 from aromm.cli import main
 from aromm.errors import InputError, NumericalError
-from aromm.fem import PhaseSpec
+from aromm.geometry import VoxelGeometry
 from aromm.multigrid import solver as mg_solver
 from aromm.scene import Scene
+from aromm.vocabulary import PhaseSpec
 
-SC_EXACT = 1.39573  # simple-cubic array of spheres, radius L/3, κ = 10 (shared/method/solvers.md)
+SC_EXACT = 1.39573  # simple-cubic array of spheres, radius L/3, κ = 10 [Rayleigh1892; McPhedranMcKenzie1978]
 PHI_SPHERE = 4.0 * np.pi / 81.0
 RTOL = 1e-10  # solver tolerance of these tests; tensor tolerances derive from it
 
 
 def _two_phase(labels: np.ndarray, k0: float | tuple[float, float, float] = 1.0,
                k1: float | tuple[float, float, float] = 10.0, voxel: tuple[float, float, float] = (1e-3,) * 3) -> Scene:
-    return Scene(np.asarray(labels), voxel, (PhaseSpec("a", 0, k0), PhaseSpec("b", 1, k1)))
+    return Scene(VoxelGeometry(np.asarray(labels), voxel), (PhaseSpec("a", 0, k0), PhaseSpec("b", 1, k1)))
 
 
 def _means(frac: float, k0: float, k1: float) -> tuple[float, float]:
@@ -82,7 +83,7 @@ def test_rotated_laminate_converges_to_the_analytic_off_diagonal_terms() -> None
     np.testing.assert_allclose(orders, 1.0, atol=0.1)
     richardson = 2 * tensors[2][:2, :2] - tensors[1][:2, :2]
     np.testing.assert_allclose(richardson, exact, rtol=2e-3)
-    mirrored = effective_conductivity(_two_phase(_diagonal_laminate(4, k0, k1).labels[::-1]), "periodic",
+    mirrored = effective_conductivity(_two_phase(_diagonal_laminate(4, k0, k1).geometry.labels[::-1]), "periodic",
                                       "cholmod", rtol=RTOL).k
     assert mirrored[0, 1] == pytest.approx(-tensors[0][0, 1], rel=1e-9)  # x → −x flips k_xy
 
@@ -106,7 +107,7 @@ def test_sphere_in_cube_periodic_converges_to_the_simple_cubic_value() -> None:
         k = effective_conductivity(scene, "periodic", "mg" if n > 12 else "cholmod", rtol=RTOL).k
         np.testing.assert_allclose(np.diag(k), k[0, 0], rtol=1e-7)  # cubic symmetry
         assert np.max(np.abs(k - np.diag(np.diag(k)))) < 1e-7 * k[0, 0]
-        corrected.append(k[0, 0] + slope * (PHI_SPHERE - float(scene.labels.mean())))
+        corrected.append(k[0, 0] + slope * (PHI_SPHERE - float(scene.geometry.labels.mean())))
     assert corrected[0] > corrected[1] > SC_EXACT  # Q1 on voxels is stiffer: converges from above
     assert 2 * corrected[1] - corrected[0] == pytest.approx(SC_EXACT, rel=3e-3)  # Richardson, first order
 

@@ -7,10 +7,11 @@ import pytest
 import scipy.sparse as sp
 
 from aromm.errors import InputError
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.fem import assemble_voxels
 from aromm.linalg import factorize
 from aromm.solve import _partition, _points, _split, steady_field
 from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 RTOL = 1e-10
 

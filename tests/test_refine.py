@@ -12,39 +12,41 @@ from scene_text import scenario_1
 
 from aromm.cli import main
 from aromm.errors import InputError
-from aromm.fem import FaceSpec, PhaseSpec
-from aromm.homogenize import homogenize
+from aromm.geometry import VoxelGeometry
+from aromm.homogenization import homogenize
 from aromm.scene import Scene, assemble
 from aromm.solve import steady_field
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 PHASES = (PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6))
 
 
 def _random_scene(shape: tuple[int, int, int] = (3, 4, 2)) -> Scene:
     labels = np.random.default_rng(3).integers(0, 2, size=shape).astype(np.uint8)
-    return Scene(labels, (1e-3, 2e-3, 0.5e-3), PHASES)
+    return Scene(VoxelGeometry(labels, (1e-3, 2e-3, 0.5e-3)), PHASES)
 
 
 @pytest.mark.parametrize("factor", [1, 2, 3])
 def test_refined_scene_keeps_box_fractions_and_labels(factor: int) -> None:
     scene = _random_scene()
     fine = scene.refined(factor)
-    assert fine.labels.shape == tuple(factor * n for n in scene.labels.shape)
-    assert fine.labels.dtype == scene.labels.dtype
+    coarse_labels, fine_labels = scene.geometry.labels, fine.geometry.labels
+    assert fine_labels.shape == tuple(factor * n for n in coarse_labels.shape)
+    assert fine_labels.dtype == coarse_labels.dtype
     np.testing.assert_allclose(fine.size, scene.size, rtol=1e-15)
     fractions, fine_fractions = scene.volume_fractions(), fine.volume_fractions()
     for name in fractions:
         assert fine_fractions[name] == pytest.approx(fractions[name], rel=1e-12)
     # every sub-voxel carries the label of the voxel it lies in
-    i, j, k = (np.arange(n) // factor for n in fine.labels.shape)
-    np.testing.assert_array_equal(fine.labels, scene.labels[np.ix_(i, j, k)])
+    i, j, k = (np.arange(n) // factor for n in fine_labels.shape)
+    np.testing.assert_array_equal(fine_labels, coarse_labels[np.ix_(i, j, k)])
 
 
 def test_refined_laminate_keeps_the_exact_means() -> None:
     """Q1 is exact on a laminate at any resolution: refining changes nothing but the cost."""
     labels = np.zeros((3, 2, 4), dtype=np.int64)
     labels[:, :, 1:3] = 1
-    scene = Scene(labels, (1e-3, 1e-3, 1e-3), PHASES)
+    scene = Scene(VoxelGeometry(labels, (1e-3, 1e-3, 1e-3)), PHASES)
     harmonic = 1.0 / (0.5 / 0.025 + 0.5 / 0.3)
     arithmetic = 0.5 * (0.025 + 0.3)
     k = homogenize(scene.refined(2), boundary="temperature")
@@ -53,7 +55,7 @@ def test_refined_laminate_keeps_the_exact_means() -> None:
 
 def test_refined_slab_has_the_same_face_means() -> None:
     """Homogeneous slab under flux/convection: the linear steady profile is exact on any Q1 mesh."""
-    scene = Scene(np.zeros((2, 2, 3), dtype=np.int64), (1e-3,) * 3, (PhaseSpec("m", 0, 2.0),),
+    scene = Scene(VoxelGeometry(np.zeros((2, 2, 3), dtype=np.int64), (1e-3,) * 3), (PhaseSpec("m", 0, 2.0),),
                   (FaceSpec("z0", flux=100.0), FaceSpec("z1", h=10.0)), outputs=("z0", "z1"))
     means = []
     for factor in (1, 3):
@@ -72,13 +74,13 @@ def test_refine_refuses_a_factor_that_is_not_a_positive_integer(factor: object) 
 
 def test_refine_refuses_a_problem_larger_than_the_budget() -> None:
     scene = _random_scene((10, 10, 10))
-    assert scene.refined(2, bytes_per_voxel=100.0, budget=8e5).labels.shape == (20, 20, 20)
+    assert scene.refined(2, bytes_per_voxel=100.0, budget=8e5).geometry.labels.shape == (20, 20, 20)
     with pytest.raises(InputError, match="30×30×30"):
         scene.refined(3, bytes_per_voxel=100.0, budget=8e5)
 
 
 def test_refine_refuses_a_mesh_scene() -> None:
-    scene = replace(_random_scene(), mesh=object())  # type: ignore[arg-type]
+    scene = replace(_random_scene(), geometry=object())  # type: ignore[arg-type]
     with pytest.raises(InputError, match="mesh"):
         scene.refined(2)
 

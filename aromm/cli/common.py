@@ -14,7 +14,7 @@ from tqdm import tqdm
 from aromm.errors import InputError, NumericalError
 from aromm.scene import Scene
 
-# Peak memory per voxel of the direct (CHOLMOD) path, measured at 80³: 5.5 GB for 5.2e5 nodes (shared/method/solvers.md)
+# Peak memory per voxel of the direct (CHOLMOD) path, measured at 80³: 5.5 GB for 5.2e5 nodes (issue 12)
 DIRECT_BYTES_PER_VOXEL = 1.1e4
 
 REFINE = click.option("--refine", type=click.IntRange(min=1), default=1, show_default=True,

@@ -12,12 +12,14 @@ import numpy as np
 from aromm.cell_problems import SOLVERS, CellResult, effective_conductivity
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json, refine_scene
 from aromm.errors import InputError
-from aromm.homogenize import BOUNDARIES, fluxmetric, homogenize, mean_capacity
+from aromm.geometry import VoxelGeometry
+from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import DEFAULT_RTOL, METHODS
+from aromm.observables import Observables, write_csv
 from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from aromm.solve import simulate as simulate_full
-from aromm.system import Observables, ThermalSystem
-from inverse.measurements import Measurements, homogeneous_measurements, save_measurements
+from aromm.system import ThermalSystem
+from inverse.measurements import homogeneous_measurements, save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
@@ -41,7 +43,7 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
     written = [out / "observables.csv"]
     if not obs.mean_T:
         raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
-    save_measurements(Measurements(obs.t, obs.mean_T, "simulate"), written[0])
+    write_csv(obs, written[0], "observables file")
     if obs.fields is not None and system.geometry is not None:
         geo = system.geometry
         mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
@@ -69,9 +71,10 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
     sc = refine_scene(load_scene(scene), refine)
     system = assemble(sc)
     if model == "reduced":
-        from aromm.reduced import reduce
+        from aromm.reduction import reduce
 
-        obs = reduce(system, order=order, progress=sys.stderr.isatty()).simulate()
+        obs = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
+                     progress=sys.stderr.isatty()).simulate()
     else:
         obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
                             progress=sys.stderr.isatty())
@@ -87,9 +90,9 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 @click.command("homogenize")
 @SCENE
 @click.option("--boundary", type=click.Choice(BOUNDARIES), default=None,
-              help="periodic (default for images): full tensor, converges to the effective property; flux: seed 001 "
-                   "eq. 13 (flux in, fixed T out; lower-bound type; default for mesh scenes); temperature: fixed T on "
-                   "both faces (mixed, exact on laminates).")
+              help="periodic (default for images): full tensor, converges to the effective property; flux: "
+                   "[Chavez2020, eq. 13] (flux in, fixed T out; lower-bound type; default for mesh scenes); "
+                   "temperature: fixed T on both faces (mixed, exact on laminates).")
 @click.option("--solver", type=click.Choice(SOLVERS), default="auto", show_default=True,
               help="mg: geometric multigrid CG (matrix-free, ~200 B/voxel); cholmod, splu: direct; amg: pyamg + CG; "
                    "auto: mg from 20³ voxels on, else cholmod.")
@@ -102,20 +105,22 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
     direct = solver in ("cholmod", "splu")
     sc = refine_scene(load_scene(scene), refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
-    if sc.mesh is not None:
+    image = sc.geometry if isinstance(sc.geometry, VoxelGeometry) else None
+    if image is None:
         boundary = boundary or "flux"
-        k = homogenize(sc, boundary=boundary, method=solver)
-        result = CellResult(k, boundary, solver)
+        result = CellResult(homogenize(sc, boundary=boundary, method=solver), boundary, solver)
     else:
         boundary = boundary or "periodic"
         result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
     k = result.k
     c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
+    shape = list(image.shape) if image is not None else None
     if as_json:
         echo_json({"k": k, "c": c, "boundary": boundary, "solver": result.method, "iterations": result.iterations,
-                   "cpu_seconds": result.cpu_seconds, "shape": list(sc.labels.shape)})
+                   "cpu_seconds": result.cpu_seconds, "shape": shape})
         return
-    click.echo(f"{boundary} boundary, solver {result.method}, {'×'.join(map(str, sc.labels.shape))} voxels"
+    click.echo(f"{boundary} boundary, solver {result.method}"
+               + (f", {'×'.join(map(str, shape))} voxels" if shape else ", mesh")
                + (f", CG iterations {result.iterations}" if result.method == "mg" else ""))
     click.echo("k̄ (W/(m K)):")
     for row in k:
@@ -126,15 +131,15 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
 @click.command("measure")
 @SCENE
 @click.option("--homogeneous", is_flag=True, required=True,
-              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as seed 001 does.")
+              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as [Chavez2020] does.")
 @click.option("--conductivity", type=click.Choice(("scenario", *BOUNDARIES)), default="scenario", show_default=True,
-              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces (seed 001 § 4.2; the twin then "
-                   "has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
+              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces [Chavez2020, § 4.2; the twin then "
+                   "has the sample's steady face means]; flux, temperature: as `aromm homogenize --boundary`.")
 @click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--perturb", type=float, default=0.0, show_default=True,
-              help="Relative change of every homogeneous property (seed 001's +2 % study: 0.02).")
+              help="Relative change of every homogeneous property ([Chavez2020]'s +2 % study: 0.02).")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @SOLVER
 @JSON
