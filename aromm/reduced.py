@@ -41,6 +41,7 @@ from tqdm import tqdm
 from aromm.amalgam import amalgam
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
+from aromm.greedy import PodGreedy, material_parameters, pod_greedy, training_grid
 from aromm.modes import (
     ModalBasis,
     boundary_mass,
@@ -317,7 +318,7 @@ SEED001_REFERENCE_VALUES: Mapping[str, float] = {"fibre.k": 0.1, "fibre.c": 1.2e
 #: Relaxation reference case of seed 001 §3.2: initially at 30 °C, cooled on all faces (h in W/(m² K)).
 RELAXATION_T0 = 30.0
 RELAXATION_H = 20.0
-METHODS = ("aromm", "pod")
+METHODS = ("aromm", "pod", "greedy")
 _ROM_VERSION = 2
 
 
@@ -388,7 +389,7 @@ def reduce(
     references: Sequence[ThermalSystem | ReferenceCase] = (),
     relaxation: bool = True,
     corrections: bool | Sequence[Mapping[str, float]] = True,
-    method: str = "aromm",
+    method: str | PodGreedy = "aromm",
     solver: str = "auto",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
@@ -408,11 +409,13 @@ def reduce(
       samples of :func:`aromm.modes.correction_samples` (True), at given samples (a list of
       parameter dicts), or not at all (False: the method of the seed exactly).  They are kept
       principal and alone by the amalgam, like the constants.
-    * ``method``: ``"aromm"`` (amalgam, eq. 9) or ``"pod"`` (POD–Galerkin baseline).
+    * ``method``: ``"aromm"`` (amalgam, eq. 9), ``"pod"`` (POD–Galerkin baseline on the same snapshots; an
+      order beyond their rank is refused) or ``"greedy"`` / a :class:`aromm.greedy.PodGreedy` (multi-point
+      POD-greedy over a training set of parameters, exact in time; with a tolerance the order may be smaller).
     * ``cache``: True (default directory), a directory, an NpzCache, or False.  Bases and reduced
       models are stored by content hash; a second call with the same inputs loads the result.
     """
-    if method not in METHODS:
+    if not isinstance(method, PodGreedy) and method not in METHODS:
         raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
@@ -474,8 +477,8 @@ def reduce(
     stages.update()
     stages.set_postfix_str(method)
     states = np.hstack(snapshots)
-    coefficients = _reduction(basis, states, order, method=method, detailed=detailed, system=system,
-                              basis_values=basis_values)
+    coefficients, extra = _reduction(basis, states, order, method=method, detailed=detailed, system=system,
+                                     basis_values=basis_values, reference_values=ref_vals)
     stages.update()
     rom = detailed.transform(coefficients)
     check_t = snapshot_times(system.time)
@@ -485,12 +488,13 @@ def reduce(
     stages.update()
     stages.close()
     info: dict[str, float | int | str] = {
-        "method": method, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
+        "method": "greedy" if isinstance(method, PodGreedy) else method,
+        "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
         "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
         "zeta": basis.zeta,
         "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
         "gram_condition": float(basis.info.get("gram_condition", np.nan)),
-        "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
+        "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key, **extra,
     }
     rom = replace(rom, info=info)
     if store is not None:
@@ -498,35 +502,46 @@ def reduce(
     return rom
 
 
-def _reduction(basis: ModalBasis, states: FloatArray, order: int, *, method: str, detailed: ReducedModel,
-               system: ThermalSystem, basis_values: Mapping[str, float] | None) -> FloatArray:
-    """Coefficients A (Ñ × ñ) of the reduced basis Ψ = Φ A.
+def _reduction(basis: ModalBasis, states: FloatArray, order: int, *, method: str | PodGreedy,
+               detailed: ReducedModel, system: ThermalSystem, basis_values: Mapping[str, float] | None,
+               reference_values: Mapping[str, float]) -> tuple[FloatArray, dict[str, float | int]]:
+    """Coefficients A (Ñ × ñ) of the reduced basis Ψ = Φ A, and what the reductor reports for ``info``.
 
     The constants are kept alone; the correction vectors (when the order leaves room for them and one
-    more mode) are kept as whole columns, the other ñ − m columns come from the amalgam (or POD) of
-    the Dirichlet–Steklov modes.  Otherwise the correction directions compete like modes.
+    more mode) are kept as whole columns, the other ñ − m columns come from the amalgam (or POD, or the
+    POD-greedy) of the Dirichlet–Steklov modes.  Otherwise the correction directions compete like modes.
     """
     if order >= basis.size:
-        return np.eye(basis.size)
+        return np.eye(basis.size), {}
     corr = basis.corrections if basis.corrections is not None else np.zeros((basis.size, 0))
     zero = basis.zero_modes
     rows = np.flatnonzero(basis.kinds != "correction")
     keep_corr = 0 < corr.shape[1] < order - zero.size and order - corr.shape[1] < rows.size
     units = np.zeros((basis.size, zero.size))
     units[zero, np.arange(zero.size)] = 1.0
-    if method == "pod":
+    kept = np.column_stack([units, corr]) if keep_corr else units
+    if method in {"pod", "greedy"} or isinstance(method, PodGreedy):
         bvals, _ = detailed._values({k: [v] for k, v in _basis_values(system, basis_values).items()
                                      if k in detailed.parameter_names})
         gram = detailed._stack(detailed.capacity, bvals, 1)[0]
-        kept = np.column_stack([units, corr]) if keep_corr else units
-        return pod_coefficients(states, gram, order, kept)
+        if method == "pod":
+            return pod_coefficients(states, gram, order, kept), {}
+        options = method if isinstance(method, PodGreedy) else PodGreedy()
+        training = ([dict(mu) for mu in options.training] if options.training else
+                    training_grid(reference_values, material_parameters(system)))
+        own = [{k: v for k, v in {**reference_values, **mu}.items() if k in detailed.parameter_names}
+               for mu in training]
+        result = pod_greedy(detailed, own, snapshot_times(system.time), order, kept=kept, gram=gram,
+                            tolerance=options.tolerance, step=options.step)
+        return result.coefficients, {"greedy_error": float(result.history[-1]),
+                                     "greedy_iterations": int(result.picked.size), "greedy_training": len(own)}
     if not keep_corr:
-        return amalgam(states, order, zero).coefficients
+        return amalgam(states, order, zero).coefficients, {}
     sub = amalgam(states[rows], order - corr.shape[1], np.searchsorted(rows, zero)).coefficients
     a = np.zeros((basis.size, order))
     a[rows, : sub.shape[1]] = sub
     a[:, sub.shape[1]:] = corr
-    return a
+    return a, {}
 
 
 def _basis_values(system: ThermalSystem, values: Mapping[str, float] | None) -> dict[str, float]:
