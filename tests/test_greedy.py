@@ -1,0 +1,88 @@
+"""POD-greedy reductor (aromm.greedy) and shifted-solve corrections (aromm.shifts).
+
+Independent truths: the exact outputs of the full FE system by dense generalised eigendecomposition
+(tests/test_reduced.exact_outputs) and, for the shifts, the transfer function e (K + sC)⁻¹ F by a sparse solve.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from test_reduced import exact_outputs, random_labels, system_of
+
+from aromm.errors import InputError
+from aromm.greedy import PodGreedy, pod_greedy, training_grid
+from aromm.modes import default_basis_values
+from aromm.reduced import ReducedModel, reduce, snapshot_times
+from aromm.shifts import SHIFT, default_shifts, shifted_samples
+
+TRAINING = [{"fibre.k": k, "fibre.c": c} for k in (0.05, 1.0) for c in (1e5, 1e7)]
+TARGET = 1e-6  # °C, on face means of about 1 °C
+
+
+def test_greedy_error_decreases_to_its_target_against_the_exact_full_model() -> None:
+    system = system_of(random_labels(5, seed=5))  # 216 unknowns: the detailed model is the FE model itself
+    detailed = ReducedModel.from_system(system, np.eye(system.n))
+    values = system.values()
+    cap = system.capacity.evaluate(values).toarray()
+    ones = np.ones((system.n, 1))
+    times = snapshot_times(system.time)
+    own = [{k: v for k, v in {**values, **mu}.items() if k in detailed.parameter_names} for mu in TRAINING]
+    result = pod_greedy(detailed, own, times, 80, kept=ones / np.sqrt(ones.T @ cap @ ones), gram=cap,
+                        tolerance=TARGET, step=2)
+    history = result.history
+    assert history[-1] <= TARGET < history[0]
+    assert result.orders[-1] < 80  # stopped by the target, not by the order
+    # the error falls by orders of magnitude: each third of the run ends lower than the one before
+    thirds = np.array_split(history, 3)
+    assert thirds[0].min() > thirds[1].min() > thirds[2].min()
+    rom = detailed.transform(result.coefficients)
+    for mu in TRAINING:
+        exact = exact_outputs(system, mu, times)
+        assert np.abs(rom.simulate(mu, times).as_array() - exact).max() <= TARGET * (1 + 1e-6)
+
+
+def test_greedy_through_reduce_beats_the_amalgam_away_from_its_reference(tmp_path) -> None:
+    system = system_of(random_labels(5, seed=6))
+    greedy = reduce(system, order=16, modes=system.n, method=PodGreedy.over(TRAINING), cache=tmp_path)
+    amalgam = reduce(system, order=16, modes=system.n, cache=tmp_path)
+    assert greedy.order == 16 and greedy.info["method"] == "greedy" and greedy.info["greedy_training"] == 4
+    t = system.time.times
+    worst = {name: max(np.abs(rom.simulate(mu, t).as_array() - exact_outputs(system, mu, t)).max()
+                       for mu in TRAINING) for name, rom in (("greedy", greedy), ("aromm", amalgam))}
+    assert worst["greedy"] < worst["aromm"]
+
+
+def test_greedy_options_are_checked() -> None:
+    with pytest.raises(InputError, match="tolerance"):
+        PodGreedy.over(TRAINING, tolerance=-1.0)
+    with pytest.raises(InputError, match="no value"):
+        training_grid({"fibre.k": 0.3}, ["fibre.c"])
+    assert len(training_grid({"a": 1.0, "b": 2.0}, ["a", "b"])) == 9
+
+
+def test_shifted_corrections_interpolate_the_transfer_function() -> None:
+    # A Galerkin basis holding (K + sC)⁻¹F reproduces H(s) = e (K + sC)⁻¹ F exactly at that s.
+    system = system_of(random_labels(6, seed=1))
+    base = default_basis_values(system)
+    shifts = default_shifts(system.time, 3)
+    samples = shifted_samples([base], shifts)
+    assert all(s[SHIFT] > 0 for s in samples)
+    rom = reduce(system, order=40, modes=30, corrections=samples, cache=False)
+    assert rom.info["n_corrections"] > 0
+    values = {k: v for k, v in base.items() if k in system.parameter_names}
+    full = system.values(values)
+    k = sp.csc_array(system.conductance.evaluate(full))
+    c = sp.csc_array(system.capacity.evaluate(full))
+    f = np.asarray(system.load.evaluate(full))
+    _, e = system.observation_matrix()
+    red, m = rom._values({key: [v] for key, v in values.items() if key in rom.parameter_names})
+    lr, ar, nr = (rom._stack(g, red, m)[0] for g in (rom.capacity, rom.conductance, rom.load))
+    for s in shifts:
+        exact = e @ spla.spsolve(k + s * c, f)
+        reduced = rom.output_matrix @ np.linalg.solve(ar + s * lr, nr)
+        np.testing.assert_allclose(reduced, exact, rtol=1e-7)
+    with pytest.raises(InputError, match="positive"):
+        shifted_samples([base], [0.0])
