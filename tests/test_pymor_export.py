@@ -19,9 +19,9 @@ from aromm.system import Coefficient, TimeGrid
 
 pytest.importorskip("pymor")
 
-from pymor.algorithms.timestepping import ImplicitEulerTimeStepper  # noqa: E402
+from pymor.algorithms.timestepping import ImplicitEulerTimeStepper
 
-from aromm.interop.pymor import functional, mu_of, to_lti  # noqa: E402
+from aromm.interop.pymor import functional, mu_of, to_lti
 
 FACES = [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0, T_ext=3.0)]  # T_ext ≠ 0: a second load term
 VALUES = {"fibre.k": 0.1, "fibre.c": 1.2e6, "initial.T": 1.5}
