@@ -7,7 +7,7 @@ worst, on a training set 𝒫 (e.g. a grid over the identification bounds):
 
 1. start from the kept columns (the constants, the correction vectors), G-orthonormalised, with
    ``G = Φᵀ C0 Φ`` the capacity Gram matrix of the detailed basis at the basis values;
-2. reduce, and evaluate the reduced model on all of 𝒫 (exactly in time, aromm.reduced); its true error
+2. reduce, and evaluate the reduced model on all of 𝒫 (exactly in time, aromm.rom); its true error
    is ``e(μ) = max_{t,k} |ỹ_k(μ, t) − y_k(μ, t)|`` (°C) against the detailed modal model of order Ñ, also
    exact in time, so no time-stepping error enters either side;
 3. stop when ``max e ≤ tolerance`` or the order is reached; otherwise take μ* = argmax e, the detailed
@@ -24,17 +24,14 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError, NumericalError
-from aromm.modes import is_exchange
+from aromm.reductor import DetailedModel
+from aromm.rom import ReducedModel
 from aromm.system import FloatArray, ThermalSystem
-
-if TYPE_CHECKING:
-    from aromm.reduced import ReducedModel
 
 #: Projection-error singular values below this fraction of the largest are the trajectory's null space.
 RANK_TOL = 1e-12
@@ -46,16 +43,19 @@ ITERATIONS = 25
 
 @dataclass(frozen=True)
 class PodGreedy:
-    """Options of the POD-greedy reductor (``aromm.reduce(system, method=PodGreedy(...))``).
+    """The POD-greedy reductor (:class:`aromm.reductor.Reductor`; ``aromm.reduce(system, method=...)``).
 
-    ``training``: parameter sets (overrides of the system's values); empty → :func:`training_grid` with
-    :data:`TRAINING_FACTORS`.  ``tolerance`` (°C): stop as soon as the worst training error is below it
-    (0: always reach the order).  ``step``: modes added per iteration (0: ceil(order / 25)).
+    ``training``: parameter sets (overrides of the system's values); empty → :func:`training_grid` over
+    :func:`material_parameters` with :data:`TRAINING_FACTORS`.  ``tolerance`` (°C): stop as soon as the
+    worst training error is below it (0: always reach the order, else the order may be smaller).
+    ``step``: modes added per iteration (0: ceil(order / 25)).  Snapshot times: the scene's output grid
+    plus early log-spaced times (:func:`aromm.reduction.snapshot_times`).
     """
 
     training: tuple[tuple[tuple[str, float], ...], ...] = ()
     tolerance: float = 0.0
     step: int = 0
+    name: str = "greedy"
 
     @classmethod
     def over(cls, training: Sequence[Mapping[str, float]], tolerance: float = 0.0, step: int = 0) -> PodGreedy:
@@ -66,6 +66,23 @@ class PodGreedy:
             raise InputError(f"greedy step must be >= 0 (0: automatic), got {step!r}")
         sets = tuple(tuple(sorted((str(k), float(v)) for k, v in mu.items())) for mu in training)
         return cls(sets, float(tolerance), int(step))
+
+    @property
+    def cache_key(self) -> str:
+        """Every option, so that reduced models built with other training sets are not mixed up in the cache."""
+        return repr((self.name, self.training, self.tolerance, self.step))
+
+    def coefficients(self, detailed: DetailedModel, order: int) -> FloatArray:
+        from aromm.reduction import snapshot_times  # aromm.reduction registers this reductor
+
+        model = detailed.model
+        base = dict(model.parameters)
+        training = ([{**base, **dict(mu)} for mu in self.training] if self.training else
+                    training_grid(base, material_parameters(model.projected)))
+        own = [{k: v for k, v in mu.items() if k in model.parameter_names} for mu in training]
+        kept = np.column_stack([detailed.constants(), detailed.corrections(order)])
+        return pod_greedy(model, own, snapshot_times(model.time), order, kept=kept, gram=detailed.basis.gram,
+                          tolerance=self.tolerance, step=self.step).coefficients
 
 
 @dataclass(frozen=True)
@@ -80,9 +97,9 @@ class Greedy:
 
 
 def material_parameters(system: ThermalSystem) -> list[str]:
-    """Names in the capacity terms and in the conduction terms inside the body (``K 1 = 0``)."""
-    conduction = [t for t in system.conductance.terms if not is_exchange(t.operator)]
-    return sorted({p for t in (*system.capacity.terms, *conduction) for p in t.coefficient.params})
+    """Names in the capacity terms and in the conduction terms inside the body (not the exchanges)."""
+    terms = (*system.capacity.terms, *system.conductance.with_role("conduction").terms)
+    return sorted({p for t in terms for p in t.coefficient.params})
 
 
 def training_grid(values: Mapping[str, float], names: Sequence[str],

@@ -1,7 +1,7 @@
 """AROMM against pyMOR's reductors on one wood VER and scenario, every reduced model exact in time.
 
 Scenario 1 of [Chavez2020, Table 1] (500 W/m² into z0, h = 20 W/(m² K) on z1, 60 s, outputs every 0.1 s)
-on the spruce-like 24³ VER of ``inverse.study.small_wood`` (default) or the shipped 46³ VER
+on the spruce-like 24³ VER of ``studies.chavez2020.small_wood`` (default) or the shipped 46³ VER
 (``--shipped``: data/scenes/wood_s1.toml).  For each method and order ñ the table gives:
 
 * offline wall / CPU seconds (stages shared by the aromm methods — Dirichlet/Steklov bases and the
@@ -51,12 +51,13 @@ import scipy.linalg as sla
 from aromm.cache import NpzCache
 from aromm.errors import InputError
 from aromm.greedy import PodGreedy
-from aromm.modes import compute_basis, correction_samples, default_basis_values, split_modes, with_corrections
-from aromm.reduced import ReducedModel, default_modes, reduce
+from aromm.modes import compute_basis, correction_samples, split_modes, with_corrections
+from aromm.reduction import default_modes, reduce
+from aromm.rom import ReducedModel
 from aromm.scene import assemble, load_scene
 from aromm.shifts import default_shifts, shifted_samples
 from aromm.system import FloatArray, ThermalSystem
-from inverse.study import loading, small_wood
+from studies.chavez2020 import loading, small_wood
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mor_truth import krylov_outputs
@@ -65,6 +66,10 @@ ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = {"fibre.k": 0.3, "fibre.c": 4e6}
 GRID = [{"fibre.k": k, "fibre.c": c} for k in (0.1, 0.3, 1.0) for c in (1e6, 4e6, 1e7)]
 TRAINING = [{"fibre.k": float(k), "fibre.c": c} for k in np.geomspace(0.05, 1.0, 3) for c in (1e5, 1e6, 1e7)]
+#: Reference properties of the amalgam [Chavez2020, § 3.1–3.2] (the shipped scenes' [reduction] section): bases
+#: at k_F = 0.53 W/(m K), c_F = 1.2e6 J/(m³ K), reference simulation at k_F = 0.1, c_F = 1.2e6.
+PAPER_BASIS = {"fibre.k": 0.53, "fibre.c": 1.2e6}
+PAPER_REFERENCE = {"fibre.k": 0.1, "fibre.c": 1.2e6}
 TRUTH_SHIFTS = (0.0, 1.0, 10.0, 100.0)  # 1/s
 TRUTH_STEPS = 40
 
@@ -164,25 +169,49 @@ def columns(va: object, n: int) -> FloatArray:
 class Study:
     """One system, its exact reference outputs on GRID, and the error/timing of any reduced model."""
 
-    def __init__(self, system: ThermalSystem, times: FloatArray, stored: Path | None = None) -> None:
+    def __init__(self, system: ThermalSystem, times: FloatArray, stored: Path | None = None,
+                 wait: bool = False) -> None:
         self.system = system
         self.times = times
-        self.truth: dict[int, FloatArray] = {}
+        self.stored = stored
+        self.wait = wait
+        self._truth: dict[int, FloatArray] = {}
         self.truth_error: dict[int, float] = {}
-        if stored is not None and stored.exists():
-            with np.load(stored) as data:
-                self.truth = {i: data["outputs"][i] for i in range(len(GRID))}
+        self.truth_seconds = (0.0, 0.0)
+
+    @property
+    def truth(self) -> dict[int, FloatArray]:
+        """Reference outputs on GRID: loaded from ``stored`` (waited for when ``wait``), else computed (and
+        written there) on first use, so that a run builds its reduced models while another computes them."""
+        if self._truth:
+            return self._truth
+        while self.wait and self.stored is not None and not self.stored.exists():
+            time.sleep(10.0)
+        if self.stored is not None and self.stored.exists():
+            with np.load(self.stored) as data:
+                self._truth = {i: data["outputs"][i] for i in range(len(GRID))}
                 self.truth_error = {i: float(data["errors"][i]) for i in range(len(GRID))}
                 self.truth_seconds = (float(data["seconds"][0]), float(data["seconds"][1]))
-            return
+            return self._truth
         start = clock()
         for i, mu in enumerate(GRID):
-            self.truth[i], self.truth_error[i] = krylov_outputs(system, mu, times, TRUTH_STEPS, TRUTH_SHIFTS)
+            self._truth[i], self.truth_error[i] = krylov_outputs(self.system, mu, self.times, TRUTH_STEPS,
+                                                                 TRUTH_SHIFTS)
         self.truth_seconds = since(start)
-        if stored is not None:
-            np.savez(stored, outputs=np.stack([self.truth[i] for i in range(len(GRID))]),
+        if self.stored is not None:
+            partial = self.stored.with_suffix(".partial.npz")
+            np.savez(partial, outputs=np.stack([self._truth[i] for i in range(len(GRID))]),
                      errors=np.array([self.truth_error[i] for i in range(len(GRID))]),
                      seconds=np.array(self.truth_seconds))
+            partial.replace(self.stored)
+        return self._truth
+
+    def describe(self) -> str:
+        peak = max(np.abs(y).max() for y in self.truth.values())
+        own_error = max(self.truth_error.values())
+        return (f"truth: rational Krylov Galerkin, shifts {TRUTH_SHIFTS} 1/s × {TRUTH_STEPS} steps; own error "
+                f"(change from half the steps) max {own_error:.1e} °C over the grid; {self.truth_seconds[0]:.0f} s "
+                f"wall, {self.truth_seconds[1]:.0f} s CPU; max face mean {peak:.1f} °C")
 
     def row(self, method: str, order: int, offline: tuple[float, float],
             evaluate: Callable[[Mapping[str, float]], FloatArray], note: str = "") -> Row:
@@ -198,18 +227,18 @@ def aromm_rows(study: Study, orders: Sequence[int], methods: Sequence[str], cach
     system = study.system
     store = NpzCache(cache_dir)
     rows = []
+    samples = correction_samples(system, PAPER_BASIS)
     for order in orders:
         n_d, n_s = split_modes(system, default_modes(order))
         start = clock()
-        basis = compute_basis(system, n_d, n_s, cache=store)
-        with_corrections(system, basis, correction_samples(system), cache=store)
+        basis = compute_basis(system, n_d, n_s, PAPER_BASIS, cache=store)
+        with_corrections(system, basis, samples, values=PAPER_BASIS, cache=store)
         shared = since(start)
         for method in methods:
-            options: dict[str, object] = {}
+            options: dict[str, object] = {"basis_values": PAPER_BASIS, "reference_values": PAPER_REFERENCE}
             if method == "aromm+shifts":
                 shifts = default_shifts(system.time, 4)
-                options["corrections"] = correction_samples(system) + shifted_samples([default_basis_values(system)],
-                                                                                        shifts)
+                options["corrections"] = samples + shifted_samples([{**system.parameters, **PAPER_BASIS}], shifts)
             elif method == "greedy":
                 options["method"] = PodGreedy.over(TRAINING)
             elif method == "pod":
@@ -329,6 +358,7 @@ def main() -> None:
                              "BT 214 s instead of ~600 s at 24³) or pyMOR's default SuperLU/COLAMD")
     parser.add_argument("--truth", type=Path, default=None, help="reference outputs file (.npz): loaded if it "
                         "exists, else computed and written (share it between runs on the same VER)")
+    parser.add_argument("--wait-truth", action="store_true", help="wait for --truth to be written by another run")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows as JSON")
     args = parser.parse_args()
 
@@ -339,12 +369,9 @@ def main() -> None:
     times = system.time.times
     print(f"{'shipped 46³' if args.shipped else f'generated {args.size}³'} wood VER, scenario 1: {system.n} DOFs, "
           f"{times.size} output times {times[0]:g}…{times[-1]:g} s; load average {os.getloadavg()}")
-    study = Study(system, times, args.truth)
-    own_error = max(study.truth_error.values())
-    peak = max(np.abs(y).max() for y in study.truth.values())
-    print(f"truth: rational Krylov Galerkin, shifts {TRUTH_SHIFTS} 1/s × {TRUTH_STEPS} steps; own error (change "
-          f"from half the steps) max {own_error:.1e} °C over the grid; {study.truth_seconds[0]:.0f} s wall, "
-          f"{study.truth_seconds[1]:.0f} s CPU; max face mean {peak:.1f} °C")
+    study = Study(system, times, args.truth, args.wait_truth)
+    if not args.methods:
+        print(study.describe())
     print(HEADER, flush=True)
     rows: list[Row] = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -355,7 +382,8 @@ def main() -> None:
     if peers:
         rows += pymor_rows(study, args.orders, args.irka_orders, peers, irka_maxit=args.irka_maxit,
                            solver=args.pymor_solver)
-    print("\n" + HEADER)
+    print("\n" + study.describe())
+    print(HEADER)
     for r in sorted(rows, key=lambda r: (r.method, r.order)):
         print(format_row(r))
     print(f"peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB; "

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from aromm.linalg import factorize
-from aromm.reduced import ReducedModel
+from aromm.rom import ReducedModel
 from aromm.system import FloatArray, ThermalSystem
 
 

@@ -14,8 +14,8 @@ from test_reduced import exact_outputs, random_labels, system_of
 
 from aromm.errors import InputError
 from aromm.greedy import PodGreedy, pod_greedy, training_grid
-from aromm.modes import default_basis_values
-from aromm.reduced import ReducedModel, reduce, snapshot_times
+from aromm.reduction import reduce, snapshot_times
+from aromm.rom import ReducedModel
 from aromm.shifts import SHIFT, default_shifts, shifted_samples
 
 TRAINING = [{"fibre.k": k, "fibre.c": c} for k in (0.05, 1.0) for c in (1e5, 1e7)]
@@ -23,18 +23,18 @@ TARGET = 1e-6  # °C, on face means of about 1 °C
 
 
 def test_greedy_error_decreases_to_its_target_against_the_exact_full_model() -> None:
-    system = system_of(random_labels(5, seed=5))  # 216 unknowns: the detailed model is the FE model itself
+    system = system_of(random_labels(4, seed=5))  # 125 unknowns: the detailed model is the FE model itself
     detailed = ReducedModel.from_system(system, np.eye(system.n))
     values = system.values()
     cap = system.capacity.evaluate(values).toarray()
     ones = np.ones((system.n, 1))
     times = snapshot_times(system.time)
     own = [{k: v for k, v in {**values, **mu}.items() if k in detailed.parameter_names} for mu in TRAINING]
-    result = pod_greedy(detailed, own, times, 80, kept=ones / np.sqrt(ones.T @ cap @ ones), gram=cap,
+    result = pod_greedy(detailed, own, times, 60, kept=ones / np.sqrt(ones.T @ cap @ ones), gram=cap,
                         tolerance=TARGET, step=2)
     history = result.history
     assert history[-1] <= TARGET < history[0]
-    assert result.orders[-1] < 80  # stopped by the target, not by the order
+    assert result.orders[-1] < 60  # stopped by the target, not by the order
     # the error falls by orders of magnitude: each third of the run ends lower than the one before
     thirds = np.array_split(history, 3)
     assert thirds[0].min() > thirds[1].min() > thirds[2].min()
@@ -48,7 +48,7 @@ def test_greedy_through_reduce_beats_the_amalgam_away_from_its_reference(tmp_pat
     system = system_of(random_labels(5, seed=6))
     greedy = reduce(system, order=16, modes=system.n, method=PodGreedy.over(TRAINING), cache=tmp_path)
     amalgam = reduce(system, order=16, modes=system.n, cache=tmp_path)
-    assert greedy.order == 16 and greedy.info["method"] == "greedy" and greedy.info["greedy_training"] == 4
+    assert greedy.order == 16 and greedy.info["method"] == "greedy"
     t = system.time.times
     worst = {name: max(np.abs(rom.simulate(mu, t).as_array() - exact_outputs(system, mu, t)).max()
                        for mu in TRAINING) for name, rom in (("greedy", greedy), ("aromm", amalgam))}
@@ -66,7 +66,7 @@ def test_greedy_options_are_checked() -> None:
 def test_shifted_corrections_interpolate_the_transfer_function() -> None:
     # A Galerkin basis holding (K + sC)⁻¹F reproduces H(s) = e (K + sC)⁻¹ F exactly at that s.
     system = system_of(random_labels(6, seed=1))
-    base = default_basis_values(system)
+    base = dict(system.parameters)  # the bases' reference values (reduce's default)
     shifts = default_shifts(system.time, 3)
     samples = shifted_samples([base], shifts)
     assert all(s[SHIFT] > 0 for s in samples)

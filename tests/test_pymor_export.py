@@ -12,10 +12,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from test_reduced import PHASES, random_labels
 
-from aromm.fem import FaceSpec, assemble_voxels
+from aromm.fem import assemble_voxels
 from aromm.linalg import DEFAULT_RTOL
 from aromm.solve import simulate, steady_field
 from aromm.system import Coefficient, TimeGrid
+from aromm.vocabulary import FaceSpec
 
 pytest.importorskip("pymor")
 
