@@ -59,7 +59,7 @@ from aromm.reduction import default_modes, reduce
 from aromm.rom import ReducedModel
 from aromm.scene import assemble, load_scene
 from aromm.shifts import default_shifts, shifted_samples
-from aromm.system import FloatArray, ThermalSystem
+from aromm.system import FloatArray, Term, ThermalSystem
 from studies.chavez2020 import loading, small_wood
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -129,14 +129,21 @@ class ProjectedLTI:
                    tuple(w.T @ (t.operator @ v) for t in system.conductance.terms),
                    tuple(w.T @ np.asarray(t.operator, dtype=float) for t in system.load.terms), e @ v)
 
+    def matrices(self, values: Mapping[str, float]) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """E_r, A_r, b_r at one parameter set."""
+        v = self.system.values(values)
+
+        def combine(terms: tuple[Term, ...], ops: tuple[FloatArray, ...]) -> FloatArray:
+            return sum((float(t.coefficient(v)) * m for t, m in zip(terms, ops, strict=True)),
+                       start=np.zeros_like(ops[0]))
+
+        return (combine(self.system.capacity.terms, self.capacity),
+                -combine(self.system.conductance.terms, self.conductance),
+                combine(self.system.load.terms, self.load))
+
     def outputs(self, values: Mapping[str, float], times: FloatArray) -> FloatArray:
         """Exact step response: M = E⁻¹A = X Λ X⁻¹, x(t) = X φ(Λt) t X⁻¹ E⁻¹b, φ(z) = (eᶻ − 1)/z."""
-        v = self.system.values(values)
-        coef = [[float(t.coefficient(v)) for t in g.terms] for g in
-                (self.system.capacity, self.system.conductance, self.system.load)]
-        e = sum(c * m for c, m in zip(coef[0], self.capacity, strict=True))
-        a = -sum(c * m for c, m in zip(coef[1], self.conductance, strict=True))
-        b = sum(c * m for c, m in zip(coef[2], self.load, strict=True))
+        e, a, b = self.matrices(values)
         lam, x = sla.eig(np.linalg.solve(e, a))
         g = np.linalg.solve(x, np.linalg.solve(e, b))
         z = np.outer(times, lam)
@@ -146,11 +153,7 @@ class ProjectedLTI:
 
     def check(self, values: Mapping[str, float], times: FloatArray) -> float:
         """Largest difference from the augmented-matrix exponential (scipy expm) at the first and last time."""
-        v = self.system.values(values)
-        e = sum(float(t.coefficient(v)) * m for t, m in zip(self.system.capacity.terms, self.capacity, strict=True))
-        a = -sum(float(t.coefficient(v)) * m for t, m in zip(self.system.conductance.terms, self.conductance,
-                                                                 strict=True))
-        b = sum(float(t.coefficient(v)) * m for t, m in zip(self.system.load.terms, self.load, strict=True))
+        e, a, b = self.matrices(values)
         r = a.shape[0]
         aug = np.zeros((r + 1, r + 1))
         aug[:r, :r] = np.linalg.solve(e, a)
