@@ -262,6 +262,7 @@ def aromm_rows(study: Study, orders: Sequence[int], methods: Sequence[str], cach
                              **options)  # type: ignore[arg-type]
             except InputError as err:
                 rows.append(Row(method, order, np.nan, np.nan, np.nan, np.nan, np.nan, "", f"refused: {err}"))
+                print(format_row(rows[-1]), flush=True)
                 continue
             own = since(start)
             offline = (shared[0] + own[0], shared[1] + own[1])
