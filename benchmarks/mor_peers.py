@@ -37,13 +37,20 @@ Measured 2026-11-30 on the generated 16³ VER (4913 DOFs; ``--size 16``, one pro
 (trust CPU seconds).  Truth: own error 1.9e-11 °C (max face mean 27.6 °C); worst error °C over the 3×3 grid
 (always at k_F = 0.1, c_F = 1e7 from ñ = 20 on, except BT):
 
-    ñ      aromm    pod      greedy   greedy+shifts  detailed Φ (Ñ)    bt (ref)
-    5      3.4e-1   2.5e-1   7.0e-2   -              2.3e-3 (43)       2.8e-1 (1.5e-2)
-    10     2.3e-1   1.7e-1   1.1e-3   -              1.1e-3 (51)       5.3e-2 (3.1e-4)
-    20     2.2e-3   2.0e-3   1.0e-3   2.4e-5         1.0e-3 (66)       2.7e-2 (8.3e-7)
-    50     1.0e-3   9.3e-4   9.3e-4   1.0e-5         9.3e-4 (111)      refused (Gramian factor rank < 50)
-    100    1.1e-3   refused  7.8e-4   -              7.8e-4 (186)      refused
-    200    -        -        -        -              7.6e-4 (336)      refused
+    ñ    aromm   +shifts  pod      greedy  greedy+shifts  detailed Φ (Ñ)  bt (at ref)       gramian-pod  irka
+    5    3.4e-1  5.9e-1   2.5e-1   7.0e-2  -              2.3e-3 (43)     2.8e-1 (1.5e-2)   1.5e+0       6.4e-1
+    10   2.3e-1  2.0e-1   1.7e-1   1.1e-3  -              1.1e-3 (51)     5.3e-2 (3.1e-4)   5.8e-1       -
+    20   2.2e-3  1.6e-1   2.0e-3   1.0e-3  2.4e-5         1.0e-3 (66)     2.7e-2 (8.3e-7)   3.7e-3       -
+    30   -       -        -        -       -              -               2.2e-2 (4.9e-9)   -            -
+    50   1.0e-3  1.7e-3   9.3e-4   9.3e-4  1.0e-5         9.3e-4 (111)    refused (a)       2.9e-4       -
+    100  1.1e-3  1.2e-3   refused  7.8e-4  9.0e-6         7.8e-4 (186)    refused (a)       9.3e-6       -
+    200  8.0e-4  6.2e-4   -        -       -              7.6e-4 (336)    refused (a)       refused (b)  -
+
+refused: pod "POD order 100 is more than the snapshots hold: 75 available (17 kept columns + snapshot rank
+58)"; (a) pyMOR "r needs to be smaller than the sizes of Gramian factors" (its low-rank ADI stops below 50
+columns); (b) the 9 Gramian factors span rank 120.  irka: 20 iterations without convergence (crit 9.9e-3).
+Offline CPU s: aromm 1.7 / 2.2 / 2.2 / 4.1 / 17 / 36 (ñ = 5 … 200, bases included), greedy 2.6 / 4.8 / 3.9 /
+18 / 72, greedy+shifts 21 / 15 / 67 (ñ = 20, 50, 100), bt 9.4 (Gramians, every order), gramian-pod 24.
 
 The amalgam, POD and the greedy all stop at the error of the detailed basis Φ (1e-3 °C at the slow corner
 of the grid); the greedy gets there at ñ = 10 instead of 50.  Shifted-solve corrections at the corners of
