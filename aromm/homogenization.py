@@ -35,10 +35,11 @@ import numpy.typing as npt
 
 from aromm.errors import InputError, NumericalError
 from aromm.geometry import VoxelGeometry
+from aromm.profiles import Profile
 from aromm.scene import Scene, assemble
 from aromm.solve import reaction_heat_flow, steady_field
 from aromm.system import FloatArray
-from aromm.vocabulary import FaceSpec, PhaseSpec, opposite
+from aromm.vocabulary import FaceSpec, PhaseSpec, held, opposite
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
@@ -92,6 +93,8 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     under convection or a fixed temperature, every other face adiabatic.  The steady state of the
     heterogeneous model is solved (no capacity is assembled) and k = φ L / (T̄_S1 − T̄_S2).  Along a
     loaded axis a homogeneous twin of conductivity k then has the same steady face means as the sample.
+    A history on S1 (a pulse, :mod:`aromm.profiles`) is replaced by the constant probe flux and the other
+    histories by their held final values: k does not depend on them (the problem is linear).
 
     >>> slab = Scene(VoxelGeometry(np.zeros((4, 1, 1), dtype=int), (1e-3, 1e-3, 1e-3)), (PhaseSpec("m", 0, 2.0),),
     ...              (FaceSpec("x0", flux=100.0), FaceSpec("x1", h=10.0)))
@@ -99,7 +102,7 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     2.0
     """
     where = scene.where
-    heated = [f for f in scene.boundary if f.flux is not None and f.flux != 0.0]
+    heated = [f for f in scene.boundary if isinstance(f.flux, Profile) or (f.flux is not None and f.flux != 0.0)]
     if len(heated) != 1:
         raise InputError(f"{where}the fluxmetric conductivity [Chavez2020, eq. 13] needs exactly one [boundary] face "
                          f"with a non-zero flux (S1); found {[f.face for f in heated] or 'none'}")
@@ -112,12 +115,13 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
         raise InputError(f"{where}the fluxmetric conductivity needs face {cold} (opposite S1 = {s1.face}) under "
                          f"convection (h) or a fixed temperature (T) and every other face adiabatic; "
                          f"faces with other conditions: {others or 'none'}")
-    steady = scene.with_boundary(scene.boundary, (s1.face, cold), time=None)
-    system = assemble(steady)
+    # a history is replaced by its held value, the heated face's by the probe flux (the problem is linear)
+    flux = PROBE_FLUX if isinstance(s1.flux, Profile) else float(s1.flux)  # type: ignore[arg-type]
+    faces = tuple(FaceSpec(f.face, flux=flux) if f is s1 else held(f) for f in scene.boundary)
+    system = assemble(scene.with_boundary(faces, (s1.face, cold), time=None))
     field = steady_field(system, method=method)
     drop = float(system.observation[s1.face] @ field - system.observation[cold] @ field)
     length = scene.size["xyz".index(axis)]
-    flux = float(s1.flux)  # type: ignore[arg-type]
     if not (np.isfinite(drop) and drop * flux > 0):
         raise NumericalError(f"{where}steady face-mean drop T̄_{s1.face} − T̄_{cold} = {drop:g} K has not the sign "
                              f"of the flux {flux:g} W/m²; cannot define a conductivity")

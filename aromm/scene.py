@@ -21,8 +21,10 @@ from aromm import microstructure
 from aromm.errors import InputError
 from aromm.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
 from aromm.microstructure.generators import GENERATORS
+from aromm.observables import read_csv
+from aromm.profiles import Profile
 from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FACES, FaceSpec, PhaseSpec, parameter_values
+from aromm.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
 PHASE_KEYS = ("label", "k", "c")
@@ -153,6 +155,9 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
     initial = r.table(data, "initial", ("T",))
     initial_T = r.number(initial.get("T", 0.0), "initial.T")
     time = _time(r, data)
+    varying = [f.face for f in boundary if f.varies]
+    if varying and time is None:
+        raise r.fail(f"boundary.{varying[0]}", "a history (CSV file) needs a transient scene: add [time] end and dt")
     if time is not None:
         for ph in phases:
             if ph.c is None:
@@ -297,12 +302,29 @@ def _boundary(r: _Reader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
             raise r.fail(f"{key}.T_ext", "T_ext goes with h")
         faces.append(FaceSpec(
             face,
-            flux=r.number(spec["flux"], f"{key}.flux") if "flux" in spec else None,
+            flux=_load(r, spec["flux"], f"{key}.flux") if "flux" in spec else None,
             h=r.number(spec["h"], f"{key}.h", positive=True) if "h" in spec else None,
-            T_ext=r.number(spec.get("T_ext", 0.0), f"{key}.T_ext"),
-            T=r.number(spec["T"], f"{key}.T") if "T" in spec else None,
+            T_ext=_load(r, spec.get("T_ext", 0.0), f"{key}.T_ext"),
+            T=_load(r, spec["T"], f"{key}.T") if "T" in spec else None,
         ))
     return tuple(faces)
+
+
+def _load(r: _Reader, value: Any, key: str) -> Load:
+    """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file) read
+    as a piecewise-linear history held at its last value (:class:`~aromm.profiles.Profile`)."""
+    if not isinstance(value, str):
+        return r.number(value, key)
+    file = Path(value)
+    if not file.is_absolute() and r.path is not None:
+        file = r.path.parent / file
+    if not file.is_file():
+        raise r.fail(key, f"history file not found: {file} (a number, or a CSV file t,<value> relative to the scene)")
+    table = read_csv(file)
+    if len(table.outputs) != 1:
+        raise r.fail(key, f"{file}: a history has two columns t,<value>, got {', '.join(('t', *table.outputs))}")
+    values = np.asarray(next(iter(table.mean_T.values())), dtype=float)
+    return Profile(tuple(np.asarray(table.t, dtype=float).tolist()), tuple(values.tolist()), source=str(file))
 
 
 def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:
