@@ -39,6 +39,7 @@ from scipy.sparse import csgraph
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
 from aromm.linalg import Factorization, factorize
+from aromm.shifts import SHIFT
 from aromm.system import FloatArray, ThermalSystem
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
@@ -393,9 +394,12 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
         v = {k: val for k, val in sample.items() if k in system.parameter_names}
         k_mat = sp.csr_array(system.conductance.evaluate(system.values(v)))
         c_terms = [sp.csr_array(t.operator) for t in system.capacity.terms]
-        if not exchange:
-            c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
-            k_mat = sp.csr_array(k_mat + 1e-8 * (k_mat.diagonal().sum() / c_mat.diagonal().sum()) * c_mat)
+        c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
+        shift = float(sample.get(SHIFT, 0.0))  # (K + s C)⁻¹: aromm.shifts
+        if not exchange and shift == 0.0:
+            shift = 1e-8 * k_mat.diagonal().sum() / c_mat.diagonal().sum()
+        if shift:
+            k_mat = sp.csr_array(k_mat + shift * c_mat)
         fac = factorize(k_mat, method, points=ops.points)
         for t in system.load.terms:
             x = fac.solve(np.asarray(t.operator, dtype=float))

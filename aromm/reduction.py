@@ -28,6 +28,7 @@ from tqdm import tqdm
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError
+from aromm.greedy import PodGreedy
 from aromm.lifting import lift
 from aromm.modes import boundary_of, compute_basis, correction_samples, split_modes, with_corrections
 from aromm.pod import PodReductor
@@ -38,7 +39,7 @@ from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, T
 log = logging.getLogger(__name__)
 
 #: The reductors known by name; any object implementing :class:`~aromm.reductor.Reductor` is accepted too.
-REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor())}
+REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor(), PodGreedy())}
 METHODS = tuple(REDUCTORS)
 #: Relaxation reference case [Chavez2020, § 3.2]: initially at 30 °C, cooled on all faces (h in W/(m² K)).
 RELAXATION_T0 = 30.0
@@ -155,7 +156,9 @@ def reduce(
       system's loads (:func:`aromm.modes.with_corrections`; an extension of [Chavez2020]) at the samples of
       :func:`aromm.modes.correction_samples` (True), at given samples, or not at all (False: the method of
       the paper exactly).
-    * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline) or object.
+    * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline, refused
+      beyond the rank of its snapshots; ``"greedy"``: multi-point POD-greedy, :mod:`aromm.greedy`) or object
+      (its ``cache_key``, when it has one, keys the cache; else its ``name``).
     * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
       stored by content hash; a second call with the same inputs loads the result.
     """
@@ -183,7 +186,8 @@ def reduce(
         samples = correction_samples(system, basis_values)
     else:
         samples = [dict(s) for s in corrections] if corrections is not False else []
-    key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values, reductor.name, solver,
+    key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values,
+                      getattr(reductor, "cache_key", reductor.name), solver,
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
     if store is not None:
         stored = store.load("rom", key)
