@@ -1,21 +1,12 @@
-"""Homogenisation of a two-phase (or n-phase) voxel scene [Chavez2020, § 4.2].
+"""Homogenisation of a voxel scene [Chavez2020, § 4.2]: effective conductivity tensor and capacity.
 
-Effective conductivity by the flux method [Chavez2020, eq. 13]: for each axis i a uniform
-flux q enters face i0, face i1 is held at T = 0, the four other faces are adiabatic,
-and at steady state
-
-    k_ii = q L_i / (T̄_{i0} - T̄_{i1}),
-
-with T̄ the face-mean temperatures (``boundary="flux"``, the default).  Imposing a
-uniform flux is a static (Neumann-type) condition: along the layers of a laminate it
-gives less than the arithmetic mean, because the heated face is not isothermal.
-``boundary="temperature"`` holds both faces at fixed temperatures instead (T = 1 on i0,
-T = 0 on i1) and takes the heat flow Q from the reaction at i0, k_ii = Q L_i / (A_i ΔT):
-exact for laminates in both directions and for mirror-symmetric periodic cells.
-
-Both give the principal values along the image axes (the material is taken orthotropic
-in those axes, as in the seed); the off-diagonal entries of the returned tensor are zero.  The effective capacity is the
-volume average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
+:func:`homogenize` solves the cell problems of :mod:`aromm.cell_problems` under one of three boundary
+conditions: ``"periodic"`` (the default: full tensor with its off-diagonal terms, the value that converges
+to the effective property of the medium), ``"flux"`` ([Chavez2020, eq. 13]: uniform flux into face i0,
+T = 0 on face i1, adiabatic sides — a lower-bound type condition) and ``"temperature"`` (T fixed on both
+faces, adiabatic sides — a mixed condition, exact for laminates and mirror-symmetric cells).  Mesh scenes
+take ``"flux"`` or ``"temperature"`` on the assembled mesh model.  The effective capacity is the volume
+average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
 
 [Chavez2020, § 4.2] applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
 experimental technique on the heterogeneous model *according to the three scenarios of Table 1*", i.e.
@@ -33,6 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 
+from aromm.cell_problems import BOUNDARIES, PROBE_FLUX, effective_conductivity
 from aromm.errors import InputError, NumericalError
 from aromm.geometry import VoxelGeometry
 from aromm.profiles import Profile
@@ -42,20 +34,23 @@ from aromm.system import FloatArray
 from aromm.vocabulary import FaceSpec, PhaseSpec, held, opposite
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
-PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
+__all__ = ["BOUNDARIES", "Fluxmetric", "fluxmetric", "homogeneous_twin", "homogenize", "mean_capacity"]
 
 
-BOUNDARIES = ("flux", "temperature")
+def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto") -> FloatArray:
+    """Effective conductivity tensor (3x3, W/(m K)) of the scene's material under ``boundary``.
 
-
-def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto") -> FloatArray:
-    """Effective conductivity tensor (3x3, W/(m K)); ``boundary="flux"`` is [Chavez2020, eq. 13].
-
-    Uses the scene's geometry and phases only; it applies the boundary conditions itself.
-    ``method`` is the linear solver (aromm.linalg).
+    ``boundary``: ``"periodic"`` (default), ``"flux"`` ([Chavez2020, eq. 13]) or ``"temperature"`` — their
+    meaning and bounds in :mod:`aromm.cell_problems`.  Uses the scene's geometry and phases only; it applies
+    the boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a linear solver of
+    aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on).
+    A mesh scene takes ``"flux"`` or ``"temperature"`` (principal values, assembled mesh model).
     """
-    if boundary not in BOUNDARIES:
-        raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
+    if isinstance(scene.geometry, VoxelGeometry):
+        return effective_conductivity(scene, boundary, method).k
+    if boundary not in ("flux", "temperature"):
+        raise InputError(f"{scene.where}a mesh scene is homogenised with boundary 'flux' or 'temperature' "
+                         f"(periodic conditions need a voxel image), got {boundary!r}")
     k = np.zeros((3, 3))
     size = scene.size
     for i, axis in enumerate("xyz"):
