@@ -39,6 +39,7 @@ from scipy.sparse import csgraph
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
 from aromm.linalg import Factorization, factorize
+from aromm.shifts import SHIFT
 from aromm.system import FloatArray, ThermalSystem
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
@@ -57,6 +58,9 @@ _BASIS_VERSION = 3
 CORRECTION_FACTORS = (0.1, 1.0, 3.0)
 #: Directions of the correction vectors with a relative Gram eigenvalue below this are dependent (dropped).
 CORRECTION_RANK_TOL = 1e-12
+#: A component's constant is a zero mode when ``|K0 1|`` stays below this fraction of the largest diagonal
+#: entry of K0 (rows of a conduction matrix sum to zero up to round-off, ~1e-16 of the entries).
+NULL_CONSTANT = 1e-10
 
 
 @dataclass(frozen=True)
@@ -129,10 +133,8 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
         raise InputError("the modal bases need a transient system (a [time] section and phase capacities c)")
     if system.dirichlet:
         names = ", ".join(d.param for d in system.dirichlet)
-        raise InputError(
-            f"fixed temperatures ({names}) are not supported by the modal reduction: the reduced model "
-            "uses natural boundary conditions only; replace them by convection with a large h (penalty)"
-        )
+        raise InputError(f"fixed temperatures ({names}): build the bases on the lifted system of the free "
+                         "unknowns (aromm.lifting.lift; aromm.reduce does it)")
     vals: dict[str, float] = {k: float(v) for k, v in system.parameters.items()}
     vals.update({k: float(v) for k, v in (values or {}).items()})
     k0 = sp.csr_array(system.conductance.with_role("conduction").evaluate(vals))
@@ -159,14 +161,17 @@ def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
 
 
 def zero_modes(ops: ReferenceOperators) -> FloatArray:
-    """One constant per connected component of the conduction graph, capacity-normalised (columns)."""
+    """One constant per connected component of the conduction graph, capacity-normalised (columns), for the
+    components where it is a null vector of K0 (not those touching a lifted fixed face, aromm.lifting)."""
     graph = sp.csr_array(ops.stiffness != 0)
     count, labels = csgraph.connected_components(graph, directed=False)
-    out = np.zeros((ops.n, count))
+    scale = float(np.abs(ops.stiffness.diagonal()).max(initial=0.0))
+    columns = []
     for j in range(count):
         ind = (labels == j).astype(float)
-        out[:, j] = ind / np.sqrt(ind @ (ops.capacity @ ind))
-    return out
+        if float(np.abs(ops.stiffness @ ind).max(initial=0.0)) <= NULL_CONSTANT * scale:
+            columns.append(ind / np.sqrt(ind @ (ops.capacity @ ind)))
+    return np.column_stack(columns) if columns else np.zeros((ops.n, 0))
 
 
 def _relative_residuals(k: sp.csr_array, m: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
@@ -389,9 +394,12 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
         v = {k: val for k, val in sample.items() if k in system.parameter_names}
         k_mat = sp.csr_array(system.conductance.evaluate(system.values(v)))
         c_terms = [sp.csr_array(t.operator) for t in system.capacity.terms]
-        if not exchange:
-            c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
-            k_mat = sp.csr_array(k_mat + 1e-8 * (k_mat.diagonal().sum() / c_mat.diagonal().sum()) * c_mat)
+        c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
+        shift = float(sample.get(SHIFT, 0.0))  # (K + s C)⁻¹: aromm.shifts
+        if not exchange and shift == 0.0:
+            shift = 1e-8 * k_mat.diagonal().sum() / c_mat.diagonal().sum()
+        if shift:
+            k_mat = sp.csr_array(k_mat + shift * c_mat)
         fac = factorize(k_mat, method, points=ops.points)
         for t in system.load.terms:
             x = fac.solve(np.asarray(t.operator, dtype=float))

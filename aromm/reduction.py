@@ -28,6 +28,8 @@ from tqdm import tqdm
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError
+from aromm.greedy import PodGreedy
+from aromm.lifting import lift
 from aromm.modes import boundary_of, compute_basis, correction_samples, split_modes, with_corrections
 from aromm.pod import PodReductor
 from aromm.reductor import DetailedModel, Reductor
@@ -37,12 +39,12 @@ from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, T
 log = logging.getLogger(__name__)
 
 #: The reductors known by name; any object implementing :class:`~aromm.reductor.Reductor` is accepted too.
-REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor())}
+REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor(), PodGreedy())}
 METHODS = tuple(REDUCTORS)
 #: Relaxation reference case [Chavez2020, § 3.2]: initially at 30 °C, cooled on all faces (h in W/(m² K)).
 RELAXATION_T0 = 30.0
 RELAXATION_H = 20.0
-_ROM_VERSION = 3
+_ROM_VERSION = 4  # 4: histories, feedthrough and lifted fixed temperatures
 
 
 @dataclass(frozen=True)
@@ -115,7 +117,8 @@ def _cases(system: ThermalSystem, reference_values: Mapping[str, float],
     cases += [ReferenceCase(r, at_reference(r)) if isinstance(r, ThermalSystem) else r for r in references]
     for case in cases:
         if case.system.n != system.n:
-            raise InputError(f"reference case {case.name!r} has {case.system.n} unknowns, the system {system.n}")
+            raise InputError(f"reference case {case.name!r} has {case.system.n} free unknowns, the system "
+                             f"{system.n}: fix the temperature of the same faces in every reference case")
     return cases
 
 
@@ -146,11 +149,16 @@ def reduce(
       ``reference_values`` (overrides of its parameters, default none), each of ``references`` (other
       scenarios on the same mesh, at the same overrides), and the relaxation from 30 °C cooled on the
       whole boundary (``relaxation``).
+    * Fixed temperatures (constant or histories) are lifted at ``basis_values`` (:func:`aromm.lifting.lift`):
+      the basis spans the free unknowns, its Steklov modes vanish on the fixed faces, and the reduced
+      model adds the lifting to its outputs; every reference case fixes the same faces.
     * ``corrections``: enrich the basis with static and first-order dynamic correction modes of the
       system's loads (:func:`aromm.modes.with_corrections`; an extension of [Chavez2020]) at the samples of
       :func:`aromm.modes.correction_samples` (True), at given samples, or not at all (False: the method of
       the paper exactly).
-    * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline) or object.
+    * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline, refused
+      beyond the rank of its snapshots; ``"greedy"``: multi-point POD-greedy, :mod:`aromm.greedy`) or object
+      (its ``cache_key``, when it has one, keys the cache; else its ``name``).
     * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
       stored by content hash; a second call with the same inputs loads the result.
     """
@@ -163,19 +171,23 @@ def reduce(
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
     total = int(modes) if modes is not None else default_modes(int(order))
+    basis_values = dict(basis_values or {})
+    fixed = len(system.dirichlet)
+    system = lift(system, basis_values, solver)  # fixed temperatures: the free unknowns (aromm.lifting)
+    references = [_lifted(r, basis_values, solver) for r in references]
     if n_dirichlet is None and n_steklov is None:
         n_d, n_s = split_modes(system, total)
     else:
         n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
         n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
-    basis_values = dict(basis_values or {})
     cases = _cases(system, reference_values or {}, references)
     store = resolve_cache(cache)
     if corrections is True:
         samples = correction_samples(system, basis_values)
     else:
         samples = [dict(s) for s in corrections] if corrections is not False else []
-    key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values, reductor.name, solver,
+    key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values,
+                      getattr(reductor, "cache_key", reductor.name), solver,
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
     if store is not None:
         stored = store.load("rom", key)
@@ -202,7 +214,7 @@ def reduce(
     detailed = DetailedModel(basis, model, np.hstack(snapshots))
     stages.next(f"{reductor.name} to order {order}")
     coefficients = np.eye(basis.size) if order >= basis.size else reductor.coefficients(detailed, int(order))
-    rom = model.transform(coefficients)
+    rom = model.transform(independent(coefficients, basis.gram))
     check_t = snapshot_times(system.time)
     own = {k: v for k, v in cases[0].values.items() if k in model.parameter_names}
     err = float(np.abs(rom.simulate(own, check_t).as_array() - model.simulate(own, check_t).as_array()).max(
@@ -215,6 +227,7 @@ def reduce(
         "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
         "gram_condition": float(basis.info.get("gram_condition", np.nan)),
         "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
+        "lifted_faces": fixed,
     }
     rom = replace(rom, info=info)
     log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
@@ -222,6 +235,32 @@ def reduce(
     if store is not None:
         store.save("rom", key, to_arrays(rom))
     return rom
+
+
+#: Reduced columns whose capacity Gram eigenvalue is below this fraction of the largest are dependent.
+DEPENDENT_COLUMNS = 1e-10
+
+
+def independent(coefficients: FloatArray, gram: FloatArray) -> FloatArray:
+    """The coefficients A unchanged when the columns of Ψ = Φ A are independent in the capacity product
+    (``AᵀGA``, G = ΦᵀC0Φ); otherwise an orthonormal basis of their span without the dependent directions
+    (the Galerkin model depends on the span only).  Kept correction vectors can fall in the span of the
+    amalgamated modes when the detailed basis is complete (tiny bodies) and make L singular."""
+    g = coefficients.T @ gram @ coefficients
+    w, u = np.linalg.eigh((g + g.T) / 2)
+    keep = w > DEPENDENT_COLUMNS * float(w.max(initial=0.0))
+    if np.all(keep):
+        return coefficients
+    log.info("reduce: %d dependent reduced column(s) dropped", int(np.count_nonzero(~keep)))
+    return (coefficients @ u[:, keep]) / np.sqrt(w[keep])
+
+
+def _lifted(case: ThermalSystem | ReferenceCase, values: Mapping[str, float], solver: str) -> ThermalSystem | \
+        ReferenceCase:
+    """A reference case with its fixed temperatures lifted at the basis values, like the system."""
+    if isinstance(case, ThermalSystem):
+        return lift(case, values, solver)
+    return replace(case, system=lift(case.system, values, solver))
 
 
 def _snapshot(case: ReferenceCase, model: ReducedModel, kinds: np.ndarray, grid: TimeGrid | None) -> FloatArray:

@@ -52,6 +52,7 @@ autosummary_generate = True
 autosummary_imported_members = False
 # members defined in each module only (a package re-exports names documented on its submodules' pages)
 autodoc_default_options = {"members": True, "member-order": "bysource", "ignore-module-all": True}
+autodoc_mock_imports = ["pymor"]  # optional extra [mor]: aromm.interop.pymor is documented without it
 autodoc_typehints = "signature"
 autodoc_class_signature = "separated"
 autodoc_preserve_defaults = True

@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from aromm.errors import InputError
 from aromm.model import ForwardModel
+from aromm.offset import TIME_OFFSET, TimeShifted
 from aromm.system import FloatArray
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
@@ -169,6 +170,15 @@ def _signature(optimiser: opt.Optimiser) -> object:
     return optimiser.name
 
 
+def relative_scales(box: opt.Box, estimates: FloatArray) -> FloatArray:
+    """Magnitudes of the relative sensitivities: ``|β̂|`` for a parameter searched in a positive (or negative)
+    interval, the half-width of its bounds for one whose bounds reach zero (a clock offset, a temperature
+    in °C: no relative scale, and the estimate may be zero)."""
+    estimates = np.abs(np.asarray(estimates, dtype=float))
+    straddle = (box.lower <= 0.0) & (box.upper >= 0.0) | (estimates == 0.0)
+    return np.where(straddle, 0.5 * (box.upper - box.lower), estimates)
+
+
 def default_optimisers(particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS,
                        refine: bool = True) -> tuple[opt.Optimiser, ...]:
     """The chain of [Chavez2020, § 4.1]: a particle swarm, then a least-squares refinement from its best."""
@@ -213,6 +223,9 @@ def identify(
         if not isinstance(o, opt.Optimiser):
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
     scenarios = _scenarios(model, measurements)
+    if TIME_OFFSET in {*unknowns, *(fixed or {})}:  # one clock offset shared by every scenario
+        scenarios = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(
+            sc.model)) for sc in scenarios]
     box = opt.Box.from_bounds(unknowns)
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
@@ -261,7 +274,7 @@ def identify(
     sensitivity = -opt.jacobian(problem.residuals, u_best) / box.dtheta_du(u_best)[None, :]
     notes = [f"{name} = {value:.6g} is at its {'lower' if u < 0.5 else 'upper'} bound: widen the bounds"
              for name, value, u in zip(box.names, theta, u_best, strict=True) if min(u, 1.0 - u) < AT_BOUND]
-    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes)
+    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, scales=relative_scales(box, theta))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),

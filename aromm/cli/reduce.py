@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from aromm.cache import NpzCache
-from aromm.cli.common import echo_json
+from aromm.cli.common import REFINE, echo_json, refine_scene
 from aromm.linalg import METHODS
 from aromm.reduction import METHODS as REDUCTIONS
 from aromm.reduction import reduce
@@ -30,13 +30,14 @@ from aromm.scene import assemble, load_scene
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
               help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")
+@REFINE
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
-               cache_dir: Path | None, no_cache: bool, as_json: bool) -> None:
+               cache_dir: Path | None, no_cache: bool, refine: int, as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant)."""
-    sc = load_scene(scene)
+    sc = refine_scene(load_scene(scene), refine)
     system = assemble(sc)
-    refs = [assemble(load_scene(path)) for path in references]
+    refs = [assemble(refine_scene(load_scene(path), refine)) for path in references]
     cache = False if no_cache else NpzCache(cache_dir)
     rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
                  basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
