@@ -28,17 +28,20 @@ measurements of an identification free of homogenisation bias.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.engines import check_engine
 from aromm.errors import InputError, NumericalError
 from aromm.fem import FaceSpec, PhaseSpec
 from aromm.scene import Scene, assemble
 from aromm.solve import steady_field
-from aromm.system import FloatArray
+from aromm.system import FloatArray, TimeGrid
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
@@ -47,12 +50,39 @@ PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
 BOUNDARIES = ("flux", "temperature")
 
 
-def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto") -> FloatArray:
+class ProbeScene(Protocol):
+    """What the homogenisation probes need of a scene: its box and the same material under other faces
+    (a :class:`~aromm.scene.Scene`, or the petsc engine's slab-read VoxelProblem)."""
+
+    @property
+    def size(self) -> tuple[float, float, float]: ...
+
+    def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
+                      time: TimeGrid | None = None) -> ProbeScene: ...
+
+
+#: A steady solve of a probe: face means (°C) of its outputs and the heat flow (W) entering through its
+#: first fixed-temperature face.
+ProbeSolver = Callable[[Any], tuple[dict[str, float], float]]
+
+
+def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto", engine: str = "scipy") -> FloatArray:
     """Effective conductivity tensor (3x3, W/(m K)); ``boundary="flux"`` is seed 001 eq. 13.
 
     Uses the scene's geometry and phases only; it applies the boundary conditions itself.
-    ``method`` is the linear solver (aromm.linalg).
+    ``method`` is the linear solver (aromm.linalg; with ``engine="petsc"``: ``gamg`` or ``mumps``), ``engine``
+    ``"scipy"`` (one process) or ``"petsc"`` (PETSc under MPI, aromm.engines.petsc: collective, every rank
+    calls it and gets the tensor).
     """
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.homogenization import probe_solver
+
+        return conductivity(scene, boundary, probe_solver(method))
+    return conductivity(scene, boundary, lambda probe: _steady_probe(probe, method))
+
+
+def conductivity(scene: ProbeScene, boundary: str, solve: ProbeSolver) -> FloatArray:
+    """Eq. 13 (``boundary="flux"``) or the fixed-temperature heat flow, one probe per axis, by ``solve``."""
     if boundary not in BOUNDARIES:
         raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
     k = np.zeros((3, 3))
@@ -61,17 +91,21 @@ def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto") -> Fl
         hot, cold = f"{axis}0", f"{axis}1"
         area = size[0] * size[1] * size[2] / size[i]
         if boundary == "flux":
-            system = assemble(_probe(scene, FaceSpec(hot, flux=PROBE_FLUX), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            drop = float(system.observation[hot] @ field - system.observation[cold] @ field)
-            k[i, i] = PROBE_FLUX * size[i] / drop
+            means, _ = solve(_probe(scene, FaceSpec(hot, flux=PROBE_FLUX), FaceSpec(cold, T=0.0)))
+            k[i, i] = PROBE_FLUX * size[i] / (means[hot] - means[cold])
         else:
-            system = assemble(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            reaction = sp.csr_array(system.conductance.evaluate(system.values())) @ field
-            heat_flow = float(reaction[system.dirichlet[0].dofs].sum())
+            _, heat_flow = solve(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
             k[i, i] = heat_flow * size[i] / area
     return k
+
+
+def _steady_probe(scene: Scene, method: str) -> tuple[dict[str, float], float]:
+    """Face means and the heat flow through the first fixed-temperature face, by aromm.solve."""
+    system = assemble(scene)
+    field = steady_field(system, method=method)
+    means = {name: float(e @ field) for name, e in system.observation.items()}
+    reaction = sp.csr_array(system.conductance.evaluate(system.values())) @ field
+    return means, float(reaction[system.dirichlet[0].dofs].sum())
 
 
 @dataclass(frozen=True)
@@ -125,7 +159,7 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     return Fluxmetric(axis, s1.face, opposite, flux, drop, flux * length / drop)
 
 
-def _probe(scene: Scene, hot: FaceSpec, cold: FaceSpec) -> Scene:
+def _probe(scene: ProbeScene, hot: FaceSpec, cold: FaceSpec) -> ProbeScene:
     """The scene's material, steady, with only the two probe faces loaded."""
     return scene.with_boundary((hot, cold), (hot.face, cold.face), time=None)
 

@@ -29,7 +29,7 @@ import functools
 import os
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -366,7 +366,19 @@ def snapshot_times(grid: TimeGrid | None) -> FloatArray:
     return np.unique(np.concatenate([early, grid.times]))
 
 
-def _resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> NpzCache | None:
+def mode_counts(order: int, modes: int | None, n_dirichlet: int | None, n_steklov: int | None,
+                split: Callable[[int], tuple[int, int]]) -> tuple[int, int]:
+    """(n_dirichlet, n_steklov) of :func:`reduce`: Ñ = ``modes`` (default :func:`default_modes`) split by
+    ``split`` (aromm.modes.split_modes) unless one of the counts is given."""
+    total = int(modes) if modes is not None else default_modes(order)
+    if n_dirichlet is None and n_steklov is None:
+        return split(total)
+    n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
+    n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
+    return n_d, n_s
+
+
+def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> NpzCache | None:
     if cache is None or cache is False:
         return None
     if cache is True:
@@ -416,12 +428,7 @@ def reduce(
         raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
-    total = int(modes) if modes is not None else default_modes(int(order))
-    if n_dirichlet is None and n_steklov is None:
-        n_d, n_s = split_modes(system, total)
-    else:
-        n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
-        n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
+    n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov, lambda total: split_modes(system, total))
     ref_vals = default_reference_values(system)
     ref_vals.update({k: float(v) for k, v in (reference_values or {}).items()})
     cases: list[ReferenceCase] = [ReferenceCase(system, ref_vals, name="system")]
@@ -435,7 +442,7 @@ def reduce(
     for case in cases:
         if case.system.n != system.n:
             raise InputError(f"reference case {case.name!r} has {case.system.n} unknowns, the system {system.n}")
-    store = _resolve_cache(cache)
+    store = resolve_cache(cache)
     if corrections is True:
         samples = correction_samples(system, basis_values)
     elif corrections is False:
@@ -462,44 +469,65 @@ def reduce(
     detailed = ReducedModel.from_system(system, basis.vectors, memo)
     if relaxation:
         cases.append(relaxation_case(system, ref_vals, boundary_mass(system)))
-    snapshots = []
-    for case in cases:
-        model = detailed if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo)
-        names = model.parameter_names
-        times = case.times if case.times is not None else snapshot_times(case.system.time or system.time)
-        x = model.states({k: v for k, v in case.values.items() if k in names}, times).T
-        free = np.flatnonzero(basis.kinds != "zero")
-        scale = float(np.linalg.norm(x[free]))
-        snapshots.append(x / scale if scale > 0 else x)
+    projected = [(detailed if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
+                  case) for case in cases]
     stages.update()
     stages.set_postfix_str(method)
-    states = np.hstack(snapshots)
-    coefficients = _reduction(basis, states, order, method=method, detailed=detailed, system=system,
-                              basis_values=basis_values)
-    stages.update()
-    rom = detailed.transform(coefficients)
-    check_t = snapshot_times(system.time)
-    own = {k: v for k, v in ref_vals.items() if k in detailed.parameter_names}
-    err = float(np.abs(rom.simulate(own, check_t).as_array() - detailed.simulate(own, check_t).as_array()).max(
-        initial=0.0))
-    stages.update()
+    rom, err = amalgamate(detailed, projected, basis, order, method=method,
+                          basis_values=_basis_values(system, basis_values), check_values=ref_vals)
+    stages.update(2)
     stages.close()
-    info: dict[str, float | int | str] = {
-        "method": method, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
-        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
-        "zeta": basis.zeta,
-        "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
-        "gram_condition": float(basis.info.get("gram_condition", np.nan)),
-        "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
-    }
+    info = reduction_info(rom, basis, method, time.perf_counter() - start, err, key)
     rom = replace(rom, info=info)
     if store is not None:
         store.save("rom", key, _to_arrays(rom))
     return rom
 
 
+def amalgamate(detailed: ReducedModel, cases: Sequence[tuple[ReducedModel, ReferenceCase]], basis: ModalBasis,
+               order: int, *, method: str, basis_values: Mapping[str, float],
+               check_values: Mapping[str, float]) -> tuple[ReducedModel, float]:
+    """The order-ñ model on Ψ = Φ A from the detailed modal model (Ψ = Φ) and the reference cases projected
+    onto Φ (``cases``: projected model and its case), and its largest output error (°C) against the
+    detailed model at ``check_values`` on the snapshot times.
+
+    Works on small (Ñ × Ñ) matrices only: whoever computed Φ and projected the operators (one process,
+    or PETSc under MPI, aromm.engines.petsc) hands over the projected models.  ``basis`` supplies the mode
+    kinds and correction coefficients (its ``vectors`` are not used).
+    """
+    snapshots = []
+    free = np.flatnonzero(basis.kinds != "zero")
+    for model, case in cases:
+        names = model.parameter_names
+        times = case.times if case.times is not None else snapshot_times(case.system.time or detailed.time)
+        x = model.states({k: v for k, v in case.values.items() if k in names}, times).T
+        scale = float(np.linalg.norm(x[free]))
+        snapshots.append(x / scale if scale > 0 else x)
+    coefficients = _reduction(basis, np.hstack(snapshots), order, method=method, detailed=detailed,
+                              basis_values=basis_values)
+    rom = detailed.transform(coefficients)
+    check_t = snapshot_times(detailed.time)
+    own = {k: v for k, v in check_values.items() if k in detailed.parameter_names}
+    err = float(np.abs(rom.simulate(own, check_t).as_array() - detailed.simulate(own, check_t).as_array()).max(
+        initial=0.0))
+    return rom, err
+
+
+def reduction_info(rom: ReducedModel, basis: ModalBasis, method: str, seconds: float, error: float,
+                   key: str) -> dict[str, float | int | str]:
+    """What ``ReducedModel.info`` records of an offline build (orders, mode counts, seconds, errors)."""
+    return {
+        "method": method, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
+        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
+        "zeta": basis.zeta,
+        "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
+        "gram_condition": float(basis.info.get("gram_condition", np.nan)),
+        "offline_seconds": seconds, "reference_error": error, "cached": 0, "key": key,
+    }
+
+
 def _reduction(basis: ModalBasis, states: FloatArray, order: int, *, method: str, detailed: ReducedModel,
-               system: ThermalSystem, basis_values: Mapping[str, float] | None) -> FloatArray:
+               basis_values: Mapping[str, float]) -> FloatArray:
     """Coefficients A (Ñ × ñ) of the reduced basis Ψ = Φ A.
 
     The constants are kept alone; the correction vectors (when the order leaves room for them and one
@@ -515,8 +543,7 @@ def _reduction(basis: ModalBasis, states: FloatArray, order: int, *, method: str
     units = np.zeros((basis.size, zero.size))
     units[zero, np.arange(zero.size)] = 1.0
     if method == "pod":
-        bvals, _ = detailed._values({k: [v] for k, v in _basis_values(system, basis_values).items()
-                                     if k in detailed.parameter_names})
+        bvals, _ = detailed._values({k: [v] for k, v in basis_values.items() if k in detailed.parameter_names})
         gram = detailed._stack(detailed.capacity, bvals, 1)[0]
         kept = np.column_stack([units, corr]) if keep_corr else units
         return pod_coefficients(states, gram, order, kept)

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from aromm.cache import content_key
 from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import RowLayout, SlabLayout
 from aromm.engines.petsc.problem import VoxelProblem
@@ -62,6 +63,7 @@ class DistributedSystem:
     dirichlet: Mapping[str, np.ndarray]
     observation: Mapping[str, Any]
     boundary: Any
+    fingerprint: str
     description: str = ""
 
     @property
@@ -159,7 +161,8 @@ def assemble_slabs(problem: VoxelProblem, comm: Any) -> DistributedSystem:
     rows = layout.rows
     template = problem.template()
     faces = layout.faces()
-    slab = assemble_voxels(problem.image.read(layout.k0, layout.k1), problem.voxel_size, problem.phases,
+    labels = problem.image.read(layout.k0, layout.k1)
+    slab = assemble_voxels(labels, problem.voxel_size, problem.phases,
                            tuple(f for f in problem.boundary if f.face in faces), time=problem.time,
                            initial_T=problem.initial_T)
     m = slab.n
@@ -195,9 +198,20 @@ def assemble_slabs(problem: VoxelProblem, comm: Any) -> DistributedSystem:
         load=vectors(template.load, slab.load),
         dirichlet=dirichlet, observation=observation,
         boundary=convert.matrix(_owned_rows(surface, layout, comm), rows, comm),
+        fingerprint=problem_key(problem, labels, comm),
         description=f"{problem.where}{problem.shape[0]}×{problem.shape[1]}×{problem.shape[2]} voxels "
                     f"in {layout.size} z-slabs",
     )
+
+
+def problem_key(problem: VoxelProblem, labels: np.ndarray, comm: Any) -> str:
+    """Content hash of a voxel problem, the same for any number of ranks: every z layer of the image is hashed
+    by the rank that read it (``labels``, its slab), then the layer hashes in order with the scene's phases,
+    faces and grids."""
+    mine = [content_key(labels[:, :, k]) for k in range(labels.shape[2])]
+    layers = [h for part in runtime.mpi(comm).allgather(mine) for h in part]
+    return content_key("voxel problem", problem.shape, problem.voxel_size, repr(problem.phases),
+                       repr(problem.boundary), problem.initial_T, repr(problem.time), problem.outputs, layers)
 
 
 def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:
@@ -220,5 +234,5 @@ def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:
     except InputError:  # no exchange term and no face load: no Steklov modes, steady solves still work
         boundary = None
     return DistributedSystem(system, rows, comm, terms(system.capacity), terms(system.conductance),
-                             terms(system.load), dirichlet, observation, boundary,
+                             terms(system.load), dirichlet, observation, boundary, system.fingerprint(),
                              description=f"{system.n} unknowns distributed by rows")
