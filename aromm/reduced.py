@@ -40,6 +40,7 @@ from tqdm import tqdm
 
 from aromm.amalgam import amalgam
 from aromm.cache import NpzCache, content_key
+from aromm.engines import check_engine
 from aromm.errors import InputError, NumericalError
 from aromm.modes import (
     ModalBasis,
@@ -52,6 +53,7 @@ from aromm.modes import (
     with_corrections,
 )
 from aromm.pod import pod_coefficients
+from aromm.scene import Scene, assemble
 from aromm.system import Affine, Coefficient, FloatArray, Observables, Term, ThermalSystem, TimeGrid
 
 #: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
@@ -389,7 +391,7 @@ def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> Npz
 
 
 def reduce(
-    system: ThermalSystem,
+    system: ThermalSystem | Scene,
     order: int = 200,
     *,
     modes: int | None = None,
@@ -404,6 +406,7 @@ def reduce(
     solver: str = "auto",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
+    engine: str = "scipy",
 ) -> ReducedModel:
     """AROMM reduced model of ``system`` at order ``order`` (seed 001 §3).
 
@@ -423,7 +426,19 @@ def reduce(
     * ``method``: ``"aromm"`` (amalgam, eq. 9) or ``"pod"`` (POD–Galerkin baseline).
     * ``cache``: True (default directory), a directory, an NpzCache, or False.  Bases and reduced
       models are stored by content hash; a second call with the same inputs loads the result.
+    * ``engine``: ``"scipy"`` (one process) or ``"petsc"`` (PETSc/SLEPc under ``mpiexec``, collective:
+      aromm.engines.petsc.reduction; ``system`` may then be a voxel Scene, assembled by z-slabs, and
+      ``solver`` is ``gamg`` or ``mumps``).  A Scene given to the scipy engine is assembled first.
     """
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.reduction import reduce as reduce_petsc
+
+        return reduce_petsc(system, order, modes=modes, n_dirichlet=n_dirichlet, n_steklov=n_steklov,
+                            basis_values=basis_values, reference_values=reference_values, references=references,
+                            relaxation_case=relaxation, corrections=corrections, method=method, solver=solver,
+                            cache=cache)
+    if isinstance(system, Scene):
+        system = assemble(system)
     if method not in METHODS:
         raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:

@@ -26,6 +26,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from tqdm import tqdm
 
+from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.linalg import factorize
 from aromm.system import FloatArray, Observables, ParamValues, ThermalSystem, TimeGrid
@@ -86,6 +87,13 @@ def steady_field(system: ThermalSystem, values: ParamValues | None = None, metho
     return part.full(system.n, factorize(k_ff, method, points=_points(system, part)).solve(rhs))
 
 
+def output_steps(times: npt.ArrayLike | None, grid: TimeGrid) -> tuple[FloatArray, int]:
+    """Checked output times (default: the grid's) and the number of time steps that reach them."""
+    t_out = _check_times(times, grid)
+    steps = round(min(grid.end, t_out[-1] + grid.dt) / grid.dt - 1e-9) + 1
+    return t_out, max(1, min(steps, len(grid.times)))
+
+
 def _check_times(times: npt.ArrayLike | None, grid: TimeGrid) -> FloatArray:
     if times is None:
         return grid.times
@@ -116,15 +124,13 @@ def transient(
     if scheme not in ("bdf2", "euler"):
         raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
     grid = system.time
-    t_out = _check_times(times, grid)
+    t_out, steps = output_steps(times, grid)
     v = system.values(values)
     part = _partition(system, v)
     c_ff, _ = _split(sp.csr_array(system.capacity.evaluate(v)), part)
     k_ff, k_fd = _split(sp.csr_array(system.conductance.evaluate(v)), part)
     f_free = _load(system, v)[part.free] - k_fd @ part.fixed_values
     dt = grid.dt
-    steps = round(min(grid.end, t_out[-1] + dt) / dt - 1e-9) + 1
-    steps = max(1, min(steps, len(grid.times)))
 
     names, e = system.observation_matrix()
     e_free, e_fixed = e[:, part.free], e[:, part.fixed] @ part.fixed_values
@@ -174,8 +180,18 @@ def simulate(
     method: str = "auto",
     scheme: Scheme = "bdf2",
     progress: bool = False,
+    engine: str = "scipy",
 ) -> Observables:
-    """Full model: steady solve for a steady system, else :func:`transient`."""
+    """Full model: steady solve for a steady system, else :func:`transient`.
+
+    ``engine="petsc"``: the same solves distributed by PETSc under MPI (aromm.engines.petsc.transient; every
+    rank calls it; ``method`` is then ``gamg`` or ``mumps``; no ``fields``)."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.transient import simulate as simulate_petsc
+
+        if fields:
+            raise InputError("the petsc engine returns face means only (fields stay distributed); use engine='scipy'")
+        return simulate_petsc(system, values, times, scheme=scheme, solver=method)
     if system.is_steady or system.time is None:
         field = steady_field(system, values, method)
         names, e = system.observation_matrix()

@@ -95,7 +95,7 @@ def reduce(
     n_steklov: int | None = None,
     basis_values: Mapping[str, float] | None = None,
     reference_values: Mapping[str, float] | None = None,
-    references: Sequence[Source] = (),
+    references: Sequence[Source | ReferenceCase] = (),
     relaxation_case: bool = True,
     corrections: bool | Sequence[Mapping[str, float]] = True,
     method: str = "aromm",
@@ -117,7 +117,7 @@ def reduce(
     comm = comm if comm is not None else runtime.world()
     start = time.perf_counter()
     system = distributed(source, comm)
-    others = [distributed(r, comm) for r in references]
+    others = [distributed(r.system if isinstance(r, ReferenceCase) else r, comm) for r in references]
     for other in others:
         if other.n != system.n:
             raise InputError(f"reference case {other.description!r} has {other.n} unknowns, the system {system.n}")
@@ -129,7 +129,8 @@ def reduce(
     samples = (correction_samples(template, basis_values) if corrections is True
                else [] if corrections is False else [dict(s) for s in corrections])
     key = content_key("petsc", _VERSION, system.fingerprint, order, n_d, n_s, basis_values or {}, method, solver,
-                      relaxation_case, samples, [o.fingerprint for o in others], reference_values or {})
+                      relaxation_case, samples, [o.fingerprint for o in others], reference_values or {},
+                      [(dict(r.values), r.times) for r in references if isinstance(r, ReferenceCase)])
     store = resolve_cache(cache)
     found = _cached(store, key, comm)
     if found is not None:
@@ -141,13 +142,17 @@ def reduce(
     memo: dict[int, np.ndarray] = {}
     detailed = project(system, basis.vectors, memo)
     cases = [(detailed, ReferenceCase(template, ref_vals, name="system"))]
-    for other in others:
-        vals = default_reference_values(other.template)
-        vals.update({k: float(v) for k, v in (reference_values or {}).items()})
-        cases.append((project(other, basis.vectors, memo), ReferenceCase(other.template, vals)))
+    for other, given in zip(others, references, strict=True):
+        if isinstance(given, ReferenceCase):
+            case = replace(given, system=other.template)
+        else:
+            vals = default_reference_values(other.template)
+            vals.update({k: float(v) for k, v in (reference_values or {}).items()})
+            case = ReferenceCase(other.template, vals)
+        cases.append((project(other, basis.vectors, memo), case))
     if relaxation_case:
-        relaxed, case = relaxation(system, ref_vals)
-        cases.append((project(relaxed, basis.vectors, memo), case))
+        relaxed, relax = relaxation(system, ref_vals)
+        cases.append((project(relaxed, basis.vectors, memo), relax))
     bvals = default_basis_values(template)
     bvals.update({k: float(v) for k, v in (basis_values or {}).items()})
     rom, err = amalgamate(detailed, cases, basis, order, method=method, basis_values=bvals, check_values=ref_vals)
