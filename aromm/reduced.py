@@ -492,7 +492,7 @@ def reduce(
                           basis_values=_basis_values(system, basis_values), check_values=ref_vals)
     stages.update(2)
     stages.close()
-    info = reduction_info(rom, basis, method, time.perf_counter() - start, err, key)
+    info = reduction_info(rom, basis, method, seconds=time.perf_counter() - start, error=err, key=key)
     rom = replace(rom, info=info)
     if store is not None:
         store.save("rom", key, _to_arrays(rom))
@@ -528,7 +528,7 @@ def amalgamate(detailed: ReducedModel, cases: Sequence[tuple[ReducedModel, Refer
     return rom, err
 
 
-def reduction_info(rom: ReducedModel, basis: ModalBasis, method: str, seconds: float, error: float,
+def reduction_info(rom: ReducedModel, basis: ModalBasis, method: str, *, seconds: float, error: float,
                    key: str) -> dict[str, float | int | str]:
     """What ``ReducedModel.info`` records of an offline build (orders, mode counts, seconds, errors)."""
     return {

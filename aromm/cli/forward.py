@@ -9,9 +9,11 @@ import click
 import meshio
 import numpy as np
 
+from aromm.cli import engine as engine_cli
 from aromm.cli.common import echo_json
+from aromm.engines import is_root
 from aromm.errors import InputError
-from aromm.homogenize import BOUNDARIES, fluxmetric, homogenize, mean_capacity
+from aromm.homogenize import BOUNDARIES, conductivity, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import METHODS
 from aromm.scene import assemble, load_scene
 from aromm.solve import simulate as simulate_full
@@ -33,14 +35,14 @@ def _table(obs: Observables, rows: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
+def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Path]:
     """observables.csv always; field.vtu (last time, or steady) when fields were kept."""
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "observables.csv"]
     if not obs.mean_T:
         raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
     save_measurements(Measurements(obs.t, obs.mean_T, "simulate"), written[0])
-    if obs.fields is not None and system.geometry is not None:
+    if obs.fields is not None and system is not None and system.geometry is not None:
         geo = system.geometry
         mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
                            point_data={"T": obs.fields[-1]},
@@ -56,22 +58,28 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
-              help="Folder for observables.csv and field.vtu (final field, full model).")
+              help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
-@SOLVER
+@engine_cli.SOLVER
+@engine_cli.ENGINE
 @JSON
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str,
+def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str, engine: str,
                  as_json: bool) -> None:
     """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
-    sc = load_scene(scene)
-    system = assemble(sc)
+    solver = engine_cli.resolve(engine, solver)
+    source = engine_cli.load(scene, engine)
+    system = assemble(source) if engine == "scipy" else None
+    progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
         from aromm.reduced import reduce
 
-        obs = reduce(system, order=order, progress=sys.stderr.isatty()).simulate()
+        obs = reduce(system if system is not None else source, order=order, solver=solver, progress=progress,
+                     engine=engine).simulate()
     else:
-        obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
-                            progress=sys.stderr.isatty())
+        obs = simulate_full(system if system is not None else source, fields=out is not None and system is not None,
+                            method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
+    if not is_root(engine):
+        return
     written = _save(obs, system, out) if out is not None else []
     if as_json:
         echo_json(obs.to_json())
@@ -85,13 +93,25 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 @SCENE
 @click.option("--boundary", type=click.Choice(BOUNDARIES), default="flux", show_default=True,
               help="flux: seed 001 eq. 13 (flux in, fixed T out); temperature: fixed T on both faces.")
-@SOLVER
+@engine_cli.SOLVER
+@engine_cli.ENGINE
 @JSON
-def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> None:
+def homogenize_cmd(scene: Path, boundary: str, solver: str, engine: str, as_json: bool) -> None:
     """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
-    sc = load_scene(scene)
-    k = homogenize(sc, boundary=boundary, method=solver)
-    c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
+    solver = engine_cli.resolve(engine, solver)
+    source = engine_cli.load(scene, engine)
+    capacities = all(ph.c is not None for ph in source.phases)
+    if engine == "petsc":
+        from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
+        from aromm.engines.petsc.homogenization import probe_solver
+
+        k = conductivity(source, boundary, probe_solver(solver))
+        c = mean_capacity_petsc(source) if capacities else None
+    else:
+        k = homogenize(source, boundary=boundary, method=solver)
+        c = mean_capacity(source) if capacities else None
+    if not is_root(engine):
+        return
     if as_json:
         echo_json({"k": k, "c": c})
         return

@@ -45,3 +45,24 @@ def check_engine(engine: str) -> str:
             hint = f" (Debian's packages are installed: export PETSC_DIR={petsc[-1]} SLEPC_DIR={slepc[-1]})"
         raise InputError(f"engine 'petsc' is not available{hint}; {INSTALL_HINT}")
     return engine
+
+
+#: Linear solvers of the petsc engine (aromm.engines.petsc.linear); "auto" means "gamg".
+PETSC_SOLVERS = ("gamg", "mumps")
+
+
+def check_solver(engine: str, solver: str, scipy_solvers: tuple[str, ...]) -> str:
+    """``solver`` when it belongs to ``engine`` (``scipy_solvers`` for scipy, :data:`PETSC_SOLVERS` for petsc)."""
+    allowed = ("auto", *PETSC_SOLVERS) if engine == "petsc" else scipy_solvers
+    if solver not in allowed:
+        raise InputError(f"solver {solver!r} does not belong to engine {engine!r}; allowed: {', '.join(allowed)}")
+    return solver
+
+
+def is_root(engine: str) -> bool:
+    """True on the process that prints and writes: the only one for scipy, rank 0 for petsc."""
+    if engine != "petsc":
+        return True
+    from aromm.engines.petsc import runtime
+
+    return runtime.is_root(runtime.world())

@@ -228,7 +228,8 @@ def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:
         return tuple(out)
 
     dirichlet = {d.name: d.dofs[(d.dofs >= rows.lo) & (d.dofs < rows.hi)] for d in system.dirichlet}
-    observation = {k: convert.vector(np.asarray(v, dtype=float)[part], rows, comm) for k, v in system.observation.items()}
+    observation = {k: convert.vector(np.asarray(v, dtype=float)[part], rows, comm)
+                   for k, v in system.observation.items()}
     try:
         boundary = convert.matrix(boundary_mass(system)[part], rows, comm)
     except InputError:  # no exchange term and no face load: no Steklov modes, steady solves still work

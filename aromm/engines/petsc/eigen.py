@@ -57,8 +57,8 @@ class Reference:
         return np.flatnonzero(convert.array(self.boundary.getDiagonal()) > 0.0)
 
 
-def _solve_eps(a: Any, b: Any, count: int, target: float, solver: str, prefix: str) -> tuple[FloatArray, FloatArray,
-                                                                                              Any]:
+def _solve_eps(a: Any, b: Any, count: int, *, target: float, solver: str, prefix: str) -> tuple[
+        FloatArray, FloatArray, Any]:
     """The ``count`` eigenpairs of ``a v = λ b v`` nearest ``target`` (ascending), this rank's rows, and the EPS."""
     SLEPc = runtime.slepc()
     eps = SLEPc.EPS().create(comm=a.getComm())
@@ -74,7 +74,10 @@ def _solve_eps(a: Any, b: Any, count: int, target: float, solver: str, prefix: s
     linear.configure(st.getKSP(), solver, INNER_RTOL)
     eps.setOptionsPrefix(prefix)
     eps.setFromOptions()
-    eps.solve()
+    try:
+        eps.solve()
+    except runtime.petsc().Error as err:
+        raise NumericalError(f"SLEPc Krylov–Schur ({prefix.strip('_')}, inner {solver}) failed: {err}") from None
     converged = int(eps.getConverged())
     if converged < count:
         raise NumericalError(f"SLEPc Krylov–Schur ({prefix.strip('_')}, {count} modes, inner {solver}) converged "
@@ -90,7 +93,7 @@ def _solve_eps(a: Any, b: Any, count: int, target: float, solver: str, prefix: s
     return lam[order], vec[:, order], eps
 
 
-def _residuals(a: Any, b: Any, lam: FloatArray, vec: FloatArray, rows: RowLayout, comm: Any) -> FloatArray:
+def _residuals(a: Any, b: Any, lam: FloatArray, vec: FloatArray, *, rows: RowLayout, comm: Any) -> FloatArray:
     """``||A v − λ B v|| / (||A v|| + |λ| ||B v||)`` per column (aromm.modes._relative_residuals)."""
     av = convert.apply(a, vec, rows, comm)
     bv = convert.apply(b, vec, rows, comm)
@@ -115,8 +118,8 @@ def dirichlet_modes(ref: Reference, count: int, solver: str) -> tuple[FloatArray
     c_ii = ref.capacity.createSubMatrix(index, index)
     sub = RowLayout(tuple(int(s) for s in np.concatenate([[0], np.cumsum(runtime.mpi(comm).allgather(interior.size))])),
                     rows.rank)
-    lam, vec, _ = _solve_eps(k_ii, c_ii, count, 0.0, solver, "aromm_dirichlet_")
-    res = _residuals(k_ii, c_ii, lam, vec, sub, comm)
+    lam, vec, _ = _solve_eps(k_ii, c_ii, count, target=0.0, solver=solver, prefix="aromm_dirichlet_")
+    res = _residuals(k_ii, c_ii, lam, vec, rows=sub, comm=comm)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(f"SLEPc Dirichlet eigensolver ({solver}): relative residual {res.max():.1e} exceeds "
                              f"{RESIDUAL_TOL:.0e} (mode {int(res.argmax())} of {count})")
@@ -140,7 +143,8 @@ def steklov_modes(ref: Reference, count: int, n_zero: int, solver: str) -> tuple
         return np.zeros(0), np.zeros((rows.local, 0))
     ratio = convert.array(ref.stiffness.getDiagonal())[gamma] / convert.array(b.getDiagonal())[gamma]
     sigma = -STEKLOV_SHIFT * runtime.allmax(float(ratio.max(initial=0.0)), comm)
-    _, vec, eps = _solve_eps(ref.stiffness, b, count + n_zero, sigma, solver, "aromm_steklov_")
+    _, vec, eps = _solve_eps(ref.stiffness, b, count + n_zero, target=sigma, solver=solver,
+                             prefix="aromm_steklov_")
     ksp = eps.getST().getKSP()  # operator K0 − σζB
     rhs, x = b.createVecLeft(), b.createVecRight()
     bv = convert.apply(b, vec, rows, comm)
@@ -157,7 +161,7 @@ def steklov_modes(ref: Reference, count: int, n_zero: int, solver: str) -> tuple
         raise NumericalError(f"Steklov Rayleigh–Ritz: traces of the computed modes are dependent ({err})") from None
     vec = (vec @ q)[:, n_zero:]
     lam = lam[n_zero:]
-    res = _residuals(ref.stiffness, b, lam, vec, rows, comm)
+    res = _residuals(ref.stiffness, b, lam, vec, rows=rows, comm=comm)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(f"SLEPc Steklov eigensolver (shift {sigma:.2e} s⁻¹, {solver}): relative residual "
                              f"{res.max():.1e} exceeds {RESIDUAL_TOL:.0e} (mode {int(res.argmax())} of {count})")

@@ -67,7 +67,10 @@ def solve(ksp: Any, b: Any, x: Any, label: str, rtol: float) -> int:
     """Solve ``A x = b`` (``x`` holds the initial guess); check convergence and the true residual.
 
     Returns the number of iterations."""
-    ksp.solve(b, x)
+    try:
+        ksp.solve(b, x)
+    except runtime.petsc().Error as err:
+        raise NumericalError(f"PETSc {ksp.getType()}/{ksp.getPC().getType()} ({label}) failed: {err}") from None
     reason = int(ksp.getConvergedReason())
     iterations = int(ksp.getIterationNumber())
     if reason < 0:

@@ -24,8 +24,8 @@ def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatA
     """
     template = system.template
     if template.dirichlet:
-        names = ", ".join(d.param for d in template.dirichlet)
-        raise InputError(f"fixed temperatures ({names}) are not supported by the reduced model (natural boundary "
+        fixed = ", ".join(d.param for d in template.dirichlet)
+        raise InputError(f"fixed temperatures ({fixed}) are not supported by the reduced model (natural boundary "
                          "conditions only); replace them by convection with a large h (penalty)")
     if system.is_steady:
         raise InputError("the reduced model needs a transient system (a [time] section and capacities c)")

@@ -156,7 +156,7 @@ def reduce(
     bvals = default_basis_values(template)
     bvals.update({k: float(v) for k, v in (basis_values or {}).items()})
     rom, err = amalgamate(detailed, cases, basis, order, method=method, basis_values=bvals, check_values=ref_vals)
-    info = {**reduction_info(rom, basis, method, time.perf_counter() - start, err, key),
+    info = {**reduction_info(rom, basis, method, seconds=time.perf_counter() - start, error=err, key=key),
             "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
     rom = replace(rom, info=info)
     if store is not None and runtime.is_root(comm):

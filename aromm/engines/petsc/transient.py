@@ -38,7 +38,7 @@ def simulate(source: Source, values: ParamValues | None = None, times: npt.Array
     return transient(system, values, times, scheme=scheme, solver=solver)
 
 
-def _stepper(system: DistributedSystem, a: float, c: Any, k: Any, rows: np.ndarray, fixed: Any,
+def _stepper(system: DistributedSystem, a: float, *, c: Any, k: Any, rows: np.ndarray, fixed: Any,
              solver: str) -> tuple[Any, Any]:
     """KSP for ``a C / dt + K`` with the fixed rows eliminated, and the lift ``A x_D``."""
     dt = system.time.dt if system.time is not None else 1.0
@@ -49,7 +49,7 @@ def _stepper(system: DistributedSystem, a: float, c: Any, k: Any, rows: np.ndarr
     if system.dirichlet:  # collective: every rank calls it, with or without fixed rows of its own
         mat.zeroRowsColumns(rows.astype(runtime.petsc().IntType), 1.0)
     ksp = linear.krylov(mat, solver, STEP_RTOL, "aromm_transient_")
-    ksp.setInitialGuessNonzero(True)
+    ksp.setInitialGuessNonzero(solver == "gamg")  # CG starts from the previous step; a factorisation ignores it
     return ksp, lift
 
 
@@ -76,7 +76,7 @@ def transient(system: DistributedSystem, values: ParamValues | None = None, time
     x_prev.getArray()[local_rows] = temps
     x_older = x_prev.copy()
     history_t, history_y = [0.0], [list(face_means(system, x_prev).values())]
-    ksp, lift = _stepper(system, 1.0, c, k, rows, fixed, solver)
+    ksp, lift = _stepper(system, 1.0, c=c, k=k, rows=rows, fixed=fixed, solver=solver)
     rhs, work, x = f.duplicate(), f.duplicate(), x_prev.copy()
     for n in range(1, steps + 1):
         bdf2 = n > 1 and scheme == "bdf2"
@@ -92,7 +92,7 @@ def transient(system: DistributedSystem, values: ParamValues | None = None, time
         rhs.getArray()[local_rows] = temps
         linear.solve(ksp, rhs, x, f"time step {n} ({scheme})", STEP_RTOL)
         if n == 1 and scheme == "bdf2" and steps > 1:
-            ksp, lift = _stepper(system, 1.5, c, k, rows, fixed, solver)
+            ksp, lift = _stepper(system, 1.5, c=c, k=k, rows=rows, fixed=fixed, solver=solver)
         x_prev.copy(x_older)
         x.copy(x_prev)
         history_t.append(n * grid.dt)
