@@ -9,9 +9,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import farm_cases  # noqa: E402
+import farm_cases
 
-from inverse.farm import Farm  # noqa: E402
+from inverse.farm import Farm
 
 if __name__ == "__main__":
     np.save(sys.argv[1], farm_cases.estimates(Farm("mpi")))

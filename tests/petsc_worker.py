@@ -9,9 +9,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import petsc_cases  # noqa: E402
+import petsc_cases
 
-from aromm.engines.petsc import runtime  # noqa: E402
+from aromm.engines.petsc import runtime
 
 
 def main(out: str) -> None:

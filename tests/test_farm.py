@@ -8,10 +8,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import farm_cases
 import numpy as np
 import pytest
 
-import farm_cases
 from aromm.errors import InputError
 from inverse.farm import Farm
 

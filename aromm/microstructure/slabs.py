@@ -8,7 +8,7 @@ and reads a slab on demand:
   (a C-ordered ``[x, y, z]`` array stores z fastest, so the operating system pages in the whole file once,
   but the process keeps only its slab);
 * ``.tif`` / ``.tiff`` multi-page file or directory of single-page slices: one page (one z slice, rows = y,
-  columns = x) per layer;
+  columns = x) per layer (a TIFF not stored page by page is read whole);
 * raw bytes with ``shape`` and ``dtype`` (x fastest, z slowest): memory-mapped, the slab is contiguous;
 * ``.npz`` (compressed, not seekable) and in-memory arrays: read whole once, then sliced.
 
@@ -126,9 +126,9 @@ def _tiff_file(path: Path) -> ImageSlabs:
             first = tif.pages[0].shape
     except (OSError, ValueError, IndexError) as err:
         raise InputError(f"{path}: not a readable TIFF file ({err})") from None
-    if len(first) != 2 or count < 2:
-        raise InputError(f"{path}: a stack of 2-D single-channel pages (z slices) is needed, got {count} page(s) "
-                         f"of shape {first}")
+    if len(first) != 2 or count < 2:  # not one page per z slice: read whole, as load_image does
+        labels, _ = load_image(path)
+        return ImageSlabs.from_array(labels, str(path))
 
     def page(k: int) -> np.ndarray:
         with tifffile.TiffFile(path) as tif:
