@@ -118,6 +118,7 @@ def reduce(
     start = time.perf_counter()
     system = distributed(source, comm)
     others = [distributed(r.system if isinstance(r, ReferenceCase) else r, comm) for r in references]
+    stages = {"assembly_seconds": time.perf_counter() - start}
     for other in others:
         if other.n != system.n:
             raise InputError(f"reference case {other.description!r} has {other.n} unknowns, the system {system.n}")
@@ -137,8 +138,11 @@ def reduce(
         return found
 
     basis = compute_basis(system, n_d, n_s, basis_values, solver)
+    clock = time.perf_counter()
     if samples:
         basis = with_corrections(system, basis, samples, basis_values, solver)
+    stages["corrections_seconds"] = time.perf_counter() - clock
+    clock = time.perf_counter()
     memo: dict[int, np.ndarray] = {}
     detailed = project(system, basis.vectors, memo)
     cases = [(detailed, ReferenceCase(template, ref_vals, name="system"))]
@@ -153,11 +157,14 @@ def reduce(
     if relaxation_case:
         relaxed, relax = relaxation(system, ref_vals)
         cases.append((project(relaxed, basis.vectors, memo), relax))
+    stages["projection_seconds"] = time.perf_counter() - clock
+    clock = time.perf_counter()
     bvals = default_basis_values(template)
     bvals.update({k: float(v) for k, v in (basis_values or {}).items()})
     rom, err = amalgamate(detailed, cases, basis, order, method=method, basis_values=bvals, check_values=ref_vals)
+    stages["amalgam_seconds"] = time.perf_counter() - clock
     info = {**reduction_info(rom, basis, method, seconds=time.perf_counter() - start, error=err, key=key),
-            "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
+            **stages, "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
     rom = replace(rom, info=info)
     if store is not None and runtime.is_root(comm):
         store.save("rom", key, _to_arrays(rom))
