@@ -143,13 +143,17 @@ def load_scene(path: str | Path) -> Scene:
     a face given two conditions; ``dt <= 0`` or ``end < dt``; non-3-D images; bad voxel_size.
     """
     path = Path(path)
+    return scene_from_dict(read_toml(path), path)
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """The parsed scene file (not yet validated); InputError when missing or not TOML."""
     if not path.is_file():
         raise InputError(f"{path}: scene file not found")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise InputError(f"{path}: not a valid TOML file ({err})") from None
-    return scene_from_dict(data, path)
 
 
 def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,

@@ -8,7 +8,6 @@ file open for the assembly.  :meth:`VoxelProblem.from_scene` wraps a scene alrea
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -20,7 +19,7 @@ from aromm.engines.petsc.layout import SlabLayout
 from aromm.errors import InputError
 from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
 from aromm.microstructure.slabs import ImageSlabs
-from aromm.scene import Scene, load_scene, scene_from_dict
+from aromm.scene import Scene, load_scene, read_toml, scene_from_dict
 from aromm.system import ThermalSystem, TimeGrid
 
 
@@ -82,12 +81,7 @@ class VoxelProblem:
 def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     """Read a scene file for the petsc engine: the image by slabs when it is a file (collective)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: scene file not found")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise InputError(f"{path}: not a valid TOML file ({err})") from None
+    data = read_toml(path)
     geo = data.get("geometry")
     if not isinstance(geo, dict) or "image" not in geo or "generator" in geo:
         return VoxelProblem.from_scene(load_scene(path))  # generated images are made whole on every rank
