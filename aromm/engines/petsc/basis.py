@@ -106,6 +106,8 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
                 y.set(0.0)
                 linear.solve(ksp, rhs, y, "correction modes", CORRECTION_RTOL)
                 cols.append(convert.array(y))
+        ksp.destroy()  # one multigrid hierarchy (or factorisation) alive at a time (peak memory)
+        k_mat.destroy()
     capacity = ref.capacity
     extra, coefficients = enrich(np.column_stack(cols), basis,
                                  lambda a, b: convert.gram(a, convert.apply(capacity, b, rows, comm), comm))

@@ -118,7 +118,8 @@ def dirichlet_modes(ref: Reference, count: int, solver: str) -> tuple[FloatArray
     c_ii = ref.capacity.createSubMatrix(index, index)
     sub = RowLayout(tuple(int(s) for s in np.concatenate([[0], np.cumsum(runtime.mpi(comm).allgather(interior.size))])),
                     rows.rank)
-    lam, vec, _ = _solve_eps(k_ii, c_ii, count, target=0.0, solver=solver, prefix="aromm_dirichlet_")
+    lam, vec, eps = _solve_eps(k_ii, c_ii, count, target=0.0, solver=solver, prefix="aromm_dirichlet_")
+    eps.destroy()  # its inner solver's multigrid hierarchy or factorisation (peak memory)
     res = _residuals(k_ii, c_ii, lam, vec, rows=sub, comm=comm)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(f"SLEPc Dirichlet eigensolver ({solver}): relative residual {res.max():.1e} exceeds "
@@ -153,6 +154,7 @@ def steklov_modes(ref: Reference, count: int, n_zero: int, solver: str) -> tuple
         x.getArray()[:] = vec[:, j]
         linear.solve(ksp, rhs, x, "Steklov purification", INNER_RTOL)
         vec[:, j] = convert.array(x)
+    eps.destroy()
     kr = convert.gram(vec, convert.apply(ref.stiffness, vec, rows, comm), comm)
     br = convert.gram(vec, convert.apply(b, vec, rows, comm), comm)
     try:
