@@ -143,22 +143,24 @@ def main() -> None:
           f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f} (shared machine)")
     print("   n   unknowns engine  P   wall s  CPU s/r  peak MB/r  B/voxel steady s  load b/a   ΔT̄ rom  ΔT̄ steady  "
           "stages (s, rank 0)")
-    results = []
+    results: list[dict[str, object]] = []
+
+    def keep(record: dict[str, object], scipy: dict[str, object] | None) -> None:
+        results.append(record)
+        print(row(record, scipy), flush=True)
+        if args.json is not None:  # appended as measured: a long series interrupted keeps what it measured
+            with args.json.open("a", encoding="utf-8") as fh:
+                fh.write(json.dumps(record) + "\n")
+
     for n in args.sizes:
         scipy = None if args.no_scipy else measure(n, "scipy", 1, args.order, args.solver)
         if scipy is not None:
-            results.append(scipy)
-            print(row(scipy, None), flush=True)
+            keep(scipy, None)
         for p in args.ranks:
-            results.append(measure(n, "petsc", p, args.order, args.solver))
-            print(row(results[-1], scipy), flush=True)
+            keep(measure(n, "petsc", p, args.order, args.solver), scipy)
     print("growth over the sizes (least-squares slope of log cost against log unknowns):")
     for line in exponents(results):
         print("  " + line)
-    if args.json is not None:
-        with args.json.open("a", encoding="utf-8") as fh:
-            for r in results:
-                fh.write(json.dumps(r) + "\n")
 
 
 if __name__ == "__main__":
