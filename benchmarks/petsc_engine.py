@@ -1,6 +1,6 @@
 """The petsc engine against the scipy engine: reduced-model build and one steady solve on growing wood VERs.
 
-For each size n (n³ voxels of 5 µm, the spruce-like image of inverse.study.small_wood, seed 001 scenario 1)
+For each size n (n³ voxels of 5 µm, the spruce-like image of studies.chavez2020.small_wood, [Chavez2020] scenario 1)
 and each engine / rank count, one fresh process (or ``mpiexec -n P``) builds the AROMM reduced model of order
 ``--order`` (Ñ = 1.5 ñ + 20 modes, correction modes on) and solves one steady state; it prints, side by side:
 wall seconds, CPU seconds per rank (``time.process_time``), peak resident memory per rank (``ru_maxrss``),
@@ -35,7 +35,7 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
 
 
 def scene(n: int):  # type: ignore[no-untyped-def]
-    from inverse.study import loading, small_wood
+    from studies.chavez2020 import loading, small_wood
 
     return loading(small_wood(n, box=n * 5e-6), "z", end=60.0, dt=0.5)
 

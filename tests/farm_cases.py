@@ -7,7 +7,7 @@ import numpy as np
 from aromm.solve import FullModel
 from inverse.farm import Farm
 from inverse.measurements import simulate_measurements
-from inverse.study import noisy_repetitions
+from studies.chavez2020 import noisy_repetitions
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
 

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from aromm.engines import check_engine, petsc_available
 from aromm.engines.petsc.layout import SlabLayout, even_split
 from aromm.errors import InputError
-from aromm.fem import node_index
+from aromm.fem.voxel import node_index
 from aromm.microstructure import load_image
 from aromm.microstructure.slabs import ImageSlabs
 from aromm.scene import scene_from_dict

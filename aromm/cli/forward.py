@@ -13,12 +13,13 @@ from aromm.cli import engine as engine_cli
 from aromm.cli.common import echo_json
 from aromm.engines import is_root
 from aromm.errors import InputError
-from aromm.homogenize import BOUNDARIES, conductivity, fluxmetric, homogenize, mean_capacity
+from aromm.homogenization import BOUNDARIES, conductivity, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import METHODS
+from aromm.observables import Observables, write_csv
 from aromm.scene import assemble, load_scene
 from aromm.solve import simulate as simulate_full
-from aromm.system import Observables, ThermalSystem
-from inverse.measurements import Measurements, homogeneous_measurements, save_measurements
+from aromm.system import ThermalSystem
+from inverse.measurements import homogeneous_measurements, save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
@@ -41,7 +42,7 @@ def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Pat
     written = [out / "observables.csv"]
     if not obs.mean_T:
         raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
-    save_measurements(Measurements(obs.t, obs.mean_T, "simulate"), written[0])
+    write_csv(obs, written[0], "observables file")
     if obs.fields is not None and system is not None and system.geometry is not None:
         geo = system.geometry
         mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
@@ -67,16 +68,17 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
                  as_json: bool) -> None:
     """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
     solver = engine_cli.resolve(engine, solver)
-    source = engine_cli.load(scene, engine)
-    system = assemble(source) if engine == "scipy" else None
+    sc = engine_cli.load(scene, engine)
+    system = assemble(sc) if engine == "scipy" else None
     progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
-        from aromm.reduced import reduce
+        from aromm.reduction import reduce
 
-        obs = reduce(system if system is not None else source, order=order, solver=solver, progress=progress,
-                     engine=engine).simulate()
+        obs = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
+                     reference_values=sc.reduction.reference, progress=progress, engine=engine,
+                     solver=solver).simulate()
     else:
-        obs = simulate_full(system if system is not None else source, fields=out is not None and system is not None,
+        obs = simulate_full(system if system is not None else sc, fields=out is not None and system is not None,
                             method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
     if not is_root(engine):
         return
@@ -92,24 +94,24 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 @click.command("homogenize")
 @SCENE
 @click.option("--boundary", type=click.Choice(BOUNDARIES), default="flux", show_default=True,
-              help="flux: seed 001 eq. 13 (flux in, fixed T out); temperature: fixed T on both faces.")
+              help="flux: [Chavez2020, eq. 13] (flux in, fixed T out); temperature: fixed T on both faces.")
 @engine_cli.SOLVER
 @engine_cli.ENGINE
 @JSON
 def homogenize_cmd(scene: Path, boundary: str, solver: str, engine: str, as_json: bool) -> None:
     """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
     solver = engine_cli.resolve(engine, solver)
-    source = engine_cli.load(scene, engine)
-    capacities = all(ph.c is not None for ph in source.phases)
+    sc = engine_cli.load(scene, engine)
+    capacities = all(ph.c is not None for ph in sc.phases)
     if engine == "petsc":
         from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
         from aromm.engines.petsc.homogenization import probe_solver
 
-        k = conductivity(source, boundary, probe_solver(solver))
-        c = mean_capacity_petsc(source) if capacities else None
+        k = conductivity(sc, boundary, probe_solver(solver))
+        c = mean_capacity_petsc(sc) if capacities else None
     else:
-        k = homogenize(source, boundary=boundary, method=solver)
-        c = mean_capacity(source) if capacities else None
+        k = homogenize(sc, boundary=boundary, method=solver)
+        c = mean_capacity(sc) if capacities else None
     if not is_root(engine):
         return
     if as_json:
@@ -124,15 +126,15 @@ def homogenize_cmd(scene: Path, boundary: str, solver: str, engine: str, as_json
 @click.command("measure")
 @SCENE
 @click.option("--homogeneous", is_flag=True, required=True,
-              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as seed 001 does.")
+              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as [Chavez2020] does.")
 @click.option("--conductivity", type=click.Choice(("scenario", *BOUNDARIES)), default="scenario", show_default=True,
-              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces (seed 001 § 4.2; the twin then "
-                   "has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
+              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces [Chavez2020, § 4.2; the twin then "
+                   "has the sample's steady face means]; flux, temperature: as `aromm homogenize --boundary`.")
 @click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--perturb", type=float, default=0.0, show_default=True,
-              help="Relative change of every homogeneous property (seed 001's +2 % study: 0.02).")
+              help="Relative change of every homogeneous property ([Chavez2020]'s +2 % study: 0.02).")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @SOLVER
 @JSON

@@ -11,21 +11,21 @@ from aromm.cache import NpzCache
 from aromm.cli import engine as engine_cli
 from aromm.cli.common import echo_json
 from aromm.engines import is_root
-from aromm.reduced import METHODS as REDUCTIONS
-from aromm.reduced import reduce
+from aromm.reduction import METHODS as REDUCTIONS
+from aromm.reduction import reduce
 from aromm.scene import assemble
 
 
 @click.command("reduce")
 @click.argument("scene", type=click.Path(path_type=Path))
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
-              help="Reduced order ñ (number of amalgamated modes, seed 001 eq. 9).")
+              help="Reduced order ñ (number of amalgamated modes, [Chavez2020, eq. 9]).")
 @click.option("--modes", type=click.IntRange(min=1), default=None,
               help="Detailed basis size Ñ (Dirichlet + Steklov modes); default 1.5 × order + 20.")
 @click.option("--method", type=click.Choice(REDUCTIONS), default="aromm", show_default=True,
               help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
-              help="Extra reference scene on the same image (e.g. the other scenarios of seed 001); repeatable.")
+              help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
 @engine_cli.SOLVER
 @engine_cli.ENGINE
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
@@ -38,12 +38,14 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, refer
 
     With --engine petsc run it under `mpiexec -n P`: every rank assembles its z-slab of the image."""
     solver = engine_cli.resolve(engine, solver)
-    sources = [engine_cli.load(path, engine) for path in (scene, *references)]
+    sc, *refs = [engine_cli.load(path, engine) for path in (scene, *references)]
+    system = assemble(sc) if engine == "scipy" else sc
     if engine == "scipy":
-        sources = [assemble(s) for s in sources]
+        refs = [assemble(r) for r in refs]
     cache = False if no_cache else NpzCache(cache_dir)
-    rom = reduce(sources[0], order=order, modes=modes, references=sources[1:], method=method, solver=solver,
-                 cache=cache, progress=sys.stderr.isatty() and is_root(engine), engine=engine)
+    rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
+                 basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
+                 progress=sys.stderr.isatty() and is_root(engine), engine=engine)
     if not is_root(engine):
         return
     info = dict(rom.info)

@@ -1,35 +1,27 @@
-"""Finite-element assembly.  ``aromm.fem.voxel``: one Q1 hexahedron per voxel (re-exported here)."""
+"""Finite-element assemblers: a scene's geometry and vocabulary (aromm.vocabulary) → ThermalSystem.
 
+* :mod:`aromm.fem.voxel`: one trilinear (Q1) hexahedron per voxel of a label image;
+* :mod:`aromm.fem.mesh`: Lagrange simplices (P1/P2) on a conforming mesh, with contact resistance.
+"""
+
+from aromm.fem.mesh import assemble_mesh
 from aromm.fem.voxel import (
-    FACES,
-    VTK_HEX,
-    FaceSpec,
-    PhaseSpec,
+    VoxelGrid,
     assemble_voxels,
     connectivity,
     element_matrices,
-    face_area,
     face_mass,
-    face_nodes_and_quads,
-    node_index,
     node_points,
-    parameter_values,
     scatter,
 )
 
 __all__ = [
-    "FACES",
-    "VTK_HEX",
-    "FaceSpec",
-    "PhaseSpec",
+    "VoxelGrid",
+    "assemble_mesh",
     "assemble_voxels",
     "connectivity",
     "element_matrices",
-    "face_area",
     "face_mass",
-    "face_nodes_and_quads",
-    "node_index",
     "node_points",
-    "parameter_values",
     "scatter",
 ]

@@ -29,19 +29,18 @@ from aromm.cache import content_key
 from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import RowLayout, SlabLayout
 from aromm.engines.petsc.problem import VoxelProblem
-from aromm.errors import InputError
-from aromm.fem import assemble_voxels, face_area, face_mass
-from aromm.modes import boundary_mass
-from aromm.system import Affine, Coefficient, ParamValues, ThermalSystem, TimeGrid
+from aromm.fem.voxel import assemble_voxels, face_mass
+from aromm.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid
 
 
 @dataclass(frozen=True)
 class DistributedTerm:
-    """``coefficient(p) * operator`` with a PETSc matrix (MPIAIJ) or vector."""
+    """``coefficient(p) * operator`` with a PETSc matrix (MPIAIJ) or vector; ``role`` as aromm.system.Term's."""
 
     name: str
     coefficient: Coefficient
     operator: Any
+    role: Role
 
 
 @dataclass(frozen=True)
@@ -65,6 +64,7 @@ class DistributedSystem:
     boundary: Any
     fingerprint: str
     description: str = ""
+    complete: bool = False  # the template is the whole system (distributed by rows), not a stand-in
 
     @property
     def n(self) -> int:
@@ -170,22 +170,22 @@ def assemble_slabs(problem: VoxelProblem, comm: Any) -> DistributedSystem:
     def matrices(group: Affine, own: Affine) -> tuple[DistributedTerm, ...]:
         return tuple(DistributedTerm(t.name, t.coefficient,
                                      convert.matrix(_owned_rows(_term_operator(own, t.name, m, False), layout, comm),
-                                                    rows, comm)) for t in group.terms)
+                                                    rows, comm), t.role) for t in group.terms)
 
     def vectors(group: Affine, own: Affine) -> tuple[DistributedTerm, ...]:
         return tuple(DistributedTerm(t.name, t.coefficient,
                                      convert.vector(_owned_entries(_term_operator(own, t.name, m, True), layout, comm),
-                                                    rows, comm)) for t in group.terms)
+                                                    rows, comm), t.role) for t in group.terms)
 
     shape = layout.slab_shape
     surface = sp.csr_array((m, m))
     for face in faces:
         surface = surface + face_mass(shape, problem.voxel_size, face)
     observation = {}
-    for face in problem.outputs:
-        local = face_mass(shape, problem.voxel_size, face) @ np.ones(m) if face in faces else np.zeros(m)
-        area = face_area(problem.shape, problem.voxel_size, face)
-        observation[face] = convert.vector(_owned_entries(local / area, layout, comm), rows, comm)
+    for face in problem.outputs:  # e_f = B_f 1 / |f| (aromm.vocabulary.face_means), |f| summed over the slabs
+        local = _owned_entries(face_mass(shape, problem.voxel_size, face) @ np.ones(m) if face in faces
+                               else np.zeros(m), layout, comm)
+        observation[face] = convert.vector(local / runtime.allsum([local.sum()], comm)[0], rows, comm)
     dirichlet = {}
     for d in template.dirichlet:
         own = next((s.dofs for s in slab.dirichlet if s.name == d.name), np.zeros(0, dtype=np.int64))
@@ -224,16 +224,13 @@ def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:
         for t in group.terms:
             op = (convert.matrix(sp.csr_array(t.operator)[part], rows, comm) if sp.issparse(t.operator)
                   else convert.vector(np.asarray(t.operator, dtype=float)[part], rows, comm))
-            out.append(DistributedTerm(t.name, t.coefficient, op))
+            out.append(DistributedTerm(t.name, t.coefficient, op, t.role))
         return tuple(out)
 
     dirichlet = {d.name: d.dofs[(d.dofs >= rows.lo) & (d.dofs < rows.hi)] for d in system.dirichlet}
     observation = {k: convert.vector(np.asarray(v, dtype=float)[part], rows, comm)
                    for k, v in system.observation.items()}
-    try:
-        boundary = convert.matrix(boundary_mass(system)[part], rows, comm)
-    except InputError:  # no exchange term and no face load: no Steklov modes, steady solves still work
-        boundary = None
+    boundary = None if system.boundary is None else convert.matrix(sp.csr_array(system.boundary)[part], rows, comm)
     return DistributedSystem(system, rows, comm, terms(system.capacity), terms(system.conductance),
                              terms(system.load), dirichlet, observation, boundary, system.fingerprint(),
-                             description=f"{system.n} unknowns distributed by rows")
+                             description=f"{system.n} unknowns distributed by rows", complete=True)

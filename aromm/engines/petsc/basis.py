@@ -1,7 +1,7 @@
 """The detailed modal basis on the petsc engine: constants + Steklov + Dirichlet modes + correction modes.
 
-Same definitions as :func:`aromm.modes.compute_basis` and :func:`aromm.modes.with_corrections` (seed 001
-§3.1 and the static / first-order dynamic corrections of the loads), with the operators held by PETSc and
+Same definitions as :func:`aromm.modes.compute_basis` and :func:`aromm.modes.with_corrections` ([Chavez2020,
+§ 3.1] and the static / first-order dynamic corrections of the loads), with the operators held by PETSc and
 the vectors distributed by rows.  The small dense algebra (Gram matrices, orthonormalisation, the
 enrichment) is aromm.modes' own (:func:`aromm.modes.enrich`, :func:`aromm.modes.check_gram`) with the
 capacity product summed over the ranks.  The returned :class:`~aromm.modes.ModalBasis` holds this rank's
@@ -14,12 +14,13 @@ import time
 from collections.abc import Mapping
 
 import numpy as np
+import scipy.linalg as sla
 
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
 from aromm.engines.petsc.eigen import Reference, dirichlet_modes, steklov_modes
 from aromm.errors import InputError
-from aromm.modes import ModalBasis, check_gram, enrich, is_exchange, reference_operators, zero_modes
+from aromm.modes import ModalBasis, check_gram, enrich, reference_operators, zero_modes
 from aromm.system import FloatArray
 
 #: Relative residual of the correction solves K(s) x = U_j.
@@ -31,7 +32,7 @@ def reference(system: DistributedSystem, values: Mapping[str, float] | None = No
     capacity-normalised constant modes (this rank's rows)."""
     template = system.template
     ops = reference_operators(template, values)  # the same checks and reference values as the serial path
-    conduction = {t.name for t in template.conductance.terms if not is_exchange(t.operator)}
+    conduction = set(template.conductance.with_role("conduction").names)
     k_terms = tuple(t for t in system.conductance if t.name in conduction)
     if any(float(t.coefficient(ops.values)) <= 0 for t in k_terms):
         raise InputError("the modal bases need positive reference conductivities; got "
@@ -47,10 +48,10 @@ def reference(system: DistributedSystem, values: Mapping[str, float] | None = No
     if not (heat > 0 and area > 0):
         raise InputError("reference capacity and boundary area must be positive to build the bases")
     ref = Reference(k0, c0, system.boundary, float(heat / area), rows, comm)
-    if template.n == system.n:  # the whole system is known to every rank: its connected components
-        constants = zero_modes(ops)[rows.lo:rows.hi]
-    else:  # a voxel image with every conductivity positive is one connected body
-        constants = np.full((rows.local, 1), 1.0 / np.sqrt(heat))
+    # the whole system known to every rank: its connected components; a voxel image with every conductivity
+    # positive is one connected body
+    constants = (zero_modes(ops)[rows.lo:rows.hi] if system.complete
+                 else np.full((rows.local, 1), 1.0 / np.sqrt(heat)))
     return ref, constants
 
 
@@ -67,8 +68,9 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
     vectors = np.column_stack([z, v_s, v_d])
     eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
     kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
-    cond = check_gram(convert.gram(vectors, convert.apply(ref.capacity, vectors, ref.rows, ref.comm), ref.comm))
-    return ModalBasis(vectors, eigenvalues, kinds, ref.zeta,
+    gram = convert.gram(vectors, convert.apply(ref.capacity, vectors, ref.rows, ref.comm), ref.comm)
+    cond = check_gram(gram)
+    return ModalBasis(vectors, eigenvalues, kinds, ref.zeta, gram,
                       {"seconds": time.perf_counter() - start, "steklov_seconds": t_s, "cached": 0.0,
                        "gram_condition": cond})
 
@@ -82,7 +84,7 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
         return basis
     ref, _ = reference(system, values)
     rows, comm = system.rows, system.comm
-    exchange = any(is_exchange(t.operator) for t in template.conductance.terms)
+    exchange = bool(template.conductance.with_role("exchange"))
     cols = []
     for sample in samples:
         v = template.values({k: val for k, val in sample.items() if k in template.parameter_names})
@@ -114,4 +116,5 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
     return ModalBasis(np.column_stack([basis.vectors, extra]),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
-                      basis.zeta, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
+                      basis.zeta, sla.block_diag(basis.gram, np.eye(extra.shape[1])),
+                      {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)

@@ -1,6 +1,6 @@
 """Dirichlet and Steklov eigenbases by SLEPc, with the definitions and normalisation of :mod:`aromm.modes`.
 
-With reference operators K0 (conduction), C0 (capacity) and the boundary mass B (seed 001 §3.1):
+With reference operators K0 (conduction), C0 (capacity) and the boundary mass B [Chavez2020, § 3.1]:
 
 * Dirichlet modes (eq. 6): ``K0_II v = λ C0_II v`` on the interior rows, ``v = 0`` on Γ;
 * Steklov modes (eqs. 7–8): ``K0 v = λ ζB v`` with ``ζ = 1ᵀC0 1 / 1ᵀB 1``; the constants (λ = 0) are

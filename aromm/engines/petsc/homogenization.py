@@ -1,6 +1,6 @@
-"""Homogenisation probes (seed 001 eq. 13–14) on the petsc engine.
+"""Homogenisation probes [Chavez2020, eq. 13–14] on the petsc engine.
 
-The formulas are those of :mod:`aromm.homogenize` (:func:`aromm.homogenize.conductivity` runs the three
+The formulas are those of :mod:`aromm.homogenization` (:func:`aromm.homogenization.conductivity` runs the three
 probes); this module supplies the distributed steady solve of one probe and the volume-averaged capacity,
 counted slab by slab (for a voxel image the Q1 phase mass ``1ᵀ C_p 1`` is exactly the phase's volume).
 """
@@ -16,7 +16,7 @@ from aromm.engines.petsc.assembly import assemble_slabs
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.steady import steady
 from aromm.errors import InputError
-from aromm.homogenize import ProbeSolver
+from aromm.homogenization import ProbeSolver
 from aromm.scene import Scene
 
 
@@ -25,7 +25,7 @@ def as_problem(scene: Scene | VoxelProblem) -> VoxelProblem:
 
 
 def probe_solver(solver: str = "gamg", comm: Any = None) -> ProbeSolver:
-    """A :data:`aromm.homogenize.ProbeSolver` solving each probe by slabs (collective)."""
+    """A :data:`aromm.homogenization.ProbeSolver` solving each probe by slabs (collective)."""
     solver = linear.check_solver(solver)
     comm = comm if comm is not None else runtime.world()
 

@@ -3,7 +3,7 @@
 Two choices (the knob ``solver``), both usable as the inner solver of SLEPc's shift-and-invert:
 
 * ``"gamg"`` (default): conjugate gradients preconditioned by PETSc's algebraic multigrid GAMG; memory
-  O(unknowns), cost ≈ O(N^1.1–1.3) (../shared/method/solvers.md); converged to ``rtol`` on the
+  O(unknowns), cost ≈ O(N^1.1–1.3) (docs/notes/solver_facts.md); converged to ``rtol`` on the
   preconditioned residual, then the true relative residual ``||b − A x|| / ||b||`` is checked.
 * ``"mumps"``: Cholesky factorisation by MUMPS (parallel direct, exact to round-off, memory ≈ N^1.3).
 

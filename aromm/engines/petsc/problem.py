@@ -8,7 +8,7 @@ file open for the assembly.  :meth:`VoxelProblem.from_scene` wraps a scene alrea
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,10 +17,12 @@ import numpy as np
 from aromm.engines.petsc import runtime
 from aromm.engines.petsc.layout import SlabLayout
 from aromm.errors import InputError
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.fem.voxel import assemble_voxels
+from aromm.geometry import VoxelGeometry
 from aromm.microstructure.slabs import ImageSlabs
-from aromm.scene import Scene, load_scene, read_toml, scene_from_dict
+from aromm.scene import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
 from aromm.system import ThermalSystem, TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,7 @@ class VoxelProblem:
     outputs: tuple[str, ...]
     present: tuple[int, ...]  # labels present in the whole image
     where: str = "scene: "
+    reduction: ReductionSettings = field(default_factory=ReductionSettings)  # the scene's [reduction] values
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -68,14 +71,16 @@ class VoxelProblem:
 
     @classmethod
     def from_scene(cls, scene: Scene) -> VoxelProblem:
-        if scene.mesh is not None:
+        geometry = scene.geometry
+        if not isinstance(geometry, VoxelGeometry):
             raise InputError(f"{scene.where}the petsc engine assembles voxel images by z-slabs; for a mesh scene "
                              "assemble it (aromm.assemble) and pass the ThermalSystem, which is distributed by rows")
         if scene.interfaces:
             raise InputError(f"{scene.where}[interfaces]: contact resistance needs a conforming mesh")
-        present = tuple(int(v) for v in np.unique(scene.labels))
-        return cls(ImageSlabs.from_array(scene.labels, scene.where.rstrip(": ") or "labels"), scene.voxel_size,
-                   scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs, present, scene.where)
+        present = tuple(sorted(geometry.present()))
+        return cls(ImageSlabs.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
+                   geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs,
+                   present, scene.where, scene.reduction)
 
 
 def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
@@ -96,5 +101,7 @@ def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     present = sorted(runtime.union(image.labels_present(layout.k0, layout.k1), comm))
     stand_in = np.asarray(present, dtype=np.int32).reshape(-1, 1, 1)
     scene = scene_from_dict(data, path, image=(stand_in, image.voxel_size))
-    return VoxelProblem(image, scene.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,
-                        scene.outputs, tuple(present), scene.where)
+    geometry = scene.geometry
+    assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
+    return VoxelProblem(image, geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,
+                        scene.outputs, tuple(present), scene.where, scene.reduction)

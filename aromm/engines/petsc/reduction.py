@@ -1,10 +1,10 @@
 """``aromm.reduce(..., engine="petsc")``: the AROMM reduced model with the offline work on PETSc/SLEPc.
 
-The steps and defaults are those of :func:`aromm.reduced.reduce` (seed 001 §3): the detailed basis
+The steps and defaults are those of :func:`aromm.reduction.reduce` [Chavez2020, § 3]: the detailed basis
 (constants, Steklov, Dirichlet, correction modes) is computed distributed (aromm.engines.petsc.basis), every
 term is projected onto it (aromm.engines.petsc.projection), and from there on the work is on Ñ × Ñ matrices
 that every rank holds: reference cases, amalgam (or POD) and the reference error are
-:func:`aromm.reduced.amalgamate` itself.  Collective: every rank calls it and returns the same model; rank 0
+:func:`aromm.reduction.reduce_detailed` itself.  Collective: every rank calls it and returns the same model; rank 0
 alone reads and writes the cache (the key is a content hash of the image layers, the scene and the options,
 independent of the number of ranks).
 """
@@ -26,20 +26,19 @@ from aromm.engines.petsc.basis import compute_basis, with_corrections
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
 from aromm.errors import InputError
-from aromm.modes import boundary_mass, correction_samples, default_basis_values, split_counts
-from aromm.reduced import (
-    METHODS,
-    ReducedModel,
+from aromm.modes import correction_samples, split_counts
+from aromm.reduction import (
     ReferenceCase,
-    _from_arrays,
-    _to_arrays,
-    amalgamate,
-    default_reference_values,
+    at_reference,
     mode_counts,
+    reduce_detailed,
     reduction_info,
     relaxation_case,
     resolve_cache,
+    resolve_reductor,
 )
+from aromm.reductor import Reductor
+from aromm.rom import ReducedModel, from_arrays, to_arrays
 from aromm.scene import Scene
 from aromm.system import ThermalSystem
 
@@ -58,13 +57,13 @@ def distributed(source: Source, comm: Any) -> DistributedSystem:
     return assemble_slabs(problem, comm)
 
 
-def relaxation(system: DistributedSystem, values: Mapping[str, float]) -> tuple[DistributedSystem, ReferenceCase]:
-    """Seed 001 §3.2's relaxation case (aromm.reduced.relaxation_case) on the distributed operators."""
-    case = relaxation_case(system.template, values, boundary_mass(system.template))
+def relaxed(system: DistributedSystem, values: Mapping[str, float]) -> tuple[DistributedSystem, ReferenceCase]:
+    """The relaxation case of [Chavez2020, § 3.2] (aromm.reduction.relaxation_case) on the distributed operators."""
+    case = relaxation_case(system.template, values)
     names = set(case.system.conductance.names)
     h = case.system.conductance["H_boundary"]
     conductance = (*(t for t in system.conductance if t.name in names),
-                   DistributedTerm(h.name, h.coefficient, system.boundary))
+                   DistributedTerm(h.name, h.coefficient, system.boundary, h.role))
     return replace(system, template=case.system, conductance=conductance, load=(), dirichlet={},
                    observation={}), case
 
@@ -82,7 +81,7 @@ def _cached(store: NpzCache | None, key: str, comm: Any) -> ReducedModel | None:
     stored = runtime.mpi(comm).bcast(stored, root=0)
     if stored is None:
         return None
-    rom = _from_arrays(stored)
+    rom = from_arrays(stored)
     return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
 
 
@@ -96,9 +95,9 @@ def reduce(
     basis_values: Mapping[str, float] | None = None,
     reference_values: Mapping[str, float] | None = None,
     references: Sequence[Source | ReferenceCase] = (),
-    relaxation_case: bool = True,
+    relaxation: bool = True,
     corrections: bool | Sequence[Mapping[str, float]] = True,
-    method: str = "aromm",
+    method: str | Reductor = "aromm",
     solver: str = "gamg",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     comm: Any = None,
@@ -109,8 +108,7 @@ def reduce(
     or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
     and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky).
     """
-    if method not in METHODS:
-        raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
+    reductor = resolve_reductor(method)
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
     solver = linear.check_solver(solver)
@@ -125,12 +123,11 @@ def reduce(
     template = system.template
     n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov,
                            lambda total: split_counts(total, system.n, _boundary_count(system)))
-    ref_vals = default_reference_values(template)
-    ref_vals.update({k: float(v) for k, v in (reference_values or {}).items()})
+    ref_vals = at_reference(template, reference_values or {})
     samples = (correction_samples(template, basis_values) if corrections is True
                else [] if corrections is False else [dict(s) for s in corrections])
-    key = content_key("petsc", _VERSION, system.fingerprint, order, n_d, n_s, basis_values or {}, method, solver,
-                      relaxation_case, samples, [o.fingerprint for o in others], reference_values or {},
+    key = content_key("petsc", _VERSION, system.fingerprint, order, n_d, n_s, basis_values or {}, reductor.name,
+                      solver, relaxation, samples, [o.fingerprint for o in others], reference_values or {},
                       [(dict(r.values), r.times) for r in references if isinstance(r, ReferenceCase)])
     store = resolve_cache(cache)
     found = _cached(store, key, comm)
@@ -150,22 +147,18 @@ def reduce(
         if isinstance(given, ReferenceCase):
             case = replace(given, system=other.template)
         else:
-            vals = default_reference_values(other.template)
-            vals.update({k: float(v) for k, v in (reference_values or {}).items()})
-            case = ReferenceCase(other.template, vals)
+            case = ReferenceCase(other.template, at_reference(other.template, reference_values or {}))
         cases.append((project(other, basis.vectors, memo), case))
-    if relaxation_case:
-        relaxed, relax = relaxation(system, ref_vals)
-        cases.append((project(relaxed, basis.vectors, memo), relax))
+    if relaxation:
+        cooled, relax = relaxed(system, ref_vals)
+        cases.append((project(cooled, basis.vectors, memo), relax))
     stages["projection_seconds"] = time.perf_counter() - clock
     clock = time.perf_counter()
-    bvals = default_basis_values(template)
-    bvals.update({k: float(v) for k, v in (basis_values or {}).items()})
-    rom, err = amalgamate(detailed, cases, basis, order, method=method, basis_values=bvals, check_values=ref_vals)
+    rom, err = reduce_detailed(detailed, cases, basis, int(order), reductor, check_values=ref_vals)
     stages["amalgam_seconds"] = time.perf_counter() - clock
-    info = {**reduction_info(rom, basis, method, seconds=time.perf_counter() - start, error=err, key=key),
+    info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
             **stages, "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
     rom = replace(rom, info=info)
     if store is not None and runtime.is_root(comm):
-        store.save("rom", key, _to_arrays(rom))
+        store.save("rom", key, to_arrays(rom))
     return rom

@@ -1,4 +1,4 @@
-"""Distributed steady solves ``K(p) T = F(p)`` (seed 001 eq. 3 with dT/dt = 0) and face means.
+"""Distributed steady solves ``K(p) T = F(p)`` [Chavez2020, eq. 3] with dT/dt = 0 and face means.
 
 Fixed temperatures are eliminated symmetrically (``MatZeroRowsColumns``: the fixed rows become identity
 rows, their columns move to the right-hand side), so the matrix stays symmetric positive definite for CG.

@@ -1,4 +1,4 @@
-"""Full-order simulation on the petsc engine: steady state, or implicit time stepping (seed 001 eq. 3).
+"""Full-order simulation on the petsc engine: steady state, or implicit time stepping [Chavez2020, eq. 3].
 
 The schemes are those of :func:`aromm.solve.transient`: backward Euler, or BDF2 started by one Euler step,
 on the output grid ``dt, 2 dt, ...`` with outputs linearly interpolated at other times.  Each step solves
@@ -20,8 +20,9 @@ from aromm.engines.petsc.assembly import DistributedSystem
 from aromm.engines.petsc.reduction import Source, distributed
 from aromm.engines.petsc.steady import face_means, fixed_values, steady
 from aromm.errors import InputError
+from aromm.observables import Observables
 from aromm.solve import interpolate_rows, output_steps
-from aromm.system import Observables, ParamValues
+from aromm.system import ParamValues
 
 #: Relative residual of every time step.
 STEP_RTOL = 1e-11
