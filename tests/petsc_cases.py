@@ -7,10 +7,13 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 import aromm
 from aromm.geometry import VoxelGeometry
-from aromm.scene import Scene
+from aromm.modes import reference_operators, zero_modes
+from aromm.scene import Scene, assemble
 from aromm.system import TimeGrid
 from aromm.vocabulary import FaceSpec, PhaseSpec
 
@@ -65,4 +68,32 @@ def results(comm: Any) -> dict[str, np.ndarray]:
     scene = steady_scene()
     out["k_flux"] = aromm.homogenize(scene, engine="petsc")
     out["k_temperature"] = aromm.homogenize(scene, "temperature", method="mumps", engine="petsc")
+    return out
+
+
+def arpack() -> dict[str, np.ndarray]:
+    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.modes' problems."""
+    ops = reference_operators(assemble(basis_scene()))
+    inner = ops.interior
+    k_ii = sp.csc_array(ops.stiffness[inner][:, inner])
+    c_ii = sp.csc_array(ops.capacity[inner][:, inner])
+    dirichlet = np.sort(spla.eigsh(k_ii, k=N_DIRICHLET, M=c_ii, sigma=0.0, which="LM")[0])
+    b = sp.csc_array(ops.zeta * ops.boundary)
+    n_zero = zero_modes(ops).shape[1]
+    on_gamma = b.diagonal() > 0
+    top = float(np.max(ops.stiffness.diagonal()[on_gamma] / b.diagonal()[on_gamma]))
+    lam = np.sort(spla.eigsh(sp.csc_array(ops.stiffness), k=N_STEKLOV, M=b, sigma=-1e-6 * top, which="LM")[0])
+    return {"dirichlet": dirichlet, "steklov": lam[n_zero:]}
+
+
+def serial() -> dict[str, np.ndarray]:
+    """The keys of :func:`results` that the serial (scipy) engine computes, by the serial engine."""
+    out = {}
+    for corrections in (True, False):
+        rom = aromm.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False)
+        out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
+    out["transient"] = aromm.simulate(assemble(reduce_scene()), PROBE).as_array()
+    out["steady"] = aromm.simulate(assemble(steady_scene()), {"fibre.k": 0.5}).as_array()
+    out["k_flux"] = aromm.homogenize(steady_scene())
+    out["k_temperature"] = aromm.homogenize(steady_scene(), "temperature")
     return out

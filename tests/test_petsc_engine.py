@@ -20,13 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-import aromm
 from aromm.engines import petsc_available
-from aromm.modes import reference_operators, zero_modes
-from aromm.scene import assemble
 
 pytestmark = [
     pytest.mark.mpi,
@@ -70,18 +65,12 @@ def one_rank() -> dict[str, np.ndarray]:
 
 @pytest.fixture(scope="module")
 def arpack() -> dict[str, np.ndarray]:
-    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.modes' problems."""
-    ops = reference_operators(assemble(petsc_cases.basis_scene()))
-    inner = ops.interior
-    k_ii = sp.csc_array(ops.stiffness[inner][:, inner])
-    c_ii = sp.csc_array(ops.capacity[inner][:, inner])
-    dirichlet = np.sort(spla.eigsh(k_ii, k=petsc_cases.N_DIRICHLET, M=c_ii, sigma=0.0, which="LM")[0])
-    b = sp.csc_array(ops.zeta * ops.boundary)
-    n_zero = zero_modes(ops).shape[1]
-    top = float(np.max(ops.stiffness.diagonal()[b.diagonal() > 0] / b.diagonal()[b.diagonal() > 0]))
-    lam = np.sort(spla.eigsh(sp.csc_array(ops.stiffness), k=petsc_cases.N_STEKLOV, M=b, sigma=-1e-6 * top,
-                             which="LM")[0])
-    return {"dirichlet": dirichlet, "steklov": lam[n_zero:], "n_zero": np.array(n_zero)}
+    return petsc_cases.arpack()
+
+
+@pytest.fixture(scope="module")
+def serial() -> dict[str, np.ndarray]:
+    return petsc_cases.serial()
 
 
 @pytest.mark.parametrize("solver", ["mumps", "gamg"])
@@ -95,35 +84,28 @@ def test_eigenvalues_equal_arpack(family: str, solver: str, arpack: dict[str, np
     assert int(two_ranks["ranks"]) == RANKS
 
 
-def _serial_rom(corrections: bool) -> np.ndarray:
-    rom = aromm.reduce(petsc_cases.reduce_scene(), 10, modes=24, corrections=corrections, cache=False)
-    return rom.simulate(petsc_cases.PROBE).as_array()
-
-
 @pytest.mark.parametrize(("corrections", "tol"), [(True, 1e-6), (False, 1e-10)])
-def test_reduced_model_face_means_equal_serial(corrections: bool, tol: float, one_rank: dict[str, np.ndarray],
+def test_reduced_model_face_means_equal_serial(corrections: bool, tol: float, serial: dict[str, np.ndarray],
+                                                one_rank: dict[str, np.ndarray],
                                                 two_ranks: dict[str, np.ndarray]) -> None:
-    serial = _serial_rom(corrections)
-    assert np.abs(serial).max() > 1.0  # °C: a real heating, not a trivially zero response
-    for found in (one_rank[f"rom_corrections_{corrections}"], two_ranks[f"rom_corrections_{corrections}"]):
-        assert np.abs(found - serial).max() <= tol
-
-
-def test_full_model_face_means_equal_serial(one_rank: dict[str, np.ndarray], two_ranks: dict[str, np.ndarray]) -> None:
-    transient = aromm.simulate(assemble(petsc_cases.reduce_scene()), petsc_cases.PROBE).as_array()
-    steady = aromm.simulate(assemble(petsc_cases.steady_scene()), {"fibre.k": 0.5}).as_array()
+    expected = serial[f"rom_corrections_{corrections}"]
+    assert np.abs(expected).max() > 1.0  # °C: a real heating, not a trivially zero response
     for found in (one_rank, two_ranks):
-        assert np.abs(found["transient"] - transient).max() <= 1e-6
-        assert np.abs(found["steady"] - steady).max() <= 1e-6
+        assert np.abs(found[f"rom_corrections_{corrections}"] - expected).max() <= tol
 
 
-def test_homogenised_conductivity_equals_serial(one_rank: dict[str, np.ndarray],
+def test_full_model_face_means_equal_serial(serial: dict[str, np.ndarray], one_rank: dict[str, np.ndarray],
+                                            two_ranks: dict[str, np.ndarray]) -> None:
+    for found in (one_rank, two_ranks):
+        assert np.abs(found["transient"] - serial["transient"]).max() <= 1e-6
+        assert np.abs(found["steady"] - serial["steady"]).max() <= 1e-6
+
+
+def test_homogenised_conductivity_equals_serial(serial: dict[str, np.ndarray], one_rank: dict[str, np.ndarray],
                                                 two_ranks: dict[str, np.ndarray]) -> None:
-    scene = petsc_cases.steady_scene()
     for boundary in ("flux", "temperature"):
-        serial = np.diag(aromm.homogenize(scene, boundary))
         for found in (one_rank, two_ranks):
-            np.testing.assert_allclose(np.diag(found[f"k_{boundary}"]), serial, rtol=1e-7)
+            np.testing.assert_allclose(np.diag(found[f"k_{boundary}"]), np.diag(serial[f"k_{boundary}"]), rtol=1e-7)
 
 
 def test_cli_reduce_two_ranks_prints_once_and_caches(tmp_path: Path) -> None:
