@@ -100,6 +100,15 @@ def reaction_heat_flow(system: ThermalSystem, field: FloatArray, dofs: npt.Array
     return float(np.sum(residual[np.asarray(dofs, dtype=np.int64)]))
 
 
+def transient_grid(grid: TimeGrid | None, steady: bool, scheme: str) -> TimeGrid:
+    """The time grid of a transient system, refusing a steady one and an unknown ``scheme``."""
+    if grid is None or steady:
+        raise InputError("this system is steady (no [time] section / no capacity): use a steady solve")
+    if scheme not in ("bdf2", "euler"):
+        raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
+    return grid
+
+
 def output_steps(times: npt.ArrayLike | None, grid: TimeGrid) -> tuple[FloatArray, int]:
     """Checked output times (default: the grid's) and the number of time steps that reach them."""
     t_out = _check_times(times, grid)
@@ -132,11 +141,7 @@ def transient(
 
     Returns face means at ``times`` (default: the scene's grid); full fields too with ``fields``.
     """
-    if system.time is None or system.is_steady:
-        raise InputError("this system is steady (no [time] section / no capacity): use steady_field")
-    if scheme not in ("bdf2", "euler"):
-        raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
-    grid = system.time
+    grid = transient_grid(system.time, system.is_steady, scheme)
     t_out, steps = output_steps(times, grid)
     v = system.values(values)
     part = _partition(system, v)

@@ -19,9 +19,8 @@ from aromm.engines.petsc import linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
 from aromm.engines.petsc.reduction import Source, distributed
 from aromm.engines.petsc.steady import face_means, fixed_values, steady
-from aromm.errors import InputError
 from aromm.observables import Observables
-from aromm.solve import interpolate_rows, output_steps
+from aromm.solve import interpolate_rows, output_steps, transient_grid
 from aromm.system import ParamValues
 
 #: Relative residual of every time step.
@@ -57,11 +56,7 @@ def _stepper(system: DistributedSystem, a: float, *, c: Any, k: Any, rows: np.nd
 def transient(system: DistributedSystem, values: ParamValues | None = None, times: npt.ArrayLike | None = None, *,
               scheme: str = "bdf2", solver: str = "gamg") -> Observables:
     """Implicit time integration from the uniform ``initial.T`` (collective)."""
-    if system.time is None or system.is_steady:
-        raise InputError("this system is steady (no [time] section / no capacity): use the steady solve")
-    if scheme not in ("bdf2", "euler"):
-        raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
-    grid = system.time
+    grid = transient_grid(system.time, system.is_steady, scheme)
     t_out, steps = output_steps(times, grid)
     v = system.values(values)
     c = system.combine(system.capacity, v)
