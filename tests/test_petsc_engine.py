@@ -36,7 +36,7 @@ from scene_text import scenario_1  # noqa: E402
 HERE = Path(__file__).parent
 #: Hard limit of one mpiexec run: the 2-rank worker took 1-2 min at load 9 on the 2-core machine, over 15 min at
 #: load 20 (two ranks wait for each other at every collective when the cores are oversubscribed).
-MPI_TIMEOUT = 1200
+MPI_TIMEOUT = 1800
 RANKS = 2
 
 
