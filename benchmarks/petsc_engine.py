@@ -126,7 +126,8 @@ def exponents(results: list[dict[str, object]]) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sizes", type=int, nargs="+", default=[16, 24, 32, 48])
-    parser.add_argument("--ranks", type=int, nargs="*", default=[1, 2], help="rank counts of the petsc runs (none: scipy only)")
+    parser.add_argument("--ranks", type=int, nargs="*", default=[1, 2],
+                        help="rank counts of the petsc runs (none: scipy only)")
     parser.add_argument("--order", type=int, default=40)
     parser.add_argument("--solver", choices=("gamg", "mumps"), default="gamg")
     parser.add_argument("--no-scipy", action="store_true", help="skip the scipy engine (e.g. where it cannot fit)")
