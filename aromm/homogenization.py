@@ -19,54 +19,94 @@ measurements of an identification free of homogenisation bias.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from aromm.cell_problems import BOUNDARIES, PROBE_FLUX, effective_conductivity
+from aromm.engines import check_engine
 from aromm.errors import InputError, NumericalError
 from aromm.geometry import VoxelGeometry
 from aromm.profiles import Profile
 from aromm.scene import Scene, assemble
 from aromm.solve import reaction_heat_flow, steady_field
-from aromm.system import FloatArray
+from aromm.system import FloatArray, TimeGrid
 from aromm.vocabulary import FaceSpec, PhaseSpec, held, opposite
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
+#: The conditions solved by probes on an assembled model (mesh scenes, the petsc engine).
+PROBE_BOUNDARIES = ("flux", "temperature")
 __all__ = ["BOUNDARIES", "Fluxmetric", "fluxmetric", "homogeneous_twin", "homogenize", "mean_capacity"]
 
 
-def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto") -> FloatArray:
+class ProbeScene(Protocol):
+    """What the homogenisation probes need of a scene: its box and the same material under other faces
+    (a :class:`~aromm.scene.Scene`, or the petsc engine's slab-read VoxelProblem)."""
+
+    @property
+    def size(self) -> tuple[float, float, float]: ...
+
+    def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
+                      time: TimeGrid | None = None) -> ProbeScene: ...
+
+
+#: A steady solve of a probe: face means (°C) of its outputs and the heat flow (W) entering through its
+#: first fixed-temperature face.
+ProbeSolver = Callable[[Any], tuple[dict[str, float], float]]
+
+
+def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto", engine: str = "scipy") -> FloatArray:
     """Effective conductivity tensor (3x3, W/(m K)) of the scene's material under ``boundary``.
 
     ``boundary``: ``"periodic"`` (default), ``"flux"`` ([Chavez2020, eq. 13]) or ``"temperature"`` — their
     meaning and bounds in :mod:`aromm.cell_problems`.  Uses the scene's geometry and phases only; it applies
     the boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a linear solver of
-    aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on).
-    A mesh scene takes ``"flux"`` or ``"temperature"`` (principal values, assembled mesh model).
+    aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on); with
+    ``engine="petsc"`` (PETSc under MPI, aromm.engines.petsc: collective, every rank calls it and gets the
+    tensor) ``gamg`` or ``mumps``.  A mesh scene and the petsc engine take ``"flux"`` or ``"temperature"``
+    (principal values, by probes on the assembled model).
     """
-    if isinstance(scene.geometry, VoxelGeometry):
+    if check_engine(engine) == "scipy" and isinstance(scene.geometry, VoxelGeometry):
         return effective_conductivity(scene, boundary, method).k
-    if boundary not in ("flux", "temperature"):
-        raise InputError(f"{scene.where}a mesh scene is homogenised with boundary 'flux' or 'temperature' "
-                         f"(periodic conditions need a voxel image), got {boundary!r}")
+    if boundary not in PROBE_BOUNDARIES:
+        where = "the petsc engine" if engine == "petsc" else f"{scene.where}a mesh scene"
+        raise InputError(f"{where} homogenises with boundary 'flux' or 'temperature' (periodic conditions need a "
+                         f"voxel image and the scipy engine), got {boundary!r}")
+    if engine == "petsc":
+        from aromm.engines.petsc.homogenization import probe_solver
+
+        return conductivity(scene, boundary, probe_solver(method))
+    return conductivity(scene, boundary, lambda probe: _steady_probe(probe, method))
+
+
+def conductivity(scene: ProbeScene, boundary: str, solve: ProbeSolver) -> FloatArray:
+    """Eq. 13 (``boundary="flux"``) or the fixed-temperature heat flow, one probe per axis, by ``solve``."""
+    if boundary not in PROBE_BOUNDARIES:
+        raise InputError(f"unknown probe boundary {boundary!r}; allowed: {', '.join(PROBE_BOUNDARIES)}")
     k = np.zeros((3, 3))
     size = scene.size
     for i, axis in enumerate("xyz"):
         hot, cold = f"{axis}0", f"{axis}1"
         area = size[0] * size[1] * size[2] / size[i]
         if boundary == "flux":
-            system = assemble(_probe(scene, FaceSpec(hot, flux=PROBE_FLUX), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            drop = float(system.observation[hot] @ field - system.observation[cold] @ field)
-            k[i, i] = PROBE_FLUX * size[i] / drop
+            means, _ = solve(_probe(scene, FaceSpec(hot, flux=PROBE_FLUX), FaceSpec(cold, T=0.0)))
+            k[i, i] = PROBE_FLUX * size[i] / (means[hot] - means[cold])
         else:
-            system = assemble(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            heat_flow = reaction_heat_flow(system, field, system.dirichlet[0].dofs)
+            _, heat_flow = solve(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
             k[i, i] = heat_flow * size[i] / area
     return k
+
+
+def _steady_probe(scene: Scene, method: str) -> tuple[dict[str, float], float]:
+    """Face means and the heat flow through the first fixed-temperature face, by aromm.solve."""
+    system = assemble(scene)
+    field = steady_field(system, method=method)
+    means = {name: float(e @ field) for name, e in system.observation.items()}
+    flow = reaction_heat_flow(system, field, system.dirichlet[0].dofs) if system.dirichlet else 0.0
+    return means, flow
 
 
 @dataclass(frozen=True)
@@ -123,7 +163,7 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     return Fluxmetric(axis, s1.face, cold, flux, drop, flux * length / drop)
 
 
-def _probe(scene: Scene, hot: FaceSpec, cold: FaceSpec) -> Scene:
+def _probe(scene: ProbeScene, hot: FaceSpec, cold: FaceSpec) -> ProbeScene:
     """The scene's material, steady, with only the two probe faces loaded."""
     return scene.with_boundary((hot, cold), (hot.face, cold.face), time=None)
 

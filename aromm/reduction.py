@@ -19,7 +19,7 @@ import logging
 import os
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -27,13 +27,15 @@ from tqdm import tqdm
 
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
+from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.greedy import PodGreedy
 from aromm.lifting import lift
-from aromm.modes import boundary_of, compute_basis, correction_samples, split_modes, with_corrections
+from aromm.modes import ModalBasis, boundary_of, compute_basis, correction_samples, split_modes, with_corrections
 from aromm.pod import PodReductor
 from aromm.reductor import DetailedModel, Reductor
 from aromm.rom import ReducedModel, from_arrays, to_arrays
+from aromm.scene import Scene, assemble
 from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
 
 log = logging.getLogger(__name__)
@@ -97,7 +99,8 @@ def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> Npz
     return NpzCache(cache)
 
 
-def _reductor(method: str | Reductor) -> Reductor:
+def resolve_reductor(method: str | Reductor) -> Reductor:
+    """The reductor named ``method`` (:data:`REDUCTORS`), or ``method`` itself when it is one."""
     if isinstance(method, str):
         if method not in REDUCTORS:
             raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
@@ -107,14 +110,17 @@ def _reductor(method: str | Reductor) -> Reductor:
     return method
 
 
+def at_reference(system: ThermalSystem, reference_values: Mapping[str, float]) -> dict[str, float]:
+    """The system's parameters with the reference overrides it knows (the values of its reference case)."""
+    own = {k: float(v) for k, v in system.parameters.items()}
+    return {**own, **{k: float(v) for k, v in reference_values.items() if k in own}}
+
+
 def _cases(system: ThermalSystem, reference_values: Mapping[str, float],
            references: Sequence[ThermalSystem | ReferenceCase]) -> list[ReferenceCase]:
-    def at_reference(s: ThermalSystem) -> dict[str, float]:
-        own = {k: float(v) for k, v in s.parameters.items()}
-        return {**own, **{k: float(v) for k, v in reference_values.items() if k in own}}
-
-    cases = [ReferenceCase(system, at_reference(system), name="system")]
-    cases += [ReferenceCase(r, at_reference(r)) if isinstance(r, ThermalSystem) else r for r in references]
+    cases = [ReferenceCase(system, at_reference(system, reference_values), name="system")]
+    cases += [ReferenceCase(r, at_reference(r, reference_values)) if isinstance(r, ThermalSystem) else r
+              for r in references]
     for case in cases:
         if case.system.n != system.n:
             raise InputError(f"reference case {case.name!r} has {case.system.n} free unknowns, the system "
@@ -123,7 +129,7 @@ def _cases(system: ThermalSystem, reference_values: Mapping[str, float],
 
 
 def reduce(
-    system: ThermalSystem,
+    system: ThermalSystem | Scene,
     order: int = 200,
     *,
     modes: int | None = None,
@@ -138,6 +144,7 @@ def reduce(
     solver: str = "auto",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
+    engine: str = "scipy",
 ) -> ReducedModel:
     """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3].
 
@@ -161,8 +168,20 @@ def reduce(
       (its ``cache_key``, when it has one, keys the cache; else its ``name``).
     * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
       stored by content hash; a second call with the same inputs loads the result.
+    * ``engine``: ``"scipy"`` (one process) or ``"petsc"`` (PETSc/SLEPc under ``mpiexec``, collective:
+      aromm.engines.petsc.reduction; ``system`` may then be a voxel Scene, assembled by z-slabs, and
+      ``solver`` is ``gamg`` or ``mumps``).
     """
-    reductor = _reductor(method)
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.reduction import reduce as reduce_petsc
+
+        return reduce_petsc(system, order, modes=modes, n_dirichlet=n_dirichlet, n_steklov=n_steklov,
+                            basis_values=basis_values, reference_values=reference_values, references=references,
+                            relaxation=relaxation, corrections=corrections, method=method, solver=solver,
+                            cache=cache)
+    if isinstance(system, Scene):
+        system = assemble(system)
+    reductor = resolve_reductor(method)
     for label, given in (("basis_values", basis_values), ("reference_values", reference_values)):
         unknown = sorted(set(given or {}) - system.parameter_names)
         if unknown:
@@ -170,16 +189,11 @@ def reduce(
                              f"the system has {sorted(system.parameter_names)}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
-    total = int(modes) if modes is not None else default_modes(int(order))
     basis_values = dict(basis_values or {})
     fixed = len(system.dirichlet)
     system = lift(system, basis_values, solver)  # fixed temperatures: the free unknowns (aromm.lifting)
     references = [_lifted(r, basis_values, solver) for r in references]
-    if n_dirichlet is None and n_steklov is None:
-        n_d, n_s = split_modes(system, total)
-    else:
-        n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
-        n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
+    n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov, lambda total: split_modes(system, total))
     cases = _cases(system, reference_values or {}, references)
     store = resolve_cache(cache)
     if corrections is True:
@@ -208,27 +222,13 @@ def reduce(
     model = ReducedModel.from_system(system, basis.vectors, memo)
     if relaxation:
         cases.append(relaxation_case(system, cases[0].values))
-    snapshots = [_snapshot(case, model if case.system is system else
-                           ReducedModel.from_system(case.system, basis.vectors, memo), basis.kinds, system.time)
-                 for case in cases]
-    detailed = DetailedModel(basis, model, np.hstack(snapshots))
+    projected = [(model if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
+                  case) for case in cases]
     stages.next(f"{reductor.name} to order {order}")
-    coefficients = np.eye(basis.size) if order >= basis.size else reductor.coefficients(detailed, int(order))
-    rom = model.transform(independent(coefficients, basis.gram))
-    check_t = snapshot_times(system.time)
-    own = {k: v for k, v in cases[0].values.items() if k in model.parameter_names}
-    err = float(np.abs(rom.simulate(own, check_t).as_array() - model.simulate(own, check_t).as_array()).max(
-        initial=0.0))
+    rom, err = reduce_detailed(model, projected, basis, int(order), reductor, check_values=cases[0].values)
     stages.close()
-    info: dict[str, float | int | str] = {
-        "method": reductor.name, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
-        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
-        "zeta": basis.zeta,
-        "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
-        "gram_condition": float(basis.info.get("gram_condition", np.nan)),
-        "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
-        "lifted_faces": fixed,
-    }
+    info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
+            "lifted_faces": fixed}
     rom = replace(rom, info=info)
     log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
              rom.order, basis.size, info["offline_seconds"], err)
@@ -261,6 +261,51 @@ def _lifted(case: ThermalSystem | ReferenceCase, values: Mapping[str, float], so
     if isinstance(case, ThermalSystem):
         return lift(case, values, solver)
     return replace(case, system=lift(case.system, values, solver))
+
+
+def mode_counts(order: int, modes: int | None, n_dirichlet: int | None, n_steklov: int | None,
+                split: Callable[[int], tuple[int, int]]) -> tuple[int, int]:
+    """(n_dirichlet, n_steklov) of :func:`reduce`: Ñ = ``modes`` (default :func:`default_modes`) split by
+    ``split`` (aromm.modes.split_modes) unless one of the counts is given."""
+    total = int(modes) if modes is not None else default_modes(order)
+    if n_dirichlet is None and n_steklov is None:
+        return split(total)
+    n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
+    n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
+    return n_d, n_s
+
+
+def reduce_detailed(model: ReducedModel, cases: Sequence[tuple[ReducedModel, ReferenceCase]], basis: ModalBasis,
+                    order: int, reductor: Reductor, *, check_values: Mapping[str, float]) -> tuple[ReducedModel, float]:
+    """The order-ñ model from the detailed modal model ``model`` (on Φ) and the reference cases projected onto
+    Φ (``cases``: projected model and case), and its largest output error (°C) against ``model`` at
+    ``check_values`` on the snapshot times.
+
+    Works on Ñ × Ñ matrices only: whoever computed Φ and projected the operators (one process, or PETSc
+    under MPI, aromm.engines.petsc) hands over the projected models; ``basis.vectors`` is not used.
+    """
+    snapshots = [_snapshot(case, projected, basis.kinds, model.time) for projected, case in cases]
+    detailed = DetailedModel(basis, model, np.hstack(snapshots))
+    coefficients = np.eye(basis.size) if order >= basis.size else reductor.coefficients(detailed, order)
+    rom = model.transform(independent(coefficients, basis.gram))
+    check_t = snapshot_times(model.time)
+    own = {k: v for k, v in check_values.items() if k in model.parameter_names}
+    err = float(np.abs(rom.simulate(own, check_t).as_array() - model.simulate(own, check_t).as_array()).max(
+        initial=0.0))
+    return rom, err
+
+
+def reduction_info(rom: ReducedModel, basis: ModalBasis, method: str, *, seconds: float, error: float,
+                   key: str) -> dict[str, float | int | str]:
+    """What ``ReducedModel.info`` records of an offline build (orders, mode counts, seconds, errors)."""
+    return {
+        "method": method, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
+        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
+        "zeta": basis.zeta,
+        "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
+        "gram_condition": float(basis.info.get("gram_condition", np.nan)),
+        "offline_seconds": seconds, "reference_error": error, "cached": 0, "key": key,
+    }
 
 
 def _snapshot(case: ReferenceCase, model: ReducedModel, kinds: np.ndarray, grid: TimeGrid | None) -> FloatArray:

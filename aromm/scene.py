@@ -173,24 +173,34 @@ def load_scene(path: str | Path) -> Scene:
     a face given two conditions; ``dt <= 0`` or ``end < dt``; non-3-D images; bad voxel_size.
     """
     path = Path(path)
+    return scene_from_dict(read_toml(path), path)
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """The parsed scene file (not yet validated); InputError when missing or not TOML."""
     if not path.is_file():
         raise InputError(f"{path}: scene file not found")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise InputError(f"{path}: not a valid TOML file ({err})") from None
-    return scene_from_dict(data, path)
 
 
-def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
-    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths."""
+def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
+                    image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None) -> Scene:
+    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths.
+
+    ``image`` = (labels, voxel size stored in the file or None) replaces reading ``geometry.image``: an
+    engine that reads the image slab by slab passes a stand-in holding each label present once
+    (aromm.engines.petsc.problem), so that the phases are checked without the whole image in memory.
+    """
     r = _Reader(path)
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
     geo = r.table(data, "geometry", None)
     geometry: SceneGeometry = MeshGeometry(*_mesh(r, geo, path)) if "mesh" in geo else VoxelGeometry(
-        *_geometry(r, geo, path))
+        *_geometry(r, geo, path, image))
     phases = _phases(r, data, geometry.present())
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
@@ -210,16 +220,23 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
     return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed))
 
 
-def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.ndarray, tuple[float, float, float]]:
+def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None,
+              image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None,
+              ) -> tuple[np.ndarray, tuple[float, float, float]]:
     if not geo:
         raise r.fail("geometry", "missing: give image = \"file\" or generator = \"name\" with voxel_size")
     if ("image" in geo) == ("generator" in geo):
         raise r.fail("geometry", "give exactly one of image or generator")
     file_voxel: tuple[float, float, float] | None = None
-    if "image" in geo:
-        image = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+    if image is not None:
+        if "image" in geo:  # the keys are checked as below; the file itself is read by the caller
+            _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+        labels, vs = image
+        file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
+    elif "image" in geo:
+        file = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
         shape = geo.get("shape")
-        labels, vs = microstructure.load_image(image, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
+        labels, vs = microstructure.load_image(file, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
         file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
     else:
         name = geo["generator"]

@@ -29,6 +29,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from tqdm import tqdm
 
+from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.linalg import factorize
 from aromm.observables import Observables
@@ -150,6 +151,22 @@ def reaction_heat_flow(system: ThermalSystem, field: FloatArray, dofs: npt.Array
     return float(np.sum(residual[np.asarray(dofs, dtype=np.int64)]))
 
 
+def transient_grid(grid: TimeGrid | None, steady: bool, scheme: str) -> TimeGrid:
+    """The time grid of a transient system, refusing a steady one and an unknown ``scheme``."""
+    if grid is None or steady:
+        raise InputError("this system is steady (no [time] section / no capacity): use a steady solve")
+    if scheme not in ("bdf2", "euler"):
+        raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
+    return grid
+
+
+def output_steps(times: npt.ArrayLike | None, grid: TimeGrid) -> tuple[FloatArray, int]:
+    """Checked output times (default: the grid's) and the number of time steps that reach them."""
+    t_out = _check_times(times, grid)
+    steps = round(min(grid.end, t_out[-1] + grid.dt) / grid.dt - 1e-9) + 1
+    return t_out, max(1, min(steps, len(grid.times)))
+
+
 def _check_times(times: npt.ArrayLike | None, grid: TimeGrid) -> FloatArray:
     if times is None:
         return grid.times
@@ -175,20 +192,14 @@ def transient(
 
     Returns face means at ``times`` (default: the scene's grid); full fields too with ``fields``.
     """
-    if system.time is None or system.is_steady:
-        raise InputError("this system is steady (no [time] section / no capacity): use steady_field")
-    if scheme not in ("bdf2", "euler"):
-        raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
-    grid = system.time
-    t_out = _check_times(times, grid)
+    grid = transient_grid(system.time, system.is_steady, scheme)
+    t_out, steps = output_steps(times, grid)
     v = system.values(values)
     part = _partition(system, v)
     c_ff, c_fd = _split(sp.csr_array(system.capacity.evaluate(v)), part)
     k_ff, k_fd = _split(sp.csr_array(system.conductance.evaluate(v)), part)
     forcing = _Forcing(system, v, part, k_fd)
     dt = grid.dt
-    steps = round(min(grid.end, t_out[-1] + dt) / dt - 1e-9) + 1
-    steps = max(1, min(steps, len(grid.times)))
 
     names, e = system.observation_matrix()
     e_free, e_fixed = e[:, part.free], e[:, part.fixed]
@@ -249,8 +260,19 @@ def simulate(
     method: str = "auto",
     scheme: Scheme = "bdf2",
     progress: bool = False,
+    engine: str = "scipy",
 ) -> Observables:
-    """Full model: steady solve for a steady system, else :func:`transient`."""
+    """Full model: steady solve for a steady system, else :func:`transient`.
+
+    ``engine="petsc"``: the same solves distributed by PETSc under MPI (aromm.engines.petsc.transient; every
+    rank calls it; ``system`` may be a voxel Scene, assembled by z-slabs; ``method`` is then ``gamg`` or
+    ``mumps``; no ``fields``)."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.transient import simulate as simulate_petsc
+
+        if fields:
+            raise InputError("the petsc engine returns face means only (fields stay distributed); use engine='scipy'")
+        return simulate_petsc(system, values, times, scheme=scheme, solver=method)
     if system.is_steady or system.time is None:
         field = steady_field(system, values, method)
         names, e = system.observation_matrix()

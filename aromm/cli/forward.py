@@ -9,8 +9,10 @@ import click
 import meshio
 import numpy as np
 
-from aromm.cell_problems import SOLVERS, CellResult, effective_conductivity
-from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json, refine_scene
+from aromm.cell_problems import CellResult, effective_conductivity
+from aromm.cli import engine as engine_cli
+from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json
+from aromm.engines import is_root
 from aromm.errors import InputError
 from aromm.geometry import VoxelGeometry
 from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
@@ -37,14 +39,14 @@ def _table(obs: Observables, rows: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
+def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Path]:
     """observables.csv always; field.vtu (last time, or steady) when fields were kept."""
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "observables.csv"]
     if not obs.mean_T:
         raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
     write_csv(obs, written[0], "observables file")
-    if obs.fields is not None and system.geometry is not None:
+    if obs.fields is not None and system is not None and system.geometry is not None:
         geo = system.geometry
         mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
                            point_data={"T": obs.fields[-1]},
@@ -61,25 +63,31 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
-              help="Folder for observables.csv and field.vtu (final field, full model).")
+              help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True,
               help="Time stepping of the full model: BDF2 (second order) or backward Euler.")
-@SOLVER
+@engine_cli.SOLVER
+@engine_cli.ENGINE
 @REFINE
 @JSON
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str, refine: int,
-                 as_json: bool) -> None:
+def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str, engine: str,
+                 refine: int, as_json: bool) -> None:
     """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
-    sc = refine_scene(load_scene(scene), refine)
-    system = assemble(sc)
+    solver = engine_cli.resolve(engine, solver)
+    sc = engine_cli.load(scene, engine, refine)
+    system = assemble(sc) if engine == "scipy" else None
+    progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
         from aromm.reduction import reduce
 
-        obs = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
-                     progress=sys.stderr.isatty()).simulate()
+        obs = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
+                     reference_values=sc.reduction.reference, progress=progress, engine=engine,
+                     solver=solver).simulate()
     else:
-        obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
-                            progress=sys.stderr.isatty())
+        obs = simulate_full(system if system is not None else sc, fields=out is not None and system is not None,
+                            method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
+    if not is_root(engine):
+        return
     written = _save(obs, system, out) if out is not None else []
     if as_json:
         echo_json(obs.to_json())
@@ -93,29 +101,43 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 @SCENE
 @click.option("--boundary", type=click.Choice(BOUNDARIES), default=None,
               help="periodic (default for images): full tensor, converges to the effective property; flux: "
-                   "[Chavez2020, eq. 13] (flux in, fixed T out; lower-bound type; default for mesh scenes); "
-                   "temperature: fixed T on both faces (mixed, exact on laminates).")
-@click.option("--solver", type=click.Choice(SOLVERS), default="auto", show_default=True,
-              help="mg: geometric multigrid CG (matrix-free, ~200 B/voxel); cholmod, splu: direct; amg: pyamg + CG; "
-                   "auto: mg from 20³ voxels on, else cholmod.")
+                   "[Chavez2020, eq. 13] (flux in, fixed T out; lower-bound type; default for mesh scenes and the "
+                   "petsc engine); temperature: fixed T on both faces (mixed, exact on laminates).")
+@engine_cli.SOLVER
 @click.option("--rtol", type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
-              show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach.")
+              show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach (scipy engine).")
+@engine_cli.ENGINE
 @REFINE
 @JSON
-def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, refine: int,
+def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, engine: str, refine: int,
                    as_json: bool) -> None:
-    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
+    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material.
+
+    Solvers: mg (geometric multigrid CG, matrix-free, ~200 B/voxel; the default above 20³ voxels), cholmod and
+    splu (direct), amg (pyamg + CG); with the petsc engine gamg or mumps.
+    """
+    solver = engine_cli.resolve(engine, solver)
     direct = solver in ("cholmod", "splu")
-    sc = refine_scene(load_scene(scene), refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
-    image = sc.geometry if isinstance(sc.geometry, VoxelGeometry) else None
-    if image is None:
+    sc = engine_cli.load(scene, engine, refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
+    capacities = all(ph.c is not None for ph in sc.phases)
+    image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
+    if engine == "petsc":
+        from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
+
+        boundary = boundary or "flux"
+        result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
+        c = mean_capacity_petsc(sc) if capacities else None
+    elif image is None:
         boundary = boundary or "flux"
         result = CellResult(homogenize(sc, boundary=boundary, method=solver), boundary, solver)
+        c = mean_capacity(sc) if capacities else None
     else:
         boundary = boundary or "periodic"
         result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
+        c = mean_capacity(sc) if capacities else None
+    if not is_root(engine):
+        return
     k = result.k
-    c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
     shape = list(image.shape) if image is not None else None
     if as_json:
         echo_json({"k": k, "c": c, "boundary": boundary, "solver": result.method, "iterations": result.iterations,
