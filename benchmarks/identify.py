@@ -50,7 +50,7 @@ from inverse.study import (
     small_wood,
     twin_cases,
 )
-from inverse.uncertainty import IdentifiabilityWarning
+from inverse.uncertainty import UncertaintyWarning
 
 ROOT = Path(__file__).resolve().parents[1]
 # swarm of the full-model identifications (each evaluation is a full simulation): the refinement does the work
@@ -110,7 +110,7 @@ def main() -> None:
                         help="with --no-full: still fit the full model along x by least squares alone, started "
                              "from the reduced estimate (about 30 full simulations)")
     args = parser.parse_args()
-    warnings.simplefilter("ignore", IdentifiabilityWarning)  # listed with the results instead
+    warnings.simplefilter("ignore", UncertaintyWarning)  # listed with the results instead
 
     shipped = os.environ.get("AROMM_FULL") == "1"
     if shipped:
