@@ -20,6 +20,7 @@ import numpy as np
 from aromm import microstructure
 from aromm.errors import InputError
 from aromm.fem import FACES, FaceSpec, PhaseSpec, assemble_voxels, parameter_values
+from aromm.resources import MAX_TIME_STEPS
 from aromm.system import ThermalSystem, TimeGrid
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source")
@@ -85,6 +86,9 @@ def assemble(scene: Scene) -> ThermalSystem:
     Voxel scenes: one Q1 hexahedron per voxel (aromm.fem).  Mesh scenes: Lagrange simplices with
     the interface conductance 1/R on split interface nodes (aromm.effective.mesh_fem).
     """
+    singular = singular_boundary(scene.boundary, scene.time)
+    if singular:
+        raise InputError(f"{scene.where}{singular}")
     if scene.mesh is not None:
         from aromm.effective.mesh_fem import assemble_mesh
 
@@ -99,6 +103,22 @@ def assemble(scene: Scene) -> ThermalSystem:
         )
     return assemble_voxels(scene.labels, scene.voxel_size, scene.phases, scene.boundary,
                            time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs)
+
+
+def singular_boundary(boundary: tuple[FaceSpec, ...], time: TimeGrid | None) -> str | None:
+    """Why a steady problem with these faces has no unique solution (``None`` when it has one).
+
+    Steady, ``K T = F`` with every face adiabatic or under a prescribed flux: ``K`` has the constant
+    field in its kernel (the temperature level is undetermined, and a solution exists only if the
+    loads balance), so a face with a fixed temperature ``T`` or an exchange ``h`` is needed.
+    """
+    if time is not None or any(f.T is not None or f.h is not None for f in boundary):
+        return None
+    given = ", ".join(f"{f.face} (flux)" for f in boundary)
+    faces = f"faces given: {given}, every other face is adiabatic" if given else "no face given, all are adiabatic"
+    return ("[boundary]: a steady scene needs at least one face with a fixed temperature T or an exchange "
+            f"coefficient h; {faces}, so the temperature level is undetermined (singular conductance). "
+            "Add e.g. [boundary.z1] with h = 20.0 (and T_ext) or T = 0.0, or a [time] section for a transient")
 
 
 def _where(path: Path | None) -> str:
@@ -175,6 +195,9 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
             if ph.c is None:
                 raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
     outputs = _outputs(r, data)
+    singular = singular_boundary(boundary, time)
+    if singular and ("boundary" in data or outputs):  # without either, a material for `aromm homogenize`
+        raise InputError(f"{_where(path)}{singular}")
     interfaces = _interfaces(r, data, {ph.name for ph in phases})
     return Scene(labels, voxel_size, phases, boundary, initial_T, time, outputs, interfaces, path, mesh, order)
 
@@ -338,6 +361,9 @@ def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:
     end = r.number(t["end"], "time.end", positive=True)
     if end < dt:
         raise r.fail("time.end", f"end ({end:g} s) must be at least dt ({dt:g} s)")
+    if end / dt > MAX_TIME_STEPS:
+        raise r.fail("time", f"end / dt = {end:g} s / {dt:g} s = {end / dt:.3g} time steps, more than the "
+                             f"{MAX_TIME_STEPS:.0e} allowed; raise dt or lower end")
     return TimeGrid(end, dt)
 
 

@@ -26,11 +26,14 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from tqdm import tqdm
 
+from aromm import resources
 from aromm.errors import InputError
 from aromm.linalg import factorize
+from aromm.resources import FLOAT
 from aromm.system import FloatArray, Observables, ParamValues, ThermalSystem, TimeGrid
 
 Scheme = Literal["bdf2", "euler"]
+Fields = bool | Literal["last"]
 
 
 @dataclass(frozen=True)
@@ -103,13 +106,17 @@ def transient(
     times: npt.ArrayLike | None = None,
     *,
     scheme: Scheme = "bdf2",
-    fields: bool = False,
+    fields: Fields = False,
     method: str = "auto",
     progress: bool = False,
 ) -> Observables:
     """Implicit time integration from the uniform initial temperature ``initial.T``.
 
-    Returns face means at ``times`` (default: the scene's grid); full fields too with ``fields``.
+    Returns face means at ``times`` (default: the scene's grid); full fields too with ``fields``:
+    ``True`` at every output time, ``"last"`` only at the last one (one row, what an export of
+    the final field needs).  Fields are interpolated as the steps pass, so only the rows asked
+    for are kept.  Refused before any factorisation when the kept arrays exceed the available
+    memory (:mod:`aromm.resources`).
     """
     if system.time is None or system.is_steady:
         raise InputError("this system is steady (no [time] section / no capacity): use steady_field")
@@ -127,11 +134,18 @@ def transient(
     steps = max(1, min(steps, len(grid.times)))
 
     names, e = system.observation_matrix()
+    field_t = t_out if fields is True else t_out[-1:] if fields == "last" else t_out[:0]
+    resources.require(FLOAT * ((steps + 1) * len(names) * 2 + field_t.size * system.n),
+                      f"the transient of {system.n} unknowns over {steps} steps",
+                      f"{steps + 1} times × {len(names)} outputs × 2 copies + {field_t.size} fields × "
+                      f"{system.n} unknowns, 8 bytes each",
+                      "keep fewer fields (simulate --out exports only the final one), raise [time] dt or lower end")
     e_free, e_fixed = e[:, part.free], e[:, part.fixed] @ part.fixed_values
     x_prev = np.full(part.free.size, float(np.asarray(v["initial.T"])))
     history_t = [0.0]
     history_y = [e_free @ x_prev + e_fixed]
-    stored: list[FloatArray] = [x_prev] if fields else []
+    kept = _FieldRows(field_t, part, system.n)
+    kept.capture(0.0, 0.0, x_prev, x_prev)
 
     # Step 1 is backward Euler (BDF2's starter); the Euler factor is released before BDF2's is built,
     # so at most one factorisation is alive at a time (each costs ~1 GB at 1e5 unknowns).
@@ -146,16 +160,43 @@ def transient(
         if n == 1 and scheme == "bdf2" and steps > 1:
             del stepper
             stepper = factorize(1.5 * c_ff / dt + k_ff, method, points=points)
+        kept.capture((n - 1) * dt, n * dt, x_prev, x)
         x_older, x_prev = x_prev, x
         history_t.append(n * dt)
         history_y.append(e_free @ x + e_fixed)
-        if fields:
-            stored.append(x)
+    kept.finish((steps - 1) * dt, steps * dt, x_older, x_prev)
     ht = np.asarray(history_t)
     hy = interpolate_rows(t_out, ht, np.asarray(history_y))
     mean_t = {name: hy[:, i] for i, name in enumerate(names)}
-    field_out = interpolate_rows(t_out, ht, part.full(system.n, np.asarray(stored))) if fields else None
-    return Observables(t=t_out, mean_T=mean_t, fields=field_out)
+    return Observables(t=t_out, mean_T=mean_t, fields=kept.rows if fields else None)
+
+
+class _FieldRows:
+    """Full fields at the times ``at`` (ascending), interpolated linearly between steps as they pass.
+
+    Same interpolation as :func:`interpolate_rows` on the stored steps, without storing them: only
+    ``len(at)`` rows of ``n`` values are kept.
+    """
+
+    def __init__(self, at: FloatArray, part: _Partition, n: int) -> None:
+        self.at = at
+        self.part = part
+        self.rows = np.empty((at.size, n))
+        self.next = 0
+
+    def _put(self, t0: float, t1: float, x0: FloatArray, x1: FloatArray, last: bool) -> None:
+        while self.next < self.at.size and (last or self.at[self.next] <= t1):
+            w = (self.at[self.next] - t0) / (t1 - t0) if t1 > t0 else 1.0
+            self.rows[self.next] = self.part.full(self.rows.shape[1], (1.0 - w) * x0 + w * x1)
+            self.next += 1
+
+    def capture(self, t0: float, t1: float, x0: FloatArray, x1: FloatArray) -> None:
+        """Rows due at or before ``t1`` from the step ``t0 → t1`` (states ``x0 → x1``, free unknowns)."""
+        self._put(t0, t1, x0, x1, last=False)
+
+    def finish(self, t0: float, t1: float, x0: FloatArray, x1: FloatArray) -> None:
+        """Rows after the last step (within round-off of it) from the last step, as interpolate_rows does."""
+        self._put(t0, t1, x0, x1, last=True)
 
 
 def interpolate_rows(t_out: FloatArray, t: FloatArray, rows: FloatArray) -> FloatArray:
@@ -170,12 +211,12 @@ def simulate(
     values: ParamValues | None = None,
     times: npt.ArrayLike | None = None,
     *,
-    fields: bool = False,
+    fields: Fields = False,
     method: str = "auto",
     scheme: Scheme = "bdf2",
     progress: bool = False,
 ) -> Observables:
-    """Full model: steady solve for a steady system, else :func:`transient`."""
+    """Full model: steady solve for a steady system, else :func:`transient` (``fields`` as there)."""
     if system.is_steady or system.time is None:
         field = steady_field(system, values, method)
         names, e = system.observation_matrix()

@@ -70,8 +70,8 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 
         obs = reduce(system, order=order, progress=sys.stderr.isatty()).simulate()
     else:
-        obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
-                            progress=sys.stderr.isatty())
+        obs = simulate_full(system, fields="last" if out is not None else False, method=solver,
+                            scheme=scheme, progress=sys.stderr.isatty())  # type: ignore[arg-type]
     written = _save(obs, system, out) if out is not None else []
     if as_json:
         echo_json(obs.to_json())
