@@ -18,6 +18,7 @@ import time
 import warnings
 
 import numpy as np
+from scipy.signal import lfilter
 
 from inverse.uncertainty import UncertaintyWarning, linearised
 
@@ -25,12 +26,10 @@ CASES = [(0.0, 100), (0.0, 400), (0.5, 100), (0.5, 400), (0.7, 400), (0.9, 400),
 
 
 def ar1(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
+    """Stationary AR(1) noise e_i = ρ e_(i-1) + z_i, z_i ~ N(0, 1), e_0 ~ N(0, 1/(1 - ρ²))."""
     z = rng.standard_normal(n)
-    e = np.empty(n)
-    e[0] = z[0] / np.sqrt(1.0 - rho**2)
-    for i in range(1, n):
-        e[i] = rho * e[i - 1] + z[i]
-    return e
+    z[0] /= np.sqrt(1.0 - rho**2)
+    return np.asarray(lfilter([1.0], [1.0, -rho], z))
 
 
 def coverage(rho: float, n: int, reps: int, rng: np.random.Generator) -> tuple[float, float, float, float, float]:

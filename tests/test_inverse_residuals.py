@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pytest
 from inverse_cases import PHASES, TRUTH, LinearModel, scenario_model, tracheids
+from scipy.signal import lfilter
 
 from aromm.fem import FaceSpec
 from aromm.homogenize import fluxmetric, mean_capacity
@@ -31,12 +32,10 @@ BETA = np.array([1.5, -0.4])
 
 
 def _ar1(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
+    """Stationary AR(1) noise e_i = ρ e_(i-1) + z_i, z_i ~ N(0, 1), e_0 ~ N(0, 1/(1 - ρ²))."""
     z = rng.standard_normal(n)
-    e = np.empty(n)
-    e[0] = z[0] / np.sqrt(1.0 - rho**2)
-    for i in range(1, n):
-        e[i] = rho * e[i - 1] + z[i]
-    return e
+    z[0] /= np.sqrt(1.0 - rho**2)
+    return np.asarray(lfilter([1.0], [1.0, -rho], z))
 
 
 def _binomial_band(p: float, n: int) -> float:
