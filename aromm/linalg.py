@@ -1,6 +1,6 @@
 """Sparse symmetric positive-definite factorisations, with a pure-scipy fallback.
 
-Choice (measured, ../shared/method/solvers.md and benchmarks/solvers.py): SuperLU with
+Choice (measured, docs/notes/solver_facts.md and benchmarks/fem_solvers.py): SuperLU with
 its default COLAMD ordering takes minutes and gigabytes on 3-D voxel systems of ~1e5
 unknowns, while the supernodal Cholesky CHOLMOD (shipped in cvxopt's PyPI wheels as
 ``cvxopt.cholmod``) factors them in seconds.  So:

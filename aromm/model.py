@@ -2,7 +2,7 @@
 
 A forward model maps parameter values to face-mean temperatures at given times.  The
 inverse loop only needs :meth:`ForwardModel.simulate_batch`, which evaluates a whole
-swarm of parameter sets in one call (seed 001 section 4: PSO evaluates many candidates).
+swarm of parameter sets in one call [Chavez2020, § 4: PSO evaluates many candidates].
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy.typing as npt
 
-from aromm.system import FloatArray, Observables
+from aromm.observables import Observables
+from aromm.system import FloatArray
 
 
 @runtime_checkable

@@ -1,4 +1,4 @@
-"""Dirichlet and Steklov eigenbases of a heterogeneous body (seed 001 §3.1, eqs. 6–8).
+"""Dirichlet and Steklov eigenbases of a heterogeneous body [Chavez2020, § 3.1, eqs. 6–8].
 
 With reference properties (k0, c0) per phase, ``K0`` is the conduction operator and ``C0`` the
 capacity operator at those values, and ``B`` the boundary mass ``∫_Γ φ_a φ_b``:
@@ -11,9 +11,9 @@ capacity operator at those values, and ``B`` the boundary mass ``∫_Γ φ_a φ_
 
 Every mode is capacity-normalised, ``vᵀ C0 v = 1``.  Dirichlet modes are C0-orthogonal; Steklov
 modes are ζB- and K0-orthogonal; a Dirichlet and a Steklov mode are K0-orthogonal exactly
-(``v_D`` vanishes on Γ, ``K0 v_S`` vanishes inside), but not C0-orthogonal (method note §3).
+(``v_D`` vanishes on Γ, ``K0 v_S`` vanishes inside), but not C0-orthogonal (docs/notes/aromm_method.md §3).
 
-Solvers (../shared/method/solvers.md): ARPACK shift-invert with a sparse Cholesky factorisation
+Solvers (docs/notes/solver_facts.md): ARPACK shift-invert with a sparse Cholesky factorisation
 passed as ``OPinv`` (never eigsh's own SuperLU/COLAMD), ordered by geometric nested dissection when
 the system has node coordinates (aromm.ordering); Steklov with a small negative shift (K0 and
 B are both singular), then one purification solve ``V ← (K0 − σζB)⁻¹ ζB V`` (the discrete harmonic
@@ -38,12 +38,8 @@ from scipy.sparse import csgraph
 
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
-from aromm.fem import FACES, face_mass
 from aromm.linalg import Factorization, factorize
-from aromm.system import FloatArray, Geometry, ThermalSystem
-
-#: Reference per-phase properties of the bases in seed 001 §3.1 (W/(m K), J/(m³ K)).
-SEED001_BASIS_VALUES: Mapping[str, float] = {"fibre.k": 0.53, "fibre.c": 1.2e6, "gas.k": 0.025, "gas.c": 1.2e3}
+from aromm.system import FloatArray, ThermalSystem
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
 DENSE_LIMIT = 1500
@@ -54,7 +50,7 @@ ORTHOGONALITY_TOL = 1e-6
 #: Largest condition number of the combined capacity Gram matrix ``Φᵀ C0 Φ`` accepted.
 GRAM_CONDITION_MAX = 1e12
 
-_BASIS_VERSION = 2
+_BASIS_VERSION = 3
 #: Default conductivity factors of the correction samples (each conduction parameter in turn); on the
 #: generated 10³ wood image (0.1, 1, 3) was as accurate as (0.1, 0.3, 1, 3) with two fewer factorisations
 #: per parameter, and (1,) alone 100× less accurate at k_F = 0.05.
@@ -98,6 +94,7 @@ class ModalBasis:
     eigenvalues: FloatArray
     kinds: npt.NDArray[np.str_]
     zeta: float
+    gram: FloatArray  # Φᵀ C0 Φ, the capacity Gram matrix at the reference values (unit diagonal)
     info: Mapping[str, float] = field(default_factory=dict)
     corrections: FloatArray | None = None  # (size, m): correction vectors in this basis, see with_corrections
 
@@ -114,68 +111,19 @@ class ModalBasis:
         return int(np.count_nonzero(self.kinds == kind))
 
 
-def is_exchange(operator: sp.csr_array | FloatArray) -> bool:
-    """True for a conductance term that does not annihilate constants (convection, exchange with
-    the surroundings); False for conduction inside the body (``K 1 = 0``)."""
-    if not sp.issparse(operator):
-        return False
-    a = sp.csr_array(operator)
-    row = np.abs(a @ np.ones(a.shape[0]))
-    scale = float(np.abs(a).sum(axis=1).max()) if a.nnz else 0.0
-    return bool(row.max(initial=0.0) > 1e-10 * scale)
-
-
-def _voxel_grid(geometry: Geometry | None, n: int) -> tuple[tuple[int, int, int], tuple[float, float, float]] | None:
-    """(voxels per axis, voxel size) when the nodes form the regular grid of aromm.fem, else None."""
-    if geometry is None or geometry.cell_type != "hexahedron" or geometry.points.shape[0] != n:
-        return None
-    axes = [np.unique(geometry.points[:, i]) for i in range(3)]
-    if int(np.prod([a.size for a in axes])) != n or any(a.size < 2 for a in axes):
-        return None
-    shape = (axes[0].size - 1, axes[1].size - 1, axes[2].size - 1)
-    size = (float(np.diff(axes[0]).mean()), float(np.diff(axes[1]).mean()), float(np.diff(axes[2]).mean()))
-    return shape, size
-
-
-def boundary_mass(system: ThermalSystem) -> sp.csr_array:
-    """Boundary mass ``B = ∫_Γ φ_a φ_b`` (m²) over the whole outer boundary Γ.
-
-    Voxel systems of aromm.fem: the consistent Q1 face mass of the six faces of the box.  Other
-    systems (DEM bond networks): a lumped boundary weight per DOF, the largest over the system's
-    exchange terms (row sums) and load vectors with unit coefficient, i.e. the exchange area.
-    """
-    grid = _voxel_grid(system.geometry, system.n)
-    if grid is not None:
-        shape, size = grid
-        total = face_mass(shape, size, FACES[0])
-        for face in FACES[1:]:
-            total = total + face_mass(shape, size, face)
-        return sp.csr_array(total)
-    weight = np.zeros(system.n)
-    for t in system.conductance.terms:
-        if is_exchange(t.operator):
-            weight = np.maximum(weight, np.abs(sp.csr_array(t.operator) @ np.ones(system.n)))
-    for t in system.load.terms:
-        if not sp.issparse(t.operator):
-            weight = np.maximum(weight, np.abs(np.asarray(t.operator, dtype=float)))
-    if not np.any(weight > 0):
-        raise InputError("the system has no boundary (no exchange term, no face load): Steklov modes need one")
-    return sp.csr_array(sp.diags_array(weight))
-
-
-def default_basis_values(system: ThermalSystem) -> dict[str, float]:
-    """The system's parameters, with the seed 001 reference properties for phases named fibre/gas."""
-    out = {k: float(v) for k, v in system.parameters.items()}
-    for name, value in SEED001_BASIS_VALUES.items():
-        if name in out:
-            out[name] = value
-    return out
+def boundary_of(system: ThermalSystem) -> sp.csr_array:
+    """The boundary mass ``B = ∫_Γ φ_a φ_b`` (m²) the assembler attached to ``system``."""
+    if system.boundary is None:
+        raise InputError("the system carries no boundary mass (ThermalSystem.boundary): the Steklov modes "
+                         "need the outer boundary; assemble it with aromm.assemble or a DEM network")
+    return system.boundary
 
 
 def reference_operators(system: ThermalSystem, values: Mapping[str, float] | None = None) -> ReferenceOperators:
     """``K0`` = conduction terms (those with ``K 1 = 0``) and ``C0`` = capacity terms at ``values``.
 
-    ``values`` overrides :func:`default_basis_values`; ζ from seed 001 eq. 8.
+    ``values`` (the reference properties k0, c0 of the bases) override the system's own parameters;
+    ζ from [Chavez2020, eq. 8].
     """
     if system.is_steady:
         raise InputError("the modal bases need a transient system (a [time] section and phase capacities c)")
@@ -185,17 +133,12 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
             f"fixed temperatures ({names}) are not supported by the modal reduction: the reduced model "
             "uses natural boundary conditions only; replace them by convection with a large h (penalty)"
         )
-    vals: dict[str, float] = default_basis_values(system)
+    vals: dict[str, float] = {k: float(v) for k, v in system.parameters.items()}
     vals.update({k: float(v) for k, v in (values or {}).items()})
+    k0 = sp.csr_array(system.conductance.with_role("conduction").evaluate(vals))
+    c0 = sp.csr_array(system.capacity.evaluate(vals))
+    b = boundary_of(system)
     n = system.n
-    k0 = sp.csr_array((n, n))
-    for t in system.conductance.terms:
-        if not is_exchange(t.operator):
-            k0 = k0 + float(t.coefficient(vals)) * sp.csr_array(t.operator)
-    c0 = sp.csr_array((n, n))
-    for t in system.capacity.terms:
-        c0 = c0 + float(t.coefficient(vals)) * sp.csr_array(t.operator)
-    b = boundary_mass(system)
     area = float(b.sum())
     heat = float(c0.sum())
     if not (heat > 0 and area > 0):
@@ -207,7 +150,7 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
 def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
     """Split Ñ = ``total`` into (n_dirichlet, n_steklov) evenly, moving to one family what the other lacks
     (at most n_interior Dirichlet modes and n_boundary Steklov modes exist)."""
-    on_gamma = int(np.count_nonzero(boundary_mass(system).diagonal() > 0))
+    on_gamma = int(np.count_nonzero(boundary_of(system).diagonal() > 0))
     n_interior = system.n - on_gamma
     n_s = min((total + 1) // 2, on_gamma)
     n_d = min(total - n_s, n_interior)
@@ -326,8 +269,8 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> 
     return lam, vec / norms
 
 
-def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> float:
-    """Condition number of the capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal); refuses a dependent basis."""
+def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> tuple[FloatArray, float]:
+    """The capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal) and its condition number; refuses a dependent basis."""
     gram = vectors.T @ (ops.capacity @ vectors)
     ev = np.linalg.eigvalsh((gram + gram.T) / 2)
     cond = float(ev[-1] / ev[0]) if ev[0] > 0 else np.inf
@@ -336,7 +279,7 @@ def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> float:
             f"modal basis: capacity Gram matrix has condition number {cond:.1e} > {GRAM_CONDITION_MAX:.0e} "
             "(Dirichlet and Steklov modes nearly dependent); ask for fewer Steklov modes"
         )
-    return cond
+    return gram, cond
 
 
 def compute_basis(
@@ -361,6 +304,7 @@ def compute_basis(
         stored = cache.load("basis", key)
         if stored is not None:
             return ModalBasis(stored["vectors"], stored["eigenvalues"], stored["kinds"], float(stored["zeta"]),
+                              stored["gram"],
                               {"seconds": 0.0, "cached": 1.0, "gram_condition": float(stored["gram_condition"])})
     start = time.perf_counter()
     z = zero_modes(ops)
@@ -370,12 +314,12 @@ def compute_basis(
     vectors = np.column_stack([z, v_s, v_d])
     eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
     kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
-    cond = _check_combined(ops, vectors)
+    gram, cond = _check_combined(ops, vectors)
     seconds = time.perf_counter() - start
     if cache is not None:
         cache.save("basis", key, {"vectors": vectors, "eigenvalues": eigenvalues, "kinds": kinds,
-                                  "zeta": np.float64(ops.zeta), "gram_condition": np.float64(cond)})
-    return ModalBasis(vectors, eigenvalues, kinds, ops.zeta,
+                                  "zeta": np.float64(ops.zeta), "gram": gram, "gram_condition": np.float64(cond)})
+    return ModalBasis(vectors, eigenvalues, kinds, ops.zeta, gram,
                       {"seconds": seconds, "steklov_seconds": t_s, "cached": 0.0, "gram_condition": cond})
 
 
@@ -383,9 +327,9 @@ def correction_samples(system: ThermalSystem, values: Mapping[str, float] | None
                        factors: tuple[float, ...] = CORRECTION_FACTORS) -> list[dict[str, float]]:
     """Parameter sets of the correction modes: the reference values, then each conduction parameter
     (of the terms with ``K 1 = 0``) multiplied in turn by each of ``factors``."""
-    ref = default_basis_values(system)
+    ref = {k: float(v) for k, v in system.parameters.items()}
     ref.update({k: float(v) for k, v in (values or {}).items()})
-    names = sorted({p for t in system.conductance.terms if not is_exchange(t.operator) for p in t.coefficient.params})
+    names = sorted(system.conductance.with_role("conduction").parameters)
     samples = [ref]
     for name in names:
         for f in factors:
@@ -407,7 +351,7 @@ def with_corrections(
 
     For each parameter sample s and load term U_j: the static response ``x = K(s)⁻¹ U_j`` and the
     first time moment ``K(s)⁻¹ C_i x`` for each capacity term (moment matching at zero frequency,
-    the "static correction" / mode-acceleration idea of modal synthesis; an extension of seed 001,
+    the "static correction" / mode-acceleration idea of modal synthesis; an extension of [Chavez2020],
     not in it).  They make the steady state exact at the samples and the slow response accurate,
     which truncated Dirichlet modes capture only slowly when k differs from k0 (measured in
     benchmarks/aromm_accuracy.py).  The detailed basis gains their C0-orthonormalised parts
@@ -427,17 +371,19 @@ def with_corrections(
         extra, coefficients = _correction_vectors(system, basis, ops, samples, method)
         if cache is not None:
             cache.save("corrections", key, {"vectors": extra, "coefficients": coefficients})
+    # the new columns are C0-orthonormal and C0-orthogonal to the basis: the Gram matrix grows by an identity
+    gram = sla.block_diag(basis.gram, np.eye(extra.shape[1]))
     return ModalBasis(np.column_stack([basis.vectors, extra]),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
-                      basis.zeta, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
+                      basis.zeta, gram, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
 
 
 def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: ReferenceOperators,
                         samples: list[dict[str, float]], method: str) -> tuple[FloatArray, FloatArray]:
     """New columns P (C0-orthonormal, C0-orthogonal to the basis) and the coefficients (Ñ + m, m0) of the
     C0-orthonormalised correction vectors S in the enriched basis: S = [Φ, P] coefficients."""
-    exchange = any(is_exchange(t.operator) for t in system.conductance.terms)
+    exchange = bool(system.conductance.with_role("exchange"))
     cols = []
     for sample in samples:
         v = {k: val for k, val in sample.items() if k in system.parameter_names}
@@ -458,8 +404,7 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
     for _ in range(2):
         x = x - z @ np.linalg.solve(z.T @ (ops.capacity @ z), z.T @ (ops.capacity @ x))
     s = _orthonormal(x, ops.capacity, CORRECTION_RANK_TOL)
-    phi = basis.vectors
-    gram = phi.T @ (ops.capacity @ phi)
+    phi, gram = basis.vectors, basis.gram
     a = np.zeros((phi.shape[1], s.shape[1]))
     r = s
     for _ in range(2):  # block Gram–Schmidt in the C0 product, twice for accuracy

@@ -9,10 +9,13 @@ explicitly; POD is applied to the snapshots C0-orthogonally projected off them, 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.linalg as sla
 
 from aromm.errors import InputError, NumericalError
+from aromm.reductor import DetailedModel
 from aromm.system import FloatArray
 
 
@@ -37,3 +40,15 @@ def pod_coefficients(states: FloatArray, gram: FloatArray, order: int, kept: Flo
     keep = min(order - z.shape[1], rank)
     modes = sla.solve_triangular(r.T, u[:, :keep], lower=False)
     return np.column_stack([z, modes])
+
+
+@dataclass(frozen=True)
+class PodReductor:
+    """POD–Galerkin on the same reference states, in the capacity product Φᵀ C0 Φ; constants (and the
+    correction vectors when the order leaves room for them) kept as whole columns."""
+
+    name: str = "pod"
+
+    def coefficients(self, detailed: DetailedModel, order: int) -> FloatArray:
+        kept = np.column_stack([detailed.constants(), detailed.corrections(order)])
+        return pod_coefficients(detailed.states, detailed.basis.gram, order, kept)

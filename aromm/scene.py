@@ -1,4 +1,4 @@
-"""Scene files (TOML, DESIGN.md "Scene file"): load and validate into frozen objects.
+"""Scene files (TOML, docs/design.md "Scene file"): load and validate into frozen objects.
 
 Every refusal raises :class:`~aromm.errors.InputError` whose message names the file,
 the key and what is allowed; the command line turns it into exit code 2.
@@ -19,23 +19,32 @@ import numpy as np
 
 from aromm import microstructure
 from aromm.errors import InputError
-from aromm.fem import FACES, FaceSpec, PhaseSpec, assemble_voxels, parameter_values
+from aromm.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
+from aromm.microstructure.generators import GENERATORS
 from aromm.resources import MAX_TIME_STEPS
 from aromm.system import ThermalSystem, TimeGrid
+from aromm.vocabulary import FACES, FaceSpec, PhaseSpec, parameter_values
 
-SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source")
-GENERATORS = ("wood", "sphere_in_cube", "simple_cubic", "laminate")
+SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
 PHASE_KEYS = ("label", "k", "c")
 FACE_KEYS = ("flux", "h", "T_ext", "T")
 
 
+@dataclass(frozen=True)
+class ReductionSettings:
+    """``[reduction]``: reference properties of the modal bases (``basis``) and of the reference simulation
+    (``reference``), as overrides of the scene's parameters (e.g. ``{"fibre.k": 0.53}``; [Chavez2020, § 3])."""
+
+    basis: Mapping[str, float] = field(default_factory=dict)
+    reference: Mapping[str, float] = field(default_factory=dict)
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A validated scene: voxel labels (indexed [x, y, z]) or a conforming mesh, phases, face conditions,
-    time grid, outputs and (mesh scenes) interface contact resistances."""
+    """A validated scene: a geometry (voxel image or conforming mesh), phases, face conditions, initial
+    temperature, time grid, outputs, contact resistances (mesh scenes) and reduction settings."""
 
-    labels: np.ndarray
-    voxel_size: tuple[float, float, float]
+    geometry: SceneGeometry
     phases: tuple[PhaseSpec, ...]
     boundary: tuple[FaceSpec, ...] = ()
     initial_T: float = 0.0
@@ -43,8 +52,7 @@ class Scene:
     outputs: tuple[str, ...] = ()
     interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
     path: Path | None = None
-    mesh: meshio.Mesh | None = None
-    mesh_order: int = 1
+    reduction: ReductionSettings = ReductionSettings()
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -59,20 +67,11 @@ class Scene:
     @property
     def size(self) -> tuple[float, float, float]:
         """Edge lengths of the box (m): the voxel image, or the mesh's bounding box."""
-        if self.mesh is not None:
-            extent = np.ptp(np.asarray(self.mesh.points, dtype=float), axis=0)
-            return (float(extent[0]), float(extent[1]), float(extent[2]))
-        nx, ny, nz = self.labels.shape
-        return (nx * self.voxel_size[0], ny * self.voxel_size[1], nz * self.voxel_size[2])
+        return self.geometry.size
 
     def volume_fractions(self) -> dict[str, float]:
-        """Volume fraction of each phase, ``1ᵀ C_p 1 / |Ω|`` from the assembled phase masses (voxels or mesh)."""
-        unit = tuple(replace(ph, c=1.0) for ph in self.phases)
-        system = assemble(replace(self, phases=unit, boundary=(), outputs=(), time=TimeGrid(1.0, 1.0)))
-        ones = np.ones(system.n)
-        volumes = {t.name.removeprefix("C_"): float(ones @ (t.operator @ ones)) for t in system.capacity.terms}
-        total = sum(volumes.values())
-        return {ph.name: volumes.get(ph.name, 0.0) / total for ph in self.phases}
+        """Volume fraction of each phase (voxel counts, or the volumes of the mesh's cells)."""
+        return self.geometry.volume_fractions(self.phases)
 
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> Scene:
@@ -83,26 +82,14 @@ class Scene:
 def assemble(scene: Scene) -> ThermalSystem:
     """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for.
 
-    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem).  Mesh scenes: Lagrange simplices with
-    the interface conductance 1/R on split interface nodes (aromm.effective.mesh_fem).
+    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel).  Mesh scenes: Lagrange simplices with
+    the interface conductance 1/R on split interface nodes (aromm.fem.mesh).
     """
     singular = singular_boundary(scene.boundary, scene.time)
     if singular:
         raise InputError(f"{scene.where}{singular}")
-    if scene.mesh is not None:
-        from aromm.effective.mesh_fem import assemble_mesh
-
-        return assemble_mesh(scene.mesh, scene.phases, scene.boundary,
-                             interfaces={f"{a}|{b}": r for (a, b), r in scene.interfaces.items()},
-                             time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs,
-                             order=scene.mesh_order)
-    if scene.interfaces:
-        raise InputError(
-            f"{scene.where}[interfaces]: contact resistance needs a conforming mesh (geometry.mesh); voxel"
-            " images have no interface surface to put it on"
-        )
-    return assemble_voxels(scene.labels, scene.voxel_size, scene.phases, scene.boundary,
-                           time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs)
+    return scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
+                                   initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
 
 
 def singular_boundary(boundary: tuple[FaceSpec, ...], time: TimeGrid | None) -> str | None:
@@ -155,7 +142,7 @@ class _Reader:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a TOML scene file (DESIGN.md).
+    """Read and validate a TOML scene file (docs/design.md).
 
     Paths inside the file are relative to the file.  Refused with :class:`InputError`:
     unknown sections, keys or faces; missing or unreadable images; phase labels absent
@@ -179,13 +166,9 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
     if unknown:
         raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
     geo = r.table(data, "geometry", None)
-    if "mesh" in geo:
-        mesh, order = _mesh(r, geo, path)
-        labels, voxel_size = _mesh_labels(mesh), (1.0, 1.0, 1.0)
-    else:
-        mesh, order = None, 1
-        labels, voxel_size = _geometry(r, geo, path)
-    phases = _phases(r, data, labels)
+    geometry: SceneGeometry = MeshGeometry(*_mesh(r, geo, path)) if "mesh" in geo else VoxelGeometry(
+        *_geometry(r, geo, path))
+    phases = _phases(r, data, geometry.present())
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
     initial_T = r.number(initial.get("T", 0.0), "initial.T")
@@ -199,7 +182,9 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
     if singular and ("boundary" in data or outputs):  # without either, a material for `aromm homogenize`
         raise InputError(f"{_where(path)}{singular}")
     interfaces = _interfaces(r, data, {ph.name for ph in phases})
-    return Scene(labels, voxel_size, phases, boundary, initial_T, time, outputs, interfaces, path, mesh, order)
+    # the reduction may name capacities even in a material-only scene (a time grid is added later)
+    allowed = parameter_values(phases, boundary, initial_T, transient=True)
+    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed))
 
 
 def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.ndarray, tuple[float, float, float]]:
@@ -217,14 +202,15 @@ def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.nd
         name = geo["generator"]
         if name not in GENERATORS:
             raise r.fail("geometry.generator", f"unknown generator {name!r}; allowed: {', '.join(GENERATORS)}")
+        generate = GENERATORS[name]
         options = {k: v for k, v in geo.items() if k not in ("generator", "voxel_size", "seed")}
-        accepted = inspect.signature(getattr(microstructure, name)).parameters
+        accepted = inspect.signature(generate).parameters
         if "voxel_size" in accepted and "voxel_size" in geo:
             options["voxel_size"] = geo["voxel_size"]
         if "rng" in accepted:
             options["rng"] = np.random.default_rng(int(geo.get("seed", 0)))
         try:
-            labels = getattr(microstructure, name)(**options)
+            labels = generate(**options)
         except TypeError as err:
             raise r.fail("geometry", f"bad options for generator {name!r}: {err}") from None
     labels = np.asarray(labels)
@@ -239,7 +225,6 @@ def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.nd
     return labels, voxel
 
 
-MESH_LABEL_KEY = "gmsh:physical"
 
 
 def _input_file(r: _Reader, geo: dict[str, Any], key: str, allowed: tuple[str, ...], path: Path | None) -> Path:
@@ -272,13 +257,6 @@ def _mesh(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Me
     return mesh, int(order)
 
 
-def _mesh_labels(mesh: meshio.Mesh) -> np.ndarray:
-    """Tags of the tetrahedra, as a 3-D array so that the phase checks of voxel scenes apply."""
-    tags = [np.asarray(data) for block, data in zip(mesh.cells, mesh.cell_data[MESH_LABEL_KEY], strict=True)
-            if block.type == "tetra"]
-    return np.concatenate(tags).astype(np.int64).reshape(-1, 1, 1)
-
-
 def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float]:
     values = [value] * 3 if not isinstance(value, list | tuple | np.ndarray) else list(np.ravel(value))
     if len(values) != 3:
@@ -287,13 +265,12 @@ def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float
     return (dx, dy, dz)
 
 
-def _phases(r: _Reader, data: Mapping[str, Any], labels: np.ndarray) -> tuple[PhaseSpec, ...]:
+def _phases(r: _Reader, data: Mapping[str, Any], present: set[int]) -> tuple[PhaseSpec, ...]:
     table = r.table(data, "phases", None)
     if not table:
         raise r.fail("phases", "missing: give at least one [phases.<name>] with label, k (and c)")
     sources = r.table(data, "source", None)
     phases = []
-    present = set(np.unique(labels).tolist())
     for name in table:
         key = f"phases.{name}"
         spec = r.table(table, key, PHASE_KEYS, name)
@@ -386,3 +363,17 @@ def _interfaces(r: _Reader, data: Mapping[str, Any], names: set[str]) -> dict[tu
         spec = r.table(table, key, ("R",), pair)
         out[(parts[0], parts[1])] = r.number(spec.get("R"), f"{key}.R", positive=True)
     return out
+
+
+def _reduction(r: _Reader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
+    """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers)."""
+    table = r.table(data, "reduction", ("basis", "reference"))
+    out: dict[str, dict[str, float]] = {}
+    for part in ("basis", "reference"):
+        given = r.table(table, f"reduction.{part}", None, part)
+        unknown = sorted(set(given) - set(parameters))
+        if unknown:
+            raise r.fail(f"reduction.{part}", f"unknown parameter(s) {unknown}; the scene has "
+                                              f"{', '.join(sorted(parameters))}")
+        out[part] = {k: r.number(v, f"reduction.{part}.{k}", positive=True) for k, v in given.items()}
+    return ReductionSettings(out["basis"], out["reference"])

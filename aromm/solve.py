@@ -1,7 +1,7 @@
 """Full-order solvers for a :class:`~aromm.system.ThermalSystem`.
 
-Steady:     K(p) T = F(p)                            (seed 001 eq. 3 with dT/dt = 0)
-Transient:  C(p) dT/dt + K(p) T = F(p), T(0) = T0    (seed 001 eq. 3)
+Steady:     K(p) T = F(p)                            [Chavez2020, eq. 3 with dT/dt = 0]
+Transient:  C(p) dT/dt + K(p) T = F(p), T(0) = T0    [Chavez2020, eq. 3]
 
 Time stepping is implicit and L-stable: backward Euler (order 1) or BDF2 (order 2,
 started by one backward-Euler step).  The iteration matrix ``a C / dt + K`` is
@@ -29,8 +29,9 @@ from tqdm import tqdm
 from aromm import resources
 from aromm.errors import InputError
 from aromm.linalg import factorize
+from aromm.observables import Observables
 from aromm.resources import FLOAT
-from aromm.system import FloatArray, Observables, ParamValues, ThermalSystem, TimeGrid
+from aromm.system import FloatArray, ParamValues, ThermalSystem, TimeGrid
 
 Scheme = Literal["bdf2", "euler"]
 Fields = bool | Literal["last"]
@@ -87,6 +88,18 @@ def steady_field(system: ThermalSystem, values: ParamValues | None = None, metho
     k_ff, k_fd = _split(k, part)
     rhs = _load(system, v)[part.free] - k_fd @ part.fixed_values
     return part.full(system.n, factorize(k_ff, method, points=_points(system, part)).solve(rhs))
+
+
+def reaction_heat_flow(system: ThermalSystem, field: FloatArray, dofs: npt.ArrayLike,
+                       values: ParamValues | None = None) -> float:
+    """Heat flow (W) that fixed temperatures on the unknowns ``dofs`` inject at steady state.
+
+    The reaction of the constraint, ``Q = Σ_{i ∈ dofs} (K T − F)_i``: the discrete flux through a face held
+    at a fixed temperature (positive when heat enters the body there).
+    """
+    v = system.values(values)
+    residual = sp.csr_array(system.conductance.evaluate(v)) @ field - _load(system, v)
+    return float(np.sum(residual[np.asarray(dofs, dtype=np.int64)]))
 
 
 def _check_times(times: npt.ArrayLike | None, grid: TimeGrid) -> FloatArray:

@@ -3,14 +3,14 @@
     C(p) dT/dt + K(p) T = F(p),        T(0) = T0(p),        T = T_D(p) on Dirichlet nodes,
 
 with every operator an affine sum of fixed sparse matrices (or vectors) times scalar
-coefficients of the parameters (seed 001 eq. 3, DESIGN.md).  Parameters are named
+coefficients of the parameters [Chavez2020, eq. 3, docs/design.md].  Parameters are named
 ``"<phase>.<property>"`` (``"fibre.k"``, ``"fibre.c"``, ``"fibre.k_x"``) or
 ``"<face>.<property>"`` (``"z1.h"``, ``"z0.flux"``, ``"x1.T"``); the uniform initial
 temperature is ``"initial.T"``.
 
 A coefficient is a product of parameters times a constant (``h * T_ext``), or the
 harmonic mean of two conductivities times a constant (DEM bonds between two phases,
-seed 000 eq. 14).  Reduced models keep the same coefficients with projected matrices.
+[Hassan2019, eq. 14]).  Reduced models keep the same coefficients with projected matrices.
 
 Units are SI: W/(m K), J/(m^3 K), W/m^2, W/(m^2 K), K (or degC: the equation is linear).
 Only the terms a scene calls for are present: a steady system has ``capacity is None``.
@@ -18,7 +18,6 @@ Only the terms a scene calls for are present: a steady system has ``capacity is 
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
@@ -27,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.cache import content_key
 from aromm.errors import InputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -75,13 +75,27 @@ class Coefficient:
         return body if self.scale == 1.0 else f"{self.scale:g}*{body}"
 
 
+Role = Literal["capacity", "conduction", "exchange", "load"]
+ROLES: tuple[Role, ...] = ("capacity", "conduction", "exchange", "load")
+
+
 @dataclass(frozen=True)
 class Term:
-    """One named affine term: ``coefficient(p) * operator`` (a sparse matrix or a vector)."""
+    """One named affine term: ``coefficient(p) * operator`` (a sparse or dense matrix, or a vector).
+
+    ``role`` says what the term is physically: ``"capacity"`` (C, J/K), ``"conduction"`` inside the body
+    (K with ``K 1 = 0``, W/K), ``"exchange"`` with the surroundings (convection, W/K), ``"load"`` (F, W).
+    Reduction needs the distinction: the modal bases are built on the conduction terms only.
+    """
 
     name: str
     coefficient: Coefficient
     operator: sp.csr_array | FloatArray
+    role: Role
+
+    def __post_init__(self) -> None:
+        if self.role not in ROLES:
+            raise ValueError(f"unknown term role {self.role!r}; allowed: {', '.join(ROLES)}")
 
 
 @dataclass(frozen=True)
@@ -106,6 +120,19 @@ class Affine:
             if t.name == name:
                 return t
         raise KeyError(f"no term {name!r}; terms are {self.names}")
+
+    def with_role(self, *roles: Role) -> Affine:
+        """The terms of the given roles only (e.g. the conduction terms, without the exchanges)."""
+        return Affine(tuple(t for t in self.terms if t.role in roles))
+
+    def coefficients(self, values: Mapping[str, FloatArray], m: int) -> FloatArray:
+        """Coefficients of every term for m parameter sets (arrays of length m): shape (m, n_terms)."""
+        return np.stack([np.broadcast_to(t.coefficient(values), (m,)) for t in self.terms], axis=1)
+
+    def stack(self, values: Mapping[str, FloatArray], m: int) -> FloatArray:
+        """``Σ_j c_j(p_i) A_j`` for m parameter sets at once, for dense operators: shape (m, *operator shape)."""
+        ops = np.stack([np.asarray(t.operator) for t in self.terms])
+        return np.tensordot(self.coefficients(values, m), ops, axes=(1, 0))
 
     def evaluate(self, values: ParamValues) -> sp.csr_array | FloatArray:
         """Sum of ``coefficient * operator`` for one parameter set (scalar values)."""
@@ -158,7 +185,8 @@ class ThermalSystem:
     ``capacity`` is empty for a steady system; ``observation`` maps an output name
     (a face) to a row vector ``e`` with ``e @ T`` the output (e.g. the face-mean
     temperature, so ``e`` sums to one).  ``parameters`` holds the scene's values,
-    which callers override by name.
+    which callers override by name.  ``boundary`` is the boundary mass ``B = ∫_Γ φ_a φ_b`` (m²)
+    of the whole outer boundary Γ, attached by the assembler (the Steklov modes need it).
     """
 
     n: int
@@ -170,6 +198,7 @@ class ThermalSystem:
     parameters: Mapping[str, float] = field(default_factory=dict)
     time: TimeGrid | None = None
     geometry: Geometry | None = None
+    boundary: sp.csr_array | None = None
 
     @property
     def is_steady(self) -> bool:
@@ -196,6 +225,22 @@ class ThermalSystem:
             out[name] = value
         return out
 
+    def batch_values(self, params: ParamValues) -> tuple[dict[str, FloatArray], int]:
+        """:meth:`values` for m parameter sets at once: arrays of equal length m → (dict of (m,) arrays, m).
+
+        Unknown names, unequal lengths and non-finite values are refused with InputError.
+        """
+        arrays = {k: np.atleast_1d(np.asarray(v, dtype=float)).ravel() for k, v in params.items()}
+        sizes = {a.size for a in arrays.values()}
+        if len(sizes) > 1:
+            raise InputError(f"parameter arrays must have equal lengths, got {sorted(sizes)}")
+        m = sizes.pop() if sizes else 1
+        out = {k: np.broadcast_to(np.asarray(v, dtype=float), (m,)) for k, v in self.values(arrays).items()}
+        for k, v in out.items():
+            if not np.all(np.isfinite(v)):
+                raise InputError(f"parameter {k!r} has non-finite values")
+        return out, m
+
     def observation_matrix(self) -> tuple[tuple[str, ...], FloatArray]:
         names = tuple(self.observation)
         if not names:
@@ -203,46 +248,12 @@ class ThermalSystem:
         return names, np.vstack([self.observation[k] for k in names])
 
     def fingerprint(self) -> str:
-        """Content hash of every operator, Dirichlet set and observation row (for caches)."""
-        h = hashlib.sha256()
-        h.update(str(self.n).encode())
-        for group in (self.capacity, self.conductance, self.load):
-            for t in group.terms:
-                h.update(t.name.encode())
-                h.update(t.coefficient.describe().encode())
-                op = t.operator
-                if sp.issparse(op):
-                    csr = sp.csr_array(op)
-                    csr.sort_indices()
-                    for arr in (csr.indptr, csr.indices, csr.data):
-                        h.update(np.ascontiguousarray(arr).tobytes())
-                else:
-                    h.update(np.ascontiguousarray(op, dtype=float).tobytes())
-        for d in self.dirichlet:
-            h.update(d.name.encode() + d.param.encode())
-            h.update(np.ascontiguousarray(d.dofs).tobytes())
-        for name, row in self.observation.items():
-            h.update(name.encode())
-            h.update(np.ascontiguousarray(row, dtype=float).tobytes())
-        return h.hexdigest()[:20]
-
-
-@dataclass(frozen=True)
-class Observables:
-    """Outputs of a simulation: times ``t`` (s) and face-mean temperatures (degC) per face.
-
-    A steady simulation has ``t == [0.]`` and ``steady`` set.  ``fields`` holds full
-    temperature fields (rows at ``t``) only when asked for.
-    """
-
-    t: FloatArray
-    mean_T: Mapping[str, FloatArray]
-    steady: bool = False
-    fields: FloatArray | None = None
-
-    def to_json(self) -> dict[str, object]:
-        return {"t": self.t.tolist(), "mean_T": {k: np.asarray(v).tolist() for k, v in self.mean_T.items()}}
-
-    def as_array(self) -> FloatArray:
-        """Outputs stacked as (len(t), n_faces) in the order of ``mean_T``."""
-        return np.column_stack([np.asarray(v) for v in self.mean_T.values()])
+        """Content hash of every term (name, role, coefficient, operator), Dirichlet set and observation row."""
+        return content_key(
+            self.n,
+            [(t.name, t.role, t.coefficient.describe(), t.operator)
+             for group in (self.capacity, self.conductance, self.load) for t in group.terms],
+            [(d.name, d.param, d.dofs) for d in self.dirichlet],
+            [(name, np.asarray(row, dtype=float)) for name, row in self.observation.items()],
+            self.boundary,
+        )[:20]

@@ -1,4 +1,4 @@
-"""Identification (seed 001 § 4): accuracy and wall time of the whole inverse procedure.
+"""Identification [Chavez2020, § 4]: accuracy and wall time of the whole inverse procedure.
 
 Prints, for a wood VER (coarse n³ by default; the shipped 46³ VER with AROMM_FULL=1):
 
@@ -28,13 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
+from aromm.geometry import VoxelGeometry
 from aromm.model import ForwardModel
-from aromm.reduced import reduce
 from aromm.solve import FullModel
 from aromm.system import ThermalSystem, TimeGrid
-from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
+from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
 from inverse.measurements import Measurements, load_measurements, save_measurements, simulate_measurements
-from inverse.study import (
+from inverse.uncertainty import UncertaintyWarning
+from studies.chavez2020 import (
     AXES,
     PAPER_PERTURBED,
     PAPER_TABLE2,
@@ -44,13 +45,13 @@ from inverse.study import (
     fibre_truth,
     homogeneous_properties,
     loading,
+    reduced,
     refine_from,
     run,
     shipped_scenarios,
     small_wood,
     twin_cases,
 )
-from inverse.uncertainty import UncertaintyWarning
 
 ROOT = Path(__file__).resolve().parents[1]
 # swarm of the full-model identifications (each evaluation is a full simulation): the refinement does the work
@@ -122,9 +123,11 @@ def main() -> None:
         order = args.order or 40
     material = scenes["z"]
     truth = fibre_truth(material)
-    print(f"VER {'shipped' if shipped else 'coarse'} {material.labels.shape}, voxel {material.voxel_size[0]:.3g} m, "
-          f"fibre fraction {material.labels.mean():.4f}, {len(scenes['z'].time.times)} times, order {order}, "  # type: ignore[union-attr]
-          f"python {sys.version.split()[0]}")
+    geo = material.geometry
+    assert isinstance(geo, VoxelGeometry) and material.time is not None
+    print(f"VER {'shipped' if shipped else 'coarse'} {geo.shape}, voxel {geo.voxel_size[0]:.3g} m, "
+          f"fibre fraction {material.volume_fractions()['fibre']:.4f}, {len(material.time.times)} times, "
+          f"order {order}, python {sys.version.split()[0]}")
 
     hom = homogeneous_properties(scenes, method="amg" if shipped else "auto")
     cases = twin_cases(scenes, hom)
@@ -132,7 +135,7 @@ def main() -> None:
     print(f"eq. 13 under each scenario: {k_bar} W/(m K), c̄ = {hom.c:.5g} J/(m³ K) ({hom.seconds:.1f} s)")
     roms = {}
     for axis in AXES:
-        roms[axis] = reduce(cases[axis].system, order=order, progress=sys.stderr.isatty())
+        roms[axis] = reduced(cases[axis], order, progress=sys.stderr.isatty())
         print(f"reduced model {axis}: order {roms[axis].order}, offline {roms[axis].info['offline_seconds']:.1f} s "
               f"(cached {roms[axis].info['cached']})", flush=True)
 
@@ -194,7 +197,7 @@ def main() -> None:
     rows = [{**r.row(), "offline s": 0.0} for r in runs]
     for o in sorted({max(order // 4, 5), max(order // 2, 5)}):
         start = time.perf_counter()
-        other = reduce(x.system, order=o)
+        other = reduced(x, o)
         offline = float(other.info["offline_seconds"]) if not other.info["cached"] else time.perf_counter() - start
         rows.append({**run(f"order {o}", other, x.measurements, truth).row(), "offline s": offline})
     reduced_run = run(f"order {order}", rom, x.measurements, truth)

@@ -32,6 +32,7 @@ from aromm.system import FloatArray
 
 ALPHA = 0.01  # level of each whiteness test (runs, lag-1 autocorrelation)
 KELVIN = 273.15  # K at 0 °C
+ROUND_OFF = 1e-9  # relative floor of the offset test (noise-free data on a flat model)
 OFFSET_SPREADS = 5.0  # a first value beyond the model's range widened by this many residual spreads is an offset
 
 
@@ -107,19 +108,20 @@ def offset_note(t: FloatArray, measured: FloatArray, fitted: FloatArray, *, star
     """A warning when the data at the first time are far from the model's start, else ``None``.
 
     ``measured`` and ``fitted`` are (n_times, n_faces), ``start`` (n_faces,) the fitted model at
-    t = 0 (the scene's ``[initial] T``).  The model reaches everything within the range
-    ``[min, max]`` of its start and fitted curve; a first measured value δ = Y(t₁) − Ŷ(0) outside
-    that range widened by :data:`OFFSET_SPREADS` spreads of the residuals (about their mean) on
-    every face is an offset of the data, not noise.  It is read as kelvin against °C when moving
-    the data by ∓273.15 brings them into the range, else as a wrong ``[initial] T``, a sensor
+    t = 0 (the scene's ``[initial] T``).  The model spans the range ``[min, max]`` of its start and
+    fitted curve; a first measured value beyond that range by more than the range's own width (or
+    :data:`OFFSET_SPREADS` spreads of the residuals about their mean, if larger) on every face is an
+    offset of the data, not noise or model error.  It is read as kelvin against °C when moving the
+    data by ∓273.15 brings them into the widened range, else as a wrong ``[initial] T``, a sensor
     offset or a time origin after the start of heating.  Needs two times or more.
     """
     y, yhat = np.atleast_2d(measured), np.atleast_2d(fitted)
     if y.shape[0] < 2:
         return None
     span = np.vstack([yhat, np.asarray(start, dtype=float)[None]])
-    slack = OFFSET_SPREADS * np.std(y - yhat, axis=0)
-    low, high = span.min(axis=0) - slack, span.max(axis=0) + slack
+    lo, hi = span.min(axis=0), span.max(axis=0)
+    slack = np.maximum(OFFSET_SPREADS * np.std(y - yhat, axis=0), hi - lo) + ROUND_OFF * (1.0 + np.abs(span).max())
+    low, high = lo - slack, hi + slack
 
     def inside(v: FloatArray) -> bool:
         return bool(np.all((low <= v) & (v <= high)))

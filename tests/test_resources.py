@@ -75,7 +75,8 @@ def test_cli_simulate_refuses_what_cannot_fit_with_exit_2(tmp_path: Path, monkey
 
 def test_reduced_model_refuses_a_batch_that_cannot_fit(monkeypatch: pytest.MonkeyPatch,
                                                        tmp_path: Path) -> None:
-    from aromm.reduced import MODAL_WORK, reduce
+    from aromm.reduction import reduce
+    from aromm.rom import MODAL_WORK
 
     monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path))
     rom = reduce(scenario_system("z", n=4, end=10.0, dt=1.0), order=6)

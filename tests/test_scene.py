@@ -32,8 +32,8 @@ def _write(folder: Path, text: str) -> Path:
 
 def test_good_scene_loads_with_named_parameters(scene_dir: Path) -> None:
     scene = load_scene(_write(scene_dir, GOOD))
-    assert scene.labels.shape == (4, 4, 4)
-    assert scene.voxel_size == (1e-4, 1e-4, 1e-4)
+    assert scene.geometry.shape == (4, 4, 4)
+    assert scene.geometry.voxel_size == (1e-4, 1e-4, 1e-4)
     assert scene.parameters["fibre.k"] == 0.3 and scene.parameters["z1.h"] == 20.0
     assert scene.time is not None and len(scene.time.times) == 10
 
@@ -122,8 +122,9 @@ def test_material_scene_loads_for_homogenize_but_is_not_simulated(scene_dir: Pat
 def test_singular_system_built_in_python_is_a_numerical_failure() -> None:
     """Below the scene checks, the solver still names a singular steady system instead of returning NaN."""
     from aromm.errors import NumericalError
-    from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+    from aromm.fem import assemble_voxels
     from aromm.solve import steady_field
+    from aromm.vocabulary import FaceSpec, PhaseSpec
 
     system = assemble_voxels(np.ones((3, 3, 3), dtype=np.int32), (1e-3,) * 3, (PhaseSpec("a", 1, 1.0),),
                              [FaceSpec("z0", flux=10.0)])
@@ -139,7 +140,7 @@ def test_time_step_count_beyond_the_limit_is_refused_at_load(scene_dir: Path) ->
 
 def test_cli_measure_uses_the_scenario_fluxmetric_k_by_default(scene_dir: Path,
                                                                capsys: pytest.CaptureFixture[str]) -> None:
-    """Seed 001 § 4.2: k̄ from the scenario itself, so the twin ends at the sample's steady face means;
+    """[Chavez2020, § 4.2]: k̄ from the scenario itself, so the twin ends at the sample's steady face means;
     eq. 13 with an isothermal S2 (--conductivity flux) gives a larger k̄ along the layers, a smaller drop."""
     labels = np.zeros((4, 4, 4), dtype=np.uint8)
     labels[::2] = 1  # layers normal to x, loaded along z

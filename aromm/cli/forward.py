@@ -11,12 +11,13 @@ import numpy as np
 
 from aromm.cli.common import echo_json
 from aromm.errors import InputError
-from aromm.homogenize import BOUNDARIES, fluxmetric, homogenize, mean_capacity
+from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import METHODS
+from aromm.observables import Observables, write_csv
 from aromm.scene import assemble, load_scene
 from aromm.solve import simulate as simulate_full
-from aromm.system import Observables, ThermalSystem
-from inverse.measurements import Measurements, homogeneous_measurements, save_measurements
+from aromm.system import ThermalSystem
+from inverse.measurements import homogeneous_measurements, save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
@@ -39,7 +40,7 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
     written = [out / "observables.csv"]
     if not obs.mean_T:
         raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
-    save_measurements(Measurements(obs.t, obs.mean_T, "simulate"), written[0])
+    write_csv(obs, written[0], "observables file")
     if obs.fields is not None and system.geometry is not None:
         geo = system.geometry
         mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
@@ -66,9 +67,10 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
     sc = load_scene(scene)
     system = assemble(sc)
     if model == "reduced":
-        from aromm.reduced import reduce
+        from aromm.reduction import reduce
 
-        obs = reduce(system, order=order, progress=sys.stderr.isatty()).simulate()
+        obs = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
+                     progress=sys.stderr.isatty()).simulate()
     else:
         obs = simulate_full(system, fields="last" if out is not None else False, method=solver,
                             scheme=scheme, progress=sys.stderr.isatty())  # type: ignore[arg-type]
@@ -84,7 +86,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 @click.command("homogenize")
 @SCENE
 @click.option("--boundary", type=click.Choice(BOUNDARIES), default="flux", show_default=True,
-              help="flux: seed 001 eq. 13 (flux in, fixed T out); temperature: fixed T on both faces.")
+              help="flux: [Chavez2020, eq. 13] (flux in, fixed T out); temperature: fixed T on both faces.")
 @SOLVER
 @JSON
 def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> None:
@@ -104,15 +106,15 @@ def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> No
 @click.command("measure")
 @SCENE
 @click.option("--homogeneous", is_flag=True, required=True,
-              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as seed 001 does.")
+              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as [Chavez2020] does.")
 @click.option("--conductivity", type=click.Choice(("scenario", *BOUNDARIES)), default="scenario", show_default=True,
-              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces (seed 001 § 4.2; the twin then "
-                   "has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
+              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces [Chavez2020, § 4.2; the twin then "
+                   "has the sample's steady face means]; flux, temperature: as `aromm homogenize --boundary`.")
 @click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--perturb", type=float, default=0.0, show_default=True,
-              help="Relative change of every homogeneous property (seed 001's +2 % study: 0.02).")
+              help="Relative change of every homogeneous property ([Chavez2020]'s +2 % study: 0.02).")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @SOLVER
 @JSON

@@ -10,21 +10,21 @@ import click
 from aromm.cache import NpzCache
 from aromm.cli.common import echo_json
 from aromm.linalg import METHODS
-from aromm.reduced import METHODS as REDUCTIONS
-from aromm.reduced import reduce
+from aromm.reduction import METHODS as REDUCTIONS
+from aromm.reduction import reduce
 from aromm.scene import assemble, load_scene
 
 
 @click.command("reduce")
 @click.argument("scene", type=click.Path(path_type=Path))
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
-              help="Reduced order ñ (number of amalgamated modes, seed 001 eq. 9).")
+              help="Reduced order ñ (number of amalgamated modes, [Chavez2020, eq. 9]).")
 @click.option("--modes", type=click.IntRange(min=1), default=None,
               help="Detailed basis size Ñ (Dirichlet + Steklov modes); default 1.5 × order + 20.")
 @click.option("--method", type=click.Choice(REDUCTIONS), default="aromm", show_default=True,
               help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
-              help="Extra reference scene on the same image (e.g. the other scenarios of seed 001); repeatable.")
+              help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
 @click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
               help="Sparse factorisation used by the eigensolvers.")
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
@@ -34,10 +34,12 @@ from aromm.scene import assemble, load_scene
 def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
                cache_dir: Path | None, no_cache: bool, as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant)."""
-    system = assemble(load_scene(scene))
+    sc = load_scene(scene)
+    system = assemble(sc)
     refs = [assemble(load_scene(path)) for path in references]
     cache = False if no_cache else NpzCache(cache_dir)
     rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
+                 basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
                  progress=sys.stderr.isatty())
     info = dict(rom.info)
     info["cache_dir"] = "" if no_cache else str(NpzCache(cache_dir).directory)

@@ -1,6 +1,6 @@
-"""Table 1 and the preference map of seed 002: bounds against the finite-element cell value.
+"""Table 1 and the preference map of [GarnierDanes]: bounds against the finite-element cell value.
 
-``eps_X = 100 ln(E_X / E_c)`` (seed 002 Table 1) for the lower bounds V3L, W_inf_a, W1a and the
+``eps_X = 100 ln(E_X / E_c)`` [GarnierDanes, Table 1] for the lower bounds V3L, W_inf_a, W1a and the
 upper bounds W1b, W_inf_b, V3U, over a (B, C, D) grid, with ``E_c`` the exact cell value
 computed by conforming finite elements (:mod:`aromm.effective.cell_fem`).  The seed does not
 give its grid; :data:`COARSE` (CI, about a minute) and :data:`FULL` are ours.
@@ -22,7 +22,7 @@ from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
 from aromm.errors import NumericalError
 from aromm.system import FloatArray
 
-# Seed 002, Table 1: logarithmic deviation eps (%), average / min / max (W1b is not in the seed's table).
+# [GarnierDanes, Table 1]: logarithmic deviation eps (%), average / min / max (W1b is not in the seed's table).
 SEED_TABLE1: dict[str, tuple[float, float, float]] = {
     "V3L": (-28.0, -127.0, -2.0),
     "W_inf_a": (-13.0, -45.0, -6.0),
@@ -30,7 +30,7 @@ SEED_TABLE1: dict[str, tuple[float, float, float]] = {
     "W_inf_b": (97.0, 4.0, 332.0),
     "V3U": (368.0, 6.0, 827.0),
 }
-# Seed 002, preference map: V3L is the tighter lower bound for C >= 0.1081 (any B, D) or D >= 0.0496 (any B, C).
+# [GarnierDanes], preference map: V3L is the tighter lower bound for C >= 0.1081 (any B, D) or D >= 0.0496 (any B, C).
 SEED_PREFERENCE = {"C": 0.1081, "D": 0.0496}
 
 LOWER = ("V3L", "W_inf_a", "W1a")
@@ -107,7 +107,7 @@ def evaluate_grid(grid: Grid, progress: Callable[[str], None] | None = None) -> 
 
 
 def deviation_table(points: Sequence[GridPoint]) -> dict[str, tuple[float, float, float]]:
-    """Average, min and max of ``eps`` (%) per bound, as in seed 002 Table 1."""
+    """Average, min and max of ``eps`` (%) per bound, as in [GarnierDanes, Table 1]."""
     out = {}
     for name in LOWER + UPPER:
         e = np.array([p.eps(name) for p in points])

@@ -1,11 +1,12 @@
-"""The identification study of seed 001 § 4: Table 2, the +2 % study, and accuracy against cost.
+"""The identification study of [Chavez2020, § 4]: Table 2, the +2 % study, and accuracy against cost.
 
-Shared by ``notebooks/table2.ipynb`` and ``benchmarks/identify.py``.  The measurements of a
+Shared by ``notebooks/table2.ipynb`` and ``benchmarks/identify.py``.  Equation numbers are those of
+[Chavez2020].  The measurements of a
 scenario come from the homogeneous orthotropic twin (k̄ by eq. 13 applied as § 4.2 does, i.e. under
-that scenario's own faces: :func:`aromm.homogenize.fluxmetric`; c̄ by eq. 14) and the
+that scenario's own faces: :func:`aromm.fluxmetric`; c̄ by eq. 14) and the
 unknowns k_F, c_F of the heterogeneous model are searched in the bounds of :data:`UNKNOWNS`;
 the error of an estimate is eq. 15, σ = |β̂ − β| / β, against the scene's own fibre values.
-Loading directions follow DESIGN.md: scenario 1 heats z0 (Table 2 row "zz"), 2 heats x0
+Loading directions follow docs/design.md: scenario 1 heats z0 (Table 2 row "zz"), 2 heats x0
 ("xx"), 3 heats y0 ("yy").
 """
 
@@ -18,34 +19,41 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.fem import FaceSpec
-from aromm.homogenize import fluxmetric, mean_capacity
+from aromm.homogenization import fluxmetric, mean_capacity
 from aromm.model import ForwardModel
+from aromm.reduction import reduce
+from aromm.rom import ReducedModel
 from aromm.scene import Scene, assemble, load_scene, scene_from_dict
 from aromm.system import ThermalSystem, TimeGrid
+from aromm.vocabulary import FaceSpec
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
-from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, identify
+from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, identify
 from inverse.measurements import Measurements, homogeneous_measurements
 
 UNKNOWNS: Mapping[str, tuple[float, float]] = {"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}
 AXES = ("x", "y", "z")
 SCENE_FILES = {"z": "wood_s1.toml", "x": "wood_s2.toml", "y": "wood_s3.toml"}
 
-#: Seed 001 Table 2 by loading direction: k̂_F (W/(m K)), σ_k (%), ĉ_F (J/(m^3 K)), σ_c (%), t_CPU (h).
+#: Reference properties of the reduced model [Chavez2020, § 3.1–3.2]: modal bases at BASIS_VALUES, the amalgam's
+#: reference simulation at REFERENCE_VALUES (what the shipped scenes' ``[reduction]`` sections say).
+BASIS_VALUES: Mapping[str, float] = {"fibre.k": 0.53, "fibre.c": 1.2e6}
+REFERENCE_VALUES: Mapping[str, float] = {"fibre.k": 0.1, "fibre.c": 1.2e6}
+
+#: [Chavez2020] Table 2 by loading direction: k̂_F (W/(m K)), σ_k (%), ĉ_F (J/(m^3 K)), σ_c (%), t_CPU (h).
 PAPER_TABLE2: Mapping[str, tuple[float, float, float, float, float]] = {
     "x": (0.299, 0.230, 4.051e6, 1.276, 4.1),
     "y": (0.298, 0.798, 4.042e6, 1.052, 5.2),
     "z": (0.296, 1.290, 4.048e6, 1.212, 3.6),
 }
-#: Seed 001 § 4.3: errors (%) when every homogeneous property is 2 % too high (loading along x).
+#: [Chavez2020, § 4.3]: errors (%) when every homogeneous property is 2 % too high (loading along x).
 PAPER_PERTURBED: Mapping[str, float] = {"fibre.k": 2.9, "fibre.c": 3.3}
-#: Seed 001 § 4.2: k̄_xx, k̄_yy, k̄_zz (W/(m K)) and c̄ (J/(m^3 K)) for k_F = 0.3, c_F = 4e6.
+#: [Chavez2020, § 4.2]: k̄_xx, k̄_yy, k̄_zz (W/(m K)) and c̄ (J/(m^3 K)) for k_F = 0.3, c_F = 4e6.
 PAPER_HOMOGENEOUS = (0.087, 0.099, 0.123, 1.558e6)
 
 
 def relative_errors(estimates: Mapping[str, float], truth: Mapping[str, float]) -> dict[str, float]:
-    """Seed 001 eq. 15, σ_β = |β̂ − β| / β, for every parameter of ``truth``."""
+    """Eq. 15, σ_β = |β̂ − β| / β, for every parameter of ``truth``."""
     return {k: abs(float(estimates[k]) - v) / abs(v) for k, v in truth.items()}
 
 
@@ -57,13 +65,13 @@ def fibre_truth(scene: Scene) -> dict[str, float]:
 
 def loading(material: Scene, axis: str, *, end: float = 60.0, dt: float = 0.1, flux: float = 500.0,
             h: float = 20.0) -> Scene:
-    """Seed 001 Table 1 on ``material``: ``flux`` (W/m²) into face <axis>0, ``h`` (W/(m² K)) on <axis>1."""
+    """Table 1 of [Chavez2020] on ``material``: ``flux`` (W/m²) into face <axis>0, ``h`` (W/(m² K)) on <axis>1."""
     faces = (FaceSpec(f"{axis}0", flux=flux), FaceSpec(f"{axis}1", h=h, T_ext=0.0))
     return material.with_boundary(faces, (f"{axis}0", f"{axis}1"), TimeGrid(end, dt))
 
 
 def small_wood(n: int = 12, box: float = 230e-6, seed: int = 0) -> Scene:
-    """A coarse spruce-like VER: ``n``³ voxels over the seed's ``box`` (m), seed 001's phase properties.
+    """A coarse spruce-like VER: ``n``³ voxels over the paper's ``box`` (m) with its phase properties.
 
     The tracheid cross-section (25 x 35 µm cells, 5 µm walls at 5 µm voxels) is scaled with the
     voxel so that walls stay one voxel thick and the fibre fraction stays near the shipped VER's.
@@ -75,6 +83,7 @@ def small_wood(n: int = 12, box: float = 230e-6, seed: int = 0) -> Scene:
                      "cell_size_radial": 25e-6 * scale, "cell_size_tangential": 35e-6 * scale,
                      "wall_thickness": 5e-6 * scale},
         "phases": {"fibre": {"label": 1, "k": 0.3, "c": 4.0e6}, "gas": {"label": 0, "k": 0.025, "c": 1.2e3}},
+        "reduction": {"basis": dict(BASIS_VALUES), "reference": dict(REFERENCE_VALUES)},
     })
 
 
@@ -93,6 +102,12 @@ class Case:
     measurements: Measurements
 
 
+def reduced(case: Case, order: int, **options: object) -> ReducedModel:
+    """The reduced model of a case at the scene's ``[reduction]`` reference values (:func:`aromm.reduce`)."""
+    return reduce(case.system, order, basis_values=case.scene.reduction.basis,  # type: ignore[arg-type]
+                  reference_values=case.scene.reduction.reference, **options)
+
+
 @dataclass(frozen=True)
 class Homogeneous:
     """k̄_ii per loading axis i (W/(m K), eq. 13 under each scenario), c̄ (J/(m^3 K), eq. 14), seconds taken."""
@@ -103,7 +118,7 @@ class Homogeneous:
 
 
 def homogeneous_properties(scenes: Mapping[str, Scene], method: str = "auto") -> Homogeneous:
-    """k̄ of every scenario by :func:`aromm.homogenize.fluxmetric` (linear solver ``method``), c̄ by eq. 14.
+    """k̄ of every scenario by :func:`aromm.fluxmetric` (linear solver ``method``), c̄ by eq. 14.
 
     The scenarios share one material, so c̄ is taken from the first.
     """
@@ -146,7 +161,7 @@ def run(label: str, model: ForwardModel | Sequence[tuple[ForwardModel, Measureme
         unknowns: Mapping[str, tuple[float, float]] = UNKNOWNS, seed: int = 0,
         particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS, refine: bool = True,
         description: Mapping[str, object] | None = None) -> Run:
-    """:func:`inverse.identify` with the study's bounds, and the errors of its estimates."""
+    """:func:`inverse.identify()` with the study's bounds, and the errors of its estimates."""
     result = identify(model, measurements, unknowns, seed=seed, particles=particles, iterations=iterations,
                       refine=refine, description=description)
     return Run(label, result, relative_errors(result.estimates, truth))

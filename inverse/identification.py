@@ -1,19 +1,19 @@
-"""Identification of phase properties from face-mean temperatures (seed 001 § 4).
+"""Identification of phase properties from face-mean temperatures [Chavez2020, § 4].
 
     β̂ = argmin_β J(β),   J = ½ Σ_i Σ_j (Y_ij − Ŷ_ij(β))²       (eq. 12)
 
 searched by particle swarm inside the given bounds, then refined by trust-region least
 squares from the swarm's best (:mod:`inverse.optimisers`); the linearised uncertainty of the
 estimates is computed at the optimum (:mod:`inverse.uncertainty`).  Several scenarios (e.g.
-the three loading directions of seed 001 Table 1) can be fitted jointly: their criteria add.
+the three loading directions of [Chavez2020, Table 1]) can be fitted jointly: their criteria add.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -30,11 +30,12 @@ from inverse.residuals import offset_note
 from inverse.uncertainty import Uncertainty, linearised
 
 DEFAULT_PARTICLES = 20
+CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
 DEFAULT_ITERATIONS = 30
 AT_BOUND = 1e-6  # normalised distance to a bound below which an estimate is reported as on it
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class Progress:
     """Reported after each swarm iteration (``stage="pso"``) and each refinement evaluation (``"refine"``)."""
 
@@ -45,7 +46,7 @@ class Progress:
     criterion: float
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class History:
     """Best criterion so far after each record: swarm iterations, then refinement evaluations."""
 
@@ -54,7 +55,7 @@ class History:
     criterion: FloatArray
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class Fit:
     """Measured and fitted face-mean temperatures (n_times, n_faces) of one scenario."""
 
@@ -65,9 +66,9 @@ class Fit:
     fitted: FloatArray
 
 
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class Identification:
-    """Result of :func:`identify`; :meth:`to_json` gives the DESIGN.md shape."""
+    """Result of :func:`identify`; :meth:`to_json` gives the docs/design.md shape."""
 
     estimates: Mapping[str, float]
     criterion: float
@@ -158,12 +159,33 @@ class _Recorder:
         return History(tuple(self.stage), np.array(self.evals, dtype=np.int64), np.array(self.best, dtype=float))
 
 
+#: Budget fields an optimiser may be given more of when a checkpoint is resumed.
+BUDGETS = ("iterations", "generations", "max_iterations")
+
+
+def _signature(optimiser: opt.Optimiser) -> object:
+    """What identifies an optimiser in a checkpoint: its settings, except the budget (resumable with more)."""
+    if dataclasses.is_dataclass(optimiser):
+        return {k: v for k, v in dataclasses.asdict(optimiser).items() if k not in BUDGETS}
+    return optimiser.name
+
+
+def default_optimisers(particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS,
+                       refine: bool = True) -> tuple[opt.Optimiser, ...]:
+    """The chain of [Chavez2020, § 4.1]: a particle swarm, then a least-squares refinement from its best."""
+    chain: list[opt.Optimiser] = [opt.ParticleSwarm(particles=particles, iterations=iterations)]
+    if refine:
+        chain.append(opt.LeastSquaresRefinement())
+    return tuple(chain)
+
+
 def identify(
     model: ModelInput,
     measurements: Measurements | None = None,
     unknowns: Mapping[str, tuple[float, float]] | None = None,
     *,
     seed: int = 0,
+    optimisers: Sequence[opt.Optimiser] | None = None,
     particles: int = DEFAULT_PARTICLES,
     iterations: int = DEFAULT_ITERATIONS,
     fixed: Mapping[str, float] | None = None,
@@ -178,60 +200,68 @@ def identify(
 
     ``model`` is a forward model (FullModel, ReducedModel) evaluated at the measurement times,
     or, with ``measurements=None``, a list of ``(model, measurements)`` pairs fitted jointly.
-    ``fixed`` overrides other model parameters.  The swarm has ``particles`` particles and runs
-    ``iterations`` iterations (``particles * (iterations + 1)`` evaluations) from
-    ``np.random.default_rng(seed)``; ``refine`` adds the local least-squares refinement.
-    ``checkpoint`` names an ``.npz`` file rewritten after every swarm iteration; with ``resume``
-    an existing one for the same problem is continued (and may be given more iterations).
+    ``fixed`` overrides other model parameters.  ``optimisers`` is the chain of searches, each started
+    from the best point of the previous one (:mod:`inverse.optimisers`); by default a particle swarm of
+    ``particles`` particles and ``iterations`` iterations then, with ``refine``, a least-squares
+    refinement.  Random draws come from ``np.random.default_rng(seed)``.
+    ``checkpoint`` names an ``.npz`` file rewritten after every step that carries a resumable state;
+    with ``resume`` an existing one for the same problem is continued (and may be given more iterations).
     ``description`` adds entries to the result's ``model`` (e.g. ``{"kind": "reduced", "order": 200}``).
     ``noise_std`` (°C), a known sensor noise, is compared with the residual (:mod:`inverse.uncertainty`).
     """
     if unknowns is None:
         raise InputError("unknowns are required, e.g. {'fibre.k': (0.05, 1.0), 'fibre.c': (1e5, 1e7)}")
+    chain = tuple(optimisers) if optimisers is not None else default_optimisers(particles, iterations, refine)
+    for o in chain:
+        if not isinstance(o, opt.Optimiser):
+            raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
     scenarios = _scenarios(model, measurements)
     box = opt.Box.from_bounds(unknowns)
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
-    problem = ckpt.problem_key({"unknowns": box.as_dict(), "fixed": dict(fixed or {}), "seed": seed,
-                                "particles": particles, "model": _describe(scenarios, None),
-                                "measurements": ckpt.measurements_digest([s.measurements for s in scenarios])})
-    previous = ckpt.load(checkpoint, problem) if (checkpoint is not None and resume
-                                                  and Path(checkpoint).exists()) else None
+    problem_key = ckpt.problem_key({"format": CHECKPOINT_FORMAT, "unknowns": box.as_dict(),
+                                    "fixed": dict(fixed or {}), "seed": seed,
+                                    "optimisers": [_signature(o) for o in chain], "model": _describe(scenarios, None),
+                                    "measurements": ckpt.measurements_digest([s.measurements for s in scenarios])})
+    previous = ckpt.load(checkpoint, problem_key) if (checkpoint is not None and resume
+                                                      and Path(checkpoint).exists()) else None
     rec = _Recorder(criterion, previous, progress)
+    problem = opt.Problem(box.dim, lambda u: criterion.residuals(box.to_physical(u)))
+    rng = np.random.default_rng(seed)
+    first = int(previous["stage"]) if previous is not None else 0
+    best_u: FloatArray | None = None
+    best_cost = np.inf
+    if previous is not None and "best_u" in previous:
+        best_u, best_cost = np.asarray(previous["best_u"]), float(previous["best_cost"])
+    for index, optimiser in enumerate(chain):
+        stage_rng = rng.spawn(1)[0]  # one generator per link, the same whatever the resume point
+        if index < first:
+            continue
+        state = {k.split("/", 1)[1]: v for k, v in (previous or {}).items()
+                 if index == first and k.startswith("state/")}
 
-    def objective(u: FloatArray) -> FloatArray:
-        return criterion(box.to_physical(u))
+        # the best point so far, as it stands when this link starts (saved with the link's own state)
+        before = {"stage": np.asarray(index), "best_cost": np.asarray(best_cost),
+                  **({"best_u": best_u} if best_u is not None else {})}
 
-    def residuals(u: FloatArray) -> FloatArray:
-        return criterion.residuals(box.to_physical(u))
+        def on_step(step: opt.Step, name: str = optimiser.name, before: dict[str, np.ndarray] = before) -> None:
+            rec.record(name, step.step, step.total, step.cost)
+            if checkpoint is not None and step.state is not None:
+                ckpt.save(checkpoint, problem_key,
+                          {**before, **{f"state/{k}": v for k, v in step.state.items()}, **rec.arrays()})
 
-    def on_iteration(state: opt.SwarmState) -> None:
-        rec.record("pso", state.iteration, iterations, state.best_cost)
-        if checkpoint is not None:
-            ckpt.save(checkpoint, problem, {**state.to_arrays(), **rec.arrays()})
-
-    state = opt.SwarmState.from_arrays(previous) if previous is not None else None
-    swarm = opt.pso(objective, box.dim, np.random.default_rng(seed), particles=particles, iterations=iterations,
-                    state=state, callback=on_iteration)
-    u_best = swarm.best_pos
-    if refine:
-        steps = 0
-
-        def on_evaluation(value: float) -> None:
-            nonlocal steps
-            steps += 1
-            rec.record("refine", steps, 0, value)
-
-        local = opt.refine(residuals, u_best, callback=on_evaluation)
-        if local.cost <= swarm.best_cost:
-            u_best = local.u
+        outcome = optimiser.run(problem, best_u, stage_rng, state=state or None, callback=on_step)
+        if outcome.cost <= best_cost:
+            best_u, best_cost = np.asarray(outcome.u, dtype=float), float(outcome.cost)
+    assert best_u is not None, "an empty chain of optimisers"
+    u_best = best_u
 
     theta = box.to_physical(u_best[None])[0]
     fits = tuple(Fit(sc.name, np.asarray(sc.measurements.t, dtype=float), sc.measurements.faces,
                      sc.measurements.as_array(), y[0])
                  for sc, y in zip(scenarios, criterion.predictions(theta[None]), strict=True))
     r = np.concatenate([(f.measured - f.fitted).ravel() for f in fits])
-    sensitivity = -opt.jacobian(residuals, u_best) / box.dtheta_du(u_best)[None, :]
+    sensitivity = -opt.jacobian(problem.residuals, u_best) / box.dtheta_du(u_best)[None, :]
     notes = [f"{name} = {value:.6g} is at its {'lower' if u < 0.5 else 'upper'} bound: widen the bounds"
              for name, value, u in zip(box.names, theta, u_best, strict=True) if min(u, 1.0 - u) < AT_BOUND]
     starts0 = criterion.start(theta) if all(len(f.t) > 1 for f in fits) else [f.fitted[0] for f in fits]

@@ -1,7 +1,7 @@
 """Lagrange finite elements (P1 or P2) on conforming simplex meshes (any mesh meshio reads) into a ThermalSystem.
 
 Phases come from cell sets (``mesh.cell_sets[phase_name]``) or from an integer cell-data
-array (``gmsh:physical`` by default) matched against :attr:`aromm.fem.PhaseSpec.label`.
+array (``gmsh:physical`` by default) matched against :attr:`aromm.vocabulary.PhaseSpec.label`.
 A contact resistance ``R`` (m^2 K/W) between two phases (scene: ``[interfaces."fibre|gas"] R``)
 is modelled on **split interface unknowns**: every degree of freedom on the interface gets one
 copy per side, each phase's elements use their own copy, and the two copies are coupled by
@@ -13,15 +13,16 @@ interface facets), i.e. the weak form of the flux ``q_n = (T_fibre - T_gas)/R`` 
 Every matrix is assembled by scikit-fem on the original mesh, phase by phase, and its
 indices are then relabelled to the split unknowns.  The coefficient is the parameter
 ``"fibre|gas.h_c" = 1/R`` (W/(m^2 K)) so the system stays affine; ``R = 0`` means perfect
-contact (nothing split).  Terms follow aromm.fem: ``K_<phase>``, ``C_<phase>`` (transient only),
-``H_<face>``/``U_<face>`` for faces, and ``G_<p>|<q>`` for an interface.  Faces ``x0 ... z1``
-are the planes of the mesh's bounding box.
+contact (nothing split).  Phase and face terms come from aromm.vocabulary (``K_<phase>``,
+``C_<phase>`` for a transient, ``H_<face>``, ``U_<face>``...), plus ``G_<p>|<q>`` (role conduction) for an
+interface.  Faces ``x0 ... z1`` are the planes of the mesh's bounding box.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import meshio
 import numpy as np
@@ -42,8 +43,16 @@ from skfem import (
 from skfem.helpers import dot, grad
 
 from aromm.errors import InputError
-from aromm.fem import FACES, FaceSpec, PhaseSpec, parameter_values
-from aromm.system import Affine, Coefficient, Dirichlet, Geometry, Term, ThermalSystem, TimeGrid
+from aromm.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
+from aromm.vocabulary import (
+    FACES,
+    FaceSpec,
+    PhaseSpec,
+    face_means,
+    face_terms,
+    parameter_values,
+    phase_terms,
+)
 
 IntArray = npt.NDArray[np.int64]
 _MESHES = {"tetra": (MeshTet, 3), "triangle": (MeshTri, 2)}
@@ -183,6 +192,99 @@ def _check_interfaces(interfaces: Mapping[str, float] | None, names: Sequence[st
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class SimplexMesh:
+    """Lagrange elements on a simplex mesh in split numbering (aromm.vocabulary.Discretisation)."""
+
+    mesh: MeshTet | MeshTri
+    element: object
+    phase: IntArray
+    split: DofSplit
+    names: tuple[str, ...]
+    _faces: dict[str, sp.csr_array] = field(default_factory=dict, init=False, repr=False)
+
+    @property
+    def n(self) -> int:
+        return self.split.n
+
+    @property
+    def dim(self) -> int:
+        return int(self.mesh.p.shape[0])
+
+    @functools.cached_property
+    def whole(self) -> Basis:
+        return Basis(self.mesh, self.element)
+
+    def _basis(self, phase: int) -> Basis:
+        return Basis(self.mesh, self.element, elements=np.flatnonzero(self.phase == phase))
+
+    def conduction(self, phase: int, axis: str | None) -> sp.csr_array:
+        form = _laplace if axis is None else _directional("xyz".index(axis))
+        if axis is not None and "xyz".index(axis) >= self.dim:
+            raise InputError(f"phase {self.names[phase]!r}: a {self.dim}-D mesh has no axis {axis!r}")
+        return _relabel(form.assemble(self._basis(phase)), self.split.dof[:, phase], self.n)
+
+    def mass(self, phase: int) -> sp.csr_array:
+        return _relabel(_mass.assemble(self._basis(phase)), self.split.dof[:, phase], self.n)
+
+    @functools.cached_property
+    def _bounds(self) -> tuple[FloatArray, FloatArray]:
+        return self.mesh.p.min(axis=1), self.mesh.p.max(axis=1)
+
+    def _face_parts(self, face: str) -> list[tuple[FacetBasis, IntArray, IntArray]]:
+        """Facet bases of the face, one per phase touching it, with its facets and that phase's dof map."""
+        if face not in FACES or "xyz".index(face[0]) >= self.dim:
+            raise InputError(f"unknown face {face!r}; allowed: {', '.join(FACES[: 2 * self.dim])}")
+        axis = "xyz".index(face[0])
+        lo, hi = self._bounds
+        plane = lo[axis] if face[1] == "0" else hi[axis]
+        boundary = self.mesh.boundary_facets()
+        tol = 1e-9 * float(np.max(hi - lo))
+        on = np.all(np.abs(self.mesh.p[axis, self.mesh.facets[:, boundary]] - plane) <= tol, axis=0)
+        facets = boundary[on]
+        if facets.size == 0:
+            raise InputError(f"face {face!r}: no boundary facet of the mesh lies on that bounding-box plane")
+        owner = self.phase[self.mesh.f2t[0, facets]]
+        return [(FacetBasis(self.mesh, self.element, facets=facets[owner == i]), facets[owner == i],
+                 self.split.dof[:, i]) for i in np.unique(owner)]
+
+    def _facet_mass(self, facets: IntArray) -> sp.csr_array:
+        """``∫ φ_a φ_b`` over boundary ``facets``, each seen from the phase that owns it (split numbering)."""
+        owner = self.phase[self.mesh.f2t[0, facets]]
+        parts = (_relabel(_mass.assemble(FacetBasis(self.mesh, self.element, facets=facets[owner == i])),
+                          self.split.dof[:, i], self.n) for i in np.unique(owner))
+        return sp.csr_array(sum(parts, start=sp.csr_array((self.n, self.n))))
+
+    def face_mass(self, face: str) -> sp.csr_array:
+        if face not in self._faces:
+            self._faces[face] = self._facet_mass(np.concatenate([f for _, f, _ in self._face_parts(face)]))
+        return self._faces[face]
+
+    def boundary_mass(self) -> sp.csr_array:
+        """``B = ∫_Γ φ_a φ_b`` over every boundary facet of the mesh (m², or m in 2-D)."""
+        return self._facet_mass(self.mesh.boundary_facets())
+
+    def face_dofs(self, face: str) -> IntArray:
+        dofs = [dof_p[self.whole.get_dofs(facets=facets).all()] for _, facets, dof_p in self._face_parts(face)]
+        return np.unique(np.concatenate(dofs)).astype(np.int64)
+
+    def interface(self, p: int, q: int) -> sp.csr_array | None:
+        """``J^T M_Gamma J`` on the facets between phases p and q (None when they do not touch)."""
+        f2t = self.mesh.f2t
+        inner = np.flatnonzero(f2t[1] >= 0)
+        ph0, ph1 = self.phase[f2t[0, inner]], self.phase[f2t[1, inner]]
+        facets = inner[((ph0 == p) & (ph1 == q)) | ((ph0 == q) & (ph1 == p))]
+        if facets.size == 0:
+            return None
+        m_gamma = sp.csr_array(_mass.assemble(FacetBasis(self.mesh, self.element, facets=facets)))
+        dofs = np.unique(self.whole.get_dofs(facets=facets).all())  # the dofs living on the interface
+        k = dofs.size
+        jump = sp.csr_array((np.r_[np.ones(k), -np.ones(k)],
+                             (np.r_[np.arange(k), np.arange(k)],
+                              np.r_[self.split.dof[dofs, p], self.split.dof[dofs, q]])), shape=(k, self.n))
+        return sp.csr_array(jump.T @ m_gamma[dofs][:, dofs] @ jump)
+
+
 def assemble_mesh(
     mesh: meshio.Mesh,
     phases: Sequence[PhaseSpec],
@@ -198,11 +300,11 @@ def assemble_mesh(
     """A :class:`ThermalSystem` from a conforming simplex mesh (tetra or triangle, coordinates in m).
 
     ``interfaces`` maps ``"p|q"`` to the contact resistance R (m^2 K/W, >= 0; 0 = perfect
-    contact).  Boundary faces are the bounding-box planes ``x0 ... z1`` (FaceSpec as in
-    aromm.fem: fixed T, entering flux, or convection h to T_ext); unlisted faces are adiabatic.
+    contact).  Boundary faces are the bounding-box planes ``x0 ... z1`` (aromm.vocabulary.FaceSpec:
+    fixed T, entering flux, or convection h to T_ext); unlisted faces are adiabatic.
     ``order`` is the Lagrange degree, 1 or 2 (straight-sided elements either way).
     """
-    names = [p.name for p in phases]
+    names = tuple(p.name for p in phases)
     resist = _check_interfaces(interfaces, names)
     if order not in (1, 2):
         raise InputError(f"element order must be 1 or 2; got {order}")
@@ -216,101 +318,26 @@ def assemble_mesh(
     element = _ELEMENTS[(cell_type, order)]()
     whole = Basis(fem_mesh, element)
     split = split_dofs(whole.element_dofs.T, phase, whole.N, names, resist)
-    n = split.n
-
-    conductance: list[Term] = []
-    capacity: list[Term] = []
-    load: list[Term] = []
-    for i, ph in enumerate(phases):
-        idx = np.flatnonzero(phase == i)
-        if idx.size == 0:
-            continue
-        basis = Basis(fem_mesh, element, elements=idx)
-        dof_p = split.dof[:, i]
-        if isinstance(ph.k, tuple):
-            for ax in range(dim):
-                name = "xyz"[ax]
-                conductance.append(Term(f"K_{ph.name}_{name}", Coefficient((f"{ph.name}.k_{name}",)),
-                                        _relabel(_directional(ax).assemble(basis), dof_p, n)))
-        else:
-            conductance.append(Term(f"K_{ph.name}", Coefficient((f"{ph.name}.k",)),
-                                    _relabel(_laplace.assemble(basis), dof_p, n)))
-        if time is not None or ph.q is not None:
-            mass = _relabel(_mass.assemble(basis), dof_p, n)
-            if time is not None:
-                if ph.c is None:
-                    raise InputError(f"phase {ph.name!r} needs a capacity c for a transient scene")
-                capacity.append(Term(f"C_{ph.name}", Coefficient((f"{ph.name}.c",)), mass))
-            if ph.q is not None:
-                load.append(Term(f"Q_{ph.name}", Coefficient((f"{ph.name}.q",)), mass @ np.ones(n)))
-    params = parameter_values([p for i, p in enumerate(phases) if np.any(phase == i)], boundary, initial_T,
-                              time is not None)
-
-    f2t = fem_mesh.f2t
-    inner = np.flatnonzero(f2t[1] >= 0)
-    ph0, ph1 = phase[f2t[0, inner]], phase[f2t[1, inner]]
+    disc = SimplexMesh(fem_mesh, element, phase, split, names)
+    present = [i for i in range(len(phases)) if np.any(phase == i)]
+    transient = time is not None
+    terms = phase_terms(disc, phases, present, transient=transient)
+    params = parameter_values([phases[i] for i in present], boundary, initial_T, transient)
     for key in resist:
         p, q = (names.index(part) for part in key.split("|"))
-        facets = inner[((ph0 == p) & (ph1 == q)) | ((ph0 == q) & (ph1 == p))]
-        if facets.size == 0:
-            continue
-        m_gamma = sp.csr_array(_mass.assemble(FacetBasis(fem_mesh, element, facets=facets)))
-        dofs = np.unique(whole.get_dofs(facets=facets).all())  # the dofs living on the interface
-        k = dofs.size
-        jump = sp.csr_array((np.r_[np.ones(k), -np.ones(k)],
-                             (np.r_[np.arange(k), np.arange(k)], np.r_[split.dof[dofs, p], split.dof[dofs, q]])),
-                            shape=(k, n))
-        operator = sp.csr_array(jump.T @ m_gamma[dofs][:, dofs] @ jump)
-        conductance.append(Term(f"G_{key}", Coefficient((f"{key}.h_c",)), operator))
-        params[f"{key}.h_c"] = 1.0 / resist[key]
-
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    boundary_facets = fem_mesh.boundary_facets()
-    tol = 1e-9 * float(np.max(hi - lo))
-
-    def face_parts(face: str) -> list[tuple[FacetBasis, IntArray, IntArray]]:
-        """Facet bases of the face, one per phase touching it, with its facets and that phase's dof map."""
-        if face not in FACES or "xyz".index(face[0]) >= dim:
-            raise InputError(f"unknown face {face!r}; allowed: {', '.join(FACES[: 2 * dim])}")
-        axis = "xyz".index(face[0])
-        plane = lo[axis] if face[1] == "0" else hi[axis]
-        on = np.all(np.abs(fem_mesh.p[axis, fem_mesh.facets[:, boundary_facets]] - plane) <= tol, axis=0)
-        facets = boundary_facets[on]
-        if facets.size == 0:
-            raise InputError(f"face {face!r}: no boundary facet of the mesh lies on that bounding-box plane")
-        owner = phase[f2t[0, facets]]
-        return [(FacetBasis(fem_mesh, element, facets=facets[owner == i]), facets[owner == i], split.dof[:, i])
-                for i in np.unique(owner)]
-
-    def face_matrix(face: str) -> sp.csr_array:
-        return sp.csr_array(sum((_relabel(_mass.assemble(fb), dof_p, n) for fb, _, dof_p in face_parts(face)),
-                                start=sp.csr_array((n, n))))
-
-    dirichlet: list[Dirichlet] = []
-    face_loads: list[Term] = []
-    for f in boundary:
-        if f.T is not None:
-            dofs = np.unique(np.concatenate([dof_p[whole.get_dofs(facets=facets).all()]
-                                             for _, facets, dof_p in face_parts(f.face)]))
-            dirichlet.append(Dirichlet(f"T_{f.face}", dofs.astype(np.int64), f"{f.face}.T"))
-            continue
-        mass = face_matrix(f.face)
-        weights = np.asarray(mass @ np.ones(n))
-        if f.h is not None:
-            conductance.append(Term(f"H_{f.face}", Coefficient((f"{f.face}.h",)), mass))
-            face_loads.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.h", f"{f.face}.T_ext")), weights))
-        if f.flux is not None:
-            load.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.flux",)), weights))
-    load.extend(face_loads)
-    observation = {}
-    for face in outputs:
-        w = np.asarray(face_matrix(face) @ np.ones(n))
-        observation[face] = w / w.sum()
-
+        operator = disc.interface(p, q)
+        if operator is not None:
+            terms.append(Term(f"G_{key}", Coefficient((f"{key}.h_c",)), operator, "conduction"))
+            params[f"{key}.h_c"] = 1.0 / resist[key]
+    faces, dirichlet = face_terms(disc, boundary)
+    terms += faces
     cells = split.dof[whole.element_dofs, phase[None, :]].T  # (n_el, n_local) in split numbering
     locs = whole.doflocs.T[split.source]
-    geometry = Geometry(locs if dim == 3 else np.column_stack([locs, np.zeros(n)]), cells,
+    geometry = Geometry(locs if dim == 3 else np.column_stack([locs, np.zeros(split.n)]), cells,
                         _EXPORT_TYPE[(cell_type, order)], {"phase": phase})
-    return ThermalSystem(n=n, conductance=Affine(tuple(conductance)), capacity=Affine(tuple(capacity)),
-                         load=Affine(tuple(load)), dirichlet=tuple(dirichlet), observation=observation,
-                         parameters=params, time=time, geometry=geometry)
+    return ThermalSystem(n=split.n,
+                         conductance=Affine(tuple(t for t in terms if t.role in ("conduction", "exchange"))),
+                         capacity=Affine(tuple(t for t in terms if t.role == "capacity")),
+                         load=Affine(tuple(t for t in terms if t.role == "load")), dirichlet=tuple(dirichlet),
+                         observation=face_means(disc, outputs), parameters=params, time=time, geometry=geometry,
+                         boundary=disc.boundary_mass())

@@ -1,6 +1,6 @@
-"""Homogenisation of a two-phase (or n-phase) voxel scene (seed 001 section 4.2).
+"""Homogenisation of a two-phase (or n-phase) voxel scene [Chavez2020, § 4.2].
 
-Effective conductivity by the flux method (seed 001 eq. 13): for each axis i a uniform
+Effective conductivity by the flux method [Chavez2020, eq. 13]: for each axis i a uniform
 flux q enters face i0, face i1 is held at T = 0, the four other faces are adiabatic,
 and at steady state
 
@@ -17,7 +17,7 @@ Both give the principal values along the image axes (the material is taken ortho
 in those axes, as in the seed); the off-diagonal entries of the returned tensor are zero.  The effective capacity is the
 volume average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
 
-Seed 001 § 4.2 applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
+[Chavez2020, § 4.2] applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
 experimental technique on the heterogeneous model *according to the three scenarios of Table 1*", i.e.
 under the scenario's own faces (flux φ on S1, convection h on S2).  :func:`fluxmetric` does exactly that.
 Its k differs from ``homogenize`` (here 2.4 % lower on the shipped wood VER: with h small against k/L,
@@ -32,13 +32,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
-import scipy.sparse as sp
 
 from aromm.errors import InputError, NumericalError
-from aromm.fem import FaceSpec, PhaseSpec
+from aromm.geometry import VoxelGeometry
 from aromm.scene import Scene, assemble
-from aromm.solve import steady_field
+from aromm.solve import reaction_heat_flow, steady_field
 from aromm.system import FloatArray
+from aromm.vocabulary import FaceSpec, PhaseSpec, opposite
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
@@ -48,7 +48,7 @@ BOUNDARIES = ("flux", "temperature")
 
 
 def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto") -> FloatArray:
-    """Effective conductivity tensor (3x3, W/(m K)); ``boundary="flux"`` is seed 001 eq. 13.
+    """Effective conductivity tensor (3x3, W/(m K)); ``boundary="flux"`` is [Chavez2020, eq. 13].
 
     Uses the scene's geometry and phases only; it applies the boundary conditions itself.
     ``method`` is the linear solver (aromm.linalg).
@@ -68,15 +68,14 @@ def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto") -> Fl
         else:
             system = assemble(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
             field = steady_field(system, method=method)
-            reaction = sp.csr_array(system.conductance.evaluate(system.values())) @ field
-            heat_flow = float(reaction[system.dirichlet[0].dofs].sum())
+            heat_flow = reaction_heat_flow(system, field, system.dirichlet[0].dofs)
             k[i, i] = heat_flow * size[i] / area
     return k
 
 
 @dataclass(frozen=True)
 class Fluxmetric:
-    """Seed 001 eq. 13 under a scenario: k = φ L / (T̄_S1 − T̄_S2) at steady state along ``axis``."""
+    """[Chavez2020, eq. 13] under a scenario: k = φ L / (T̄_S1 − T̄_S2) at steady state along ``axis``."""
 
     axis: str  # "x", "y" or "z"
     heated: str  # S1, the face receiving the flux
@@ -87,14 +86,14 @@ class Fluxmetric:
 
 
 def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
-    """The fluxmetric conductivity of seed 001 § 4.2: eq. 13 applied under the scene's own face conditions.
+    """The fluxmetric conductivity of [Chavez2020, § 4.2]: eq. 13 applied under the scene's own face conditions.
 
     The scene must be a Table 1 scenario: one face S1 receiving a flux φ ≠ 0, the opposite face S2
     under convection or a fixed temperature, every other face adiabatic.  The steady state of the
     heterogeneous model is solved (no capacity is assembled) and k = φ L / (T̄_S1 − T̄_S2).  Along a
     loaded axis a homogeneous twin of conductivity k then has the same steady face means as the sample.
 
-    >>> slab = Scene(np.zeros((4, 1, 1), dtype=int), (1e-3, 1e-3, 1e-3), (PhaseSpec("m", 0, 2.0),),
+    >>> slab = Scene(VoxelGeometry(np.zeros((4, 1, 1), dtype=int), (1e-3, 1e-3, 1e-3)), (PhaseSpec("m", 0, 2.0),),
     ...              (FaceSpec("x0", flux=100.0), FaceSpec("x1", h=10.0)))
     >>> round(fluxmetric(slab).k, 9)  # homogeneous slab: k itself (W/(m K))
     2.0
@@ -102,27 +101,27 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     where = scene.where
     heated = [f for f in scene.boundary if f.flux is not None and f.flux != 0.0]
     if len(heated) != 1:
-        raise InputError(f"{where}the fluxmetric conductivity (seed 001 eq. 13) needs exactly one [boundary] face "
+        raise InputError(f"{where}the fluxmetric conductivity [Chavez2020, eq. 13] needs exactly one [boundary] face "
                          f"with a non-zero flux (S1); found {[f.face for f in heated] or 'none'}")
     s1 = heated[0]
     axis = s1.face[0]
-    opposite = f"{axis}{'1' if s1.face[1] == '0' else '0'}"
-    cooled = [f for f in scene.boundary if f.face == opposite and (f.h is not None or f.T is not None)]
-    others = [f.face for f in scene.boundary if f.face not in (s1.face, opposite) and f.flux != 0.0]
+    cold = opposite(s1.face)
+    cooled = [f for f in scene.boundary if f.face == cold and (f.h is not None or f.T is not None)]
+    others = [f.face for f in scene.boundary if f.face not in (s1.face, cold) and f.flux != 0.0]
     if not cooled or others:
-        raise InputError(f"{where}the fluxmetric conductivity needs face {opposite} (opposite S1 = {s1.face}) under "
+        raise InputError(f"{where}the fluxmetric conductivity needs face {cold} (opposite S1 = {s1.face}) under "
                          f"convection (h) or a fixed temperature (T) and every other face adiabatic; "
                          f"faces with other conditions: {others or 'none'}")
-    steady = scene.with_boundary(scene.boundary, (s1.face, opposite), time=None)
+    steady = scene.with_boundary(scene.boundary, (s1.face, cold), time=None)
     system = assemble(steady)
     field = steady_field(system, method=method)
-    drop = float(system.observation[s1.face] @ field - system.observation[opposite] @ field)
+    drop = float(system.observation[s1.face] @ field - system.observation[cold] @ field)
     length = scene.size["xyz".index(axis)]
     flux = float(s1.flux)  # type: ignore[arg-type]
     if not (np.isfinite(drop) and drop * flux > 0):
-        raise NumericalError(f"{where}steady face-mean drop T̄_{s1.face} − T̄_{opposite} = {drop:g} K has not the sign "
+        raise NumericalError(f"{where}steady face-mean drop T̄_{s1.face} − T̄_{cold} = {drop:g} K has not the sign "
                              f"of the flux {flux:g} W/m²; cannot define a conductivity")
-    return Fluxmetric(axis, s1.face, opposite, flux, drop, flux * length / drop)
+    return Fluxmetric(axis, s1.face, cold, flux, drop, flux * length / drop)
 
 
 def _probe(scene: Scene, hot: FaceSpec, cold: FaceSpec) -> Scene:
@@ -131,7 +130,7 @@ def _probe(scene: Scene, hot: FaceSpec, cold: FaceSpec) -> Scene:
 
 
 def mean_capacity(scene: Scene) -> float:
-    """Volume-averaged volumetric heat capacity c̄ (J/(m^3 K)), seed 001 eq. 14."""
+    """Volume-averaged volumetric heat capacity c̄ (J/(m^3 K)), [Chavez2020, eq. 14]."""
     missing = [ph.name for ph in scene.phases if ph.c is None]
     if missing:
         raise InputError(f"mean capacity needs c for every phase; missing for {missing}")
@@ -140,7 +139,7 @@ def mean_capacity(scene: Scene) -> float:
 
 
 def homogeneous_twin(scene: Scene, k: npt.ArrayLike, c: float, name: str = "homogeneous") -> Scene:
-    """The homogeneous orthotropic model of seed 001 eq. 1 on the same box and boundary conditions.
+    """The homogeneous orthotropic model of [Chavez2020, eq. 1] on the same box and boundary conditions.
 
     Material: one phase with k = diag(k) and capacity c; a scalar k means k times the identity (e.g. the
     :func:`fluxmetric` k of a scenario loaded along one axis: the unloaded axes carry no heat, so the
@@ -154,9 +153,10 @@ def homogeneous_twin(scene: Scene, k: npt.ArrayLike, c: float, name: str = "homo
     if np.any(~np.isfinite(diag)) or np.any(diag <= 0):
         raise InputError(f"homogeneous model needs positive finite k_xx, k_yy, k_zz, got {diag.tolist()}")
     loaded = {f.face[0] for f in scene.boundary}
-    cells = scene.labels.shape if scene.mesh is None else (MESH_TWIN_CELLS,) * 3
+    geo = scene.geometry
+    cells = geo.shape if isinstance(geo, VoxelGeometry) else (MESH_TWIN_CELLS,) * 3
     shape = tuple(n if ax in loaded else 1 for n, ax in zip(cells, "xyz", strict=True))
     vx, vy, vz = (L / n for n, L in zip(shape, scene.size, strict=True))
     phase = PhaseSpec(name, 0, (float(diag[0]), float(diag[1]), float(diag[2])), float(c))
-    return replace(scene, labels=np.zeros(shape, dtype=np.int64), voxel_size=(vx, vy, vz), phases=(phase,),
-                   interfaces={}, mesh=None)
+    return replace(scene, geometry=VoxelGeometry(np.zeros(shape, dtype=np.int64), (vx, vy, vz)), phases=(phase,),
+                   interfaces={})

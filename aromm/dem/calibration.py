@@ -1,4 +1,4 @@
-"""Calibration of C_t (seed 000 eq. 6-8) and effective conductivities of bond networks.
+"""Calibration of C_t [Hassan2019, eq. 6-8] and effective conductivities of bond networks.
 
 The conductivity of the equivalent continuum is proportional to C_t, so (eq. 8)
 
@@ -35,7 +35,6 @@ from aromm.dem.bonds import Bonds, build_bonds
 from aromm.dem.network import (
     Network,
     Radius,
-    face_heat_flow,
     face_particles,
     laplacian,
     sphere_inclusion,
@@ -44,8 +43,9 @@ from aromm.dem.network import (
 from aromm.dem.packing import Packing
 from aromm.errors import InputError
 from aromm.linalg import factorize
-from aromm.solve import steady_field
+from aromm.solve import reaction_heat_flow, steady_field
 from aromm.system import FloatArray
+from aromm.vocabulary import FaceSpec
 
 Boundary = Literal["periodic", "slab"]
 AMG_ABOVE = 20_000  # particles: above this, "auto" solves with pyamg + CG (CHOLMOD fills to GBs at 1.5e5)
@@ -111,9 +111,9 @@ class Calibration:
 
 def slab_conductivity(packing: Packing, bonds: Bonds, c_t: float = 1.0, radius: Radius = "pair",
                       varphi: float = 1.0) -> float:
-    """``lambda_e = varphi L / (T_z1 - T_0)`` of a cut packing with lambda = 1 (seed 000 eq. 7, Figure 3)."""
+    """``lambda_e = varphi L / (T_z1 - T_0)`` of a cut packing with lambda = 1 [Hassan2019, eq. 7, Figure 3]."""
     net = Network(packing, bonds, c_t, np.zeros(packing.n, dtype=np.int64), ("matrix",), radius)
-    system = net.system({"matrix.k": 1.0, "z0.T": 0.0, "z1.flux": varphi}, fixed=("z0",), flux=("z1",))
+    system = net.system({"matrix.k": 1.0}, boundary=(FaceSpec("z0", T=0.0), FaceSpec("z1", flux=varphi)))
     field = steady_field(system, method=solver_for(packing.n))
     top = face_particles(packing, "z1")
     w = packing.radii[top] ** 2
@@ -123,7 +123,7 @@ def slab_conductivity(packing: Packing, bonds: Bonds, c_t: float = 1.0, radius: 
 
 def calibrate(packing: Packing, z: float = 7.5, *, radius: Radius = "pair", boundary: Boundary = "periodic",
               min_degree: int = 3, bonds: Bonds | None = None) -> Calibration:
-    """C_t such that the network's effective conductivity equals lambda (seed 000 eq. 7-8)."""
+    """C_t such that the network's effective conductivity equals lambda [Hassan2019, eq. 7-8]."""
     if not packing.periodic:
         raise InputError("calibrate needs the periodic packing (the slab test cuts it itself)")
     if bonds is None:
@@ -144,7 +144,7 @@ def calibrate(packing: Packing, z: float = 7.5, *, radius: Radius = "pair", boun
 
 @dataclass(frozen=True)
 class InclusionResult:
-    """Sphere-inclusion test (seed 000 §3.2): E = k_eff / k_matrix, per axis and averaged."""
+    """Sphere-inclusion test [Hassan2019, § 3.2]: E = k_eff / k_matrix, per axis and averaged."""
 
     E: float
     E_axes: FloatArray
@@ -166,7 +166,7 @@ def inclusion_network(packing: Packing, z: float = 7.5, *, radius: Radius = "pai
     the packing along its box (bonds from the periodic packing's gap threshold) for a
     test with fixed temperatures on two faces, as in the seed, cut layer included.
     C_t is left at 1: E is a ratio of two solves on the same network, so C_t cancels (the
-    calibration on the same packing and boundary conditions, seed 000 §2.3).
+    calibration on the same packing and boundary conditions, [Hassan2019, § 2.3]).
     """
     if not packing.periodic:
         raise InputError("inclusion_network needs the periodic packing (it cuts it itself for 'faces')")
@@ -205,10 +205,9 @@ def inclusion_ratios(network: Network, ratios: Sequence[float], axes: str = "xyz
         method = solver_for(network.n)
         columns = []
         for axis in axes:
-            faces = (f"{axis}0", f"{axis}1")
-            system = network.system({**cases[0], f"{axis}0.T": 0.0, f"{axis}1.T": 1.0}, fixed=faces)
+            system = network.system(cases[0], boundary=(FaceSpec(f"{axis}0", T=0.0), FaceSpec(f"{axis}1", T=1.0)))
             hot = system.dirichlet[1].dofs
-            columns.append([face_heat_flow(system, v, steady_field(system, v, method), hot) for v in cases])
+            columns.append([reaction_heat_flow(system, steady_field(system, v, method), hot, v) for v in cases])
         k = np.array(columns).T
     vol = network.packing.volumes
     frac = float(vol[network.phases == 1].sum() / vol.sum())

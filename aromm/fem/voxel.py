@@ -1,6 +1,6 @@
 """Finite-element assembly on a voxel image: one trilinear (Q1) hexahedron per voxel.
 
-Seed 001 eq. 2–3: ``(c_F C_F + c_G C_G) dT/dt = -(k_F K_F + k_G K_G + H) T + U``.
+[Chavez2020, eq. 2–3]: ``(c_F C_F + c_G C_G) dT/dt = -(k_F K_F + k_G K_G + H) T + U``.
 Every voxel is the same box (dx, dy, dz), so each phase's capacity and conductance
 matrix is one reference element matrix scattered over that phase's voxels; this equals
 scikit-fem's generic Hex1 assembly (tests/test_fem.py checks 1e-12) and is ~10x faster.
@@ -9,60 +9,35 @@ Nodes are numbered ``i + (nx+1) * (j + (ny+1) * k)`` (x fastest) for the node at
 ``(i dx, j dy, k dz)``; the image is indexed ``labels[i, j, k]`` for voxel (i, j, k).
 Faces are named ``x0`` (plane x = 0), ``x1`` (x = L_x), and likewise for y and z.
 
-Only the terms a scene calls for are built: capacity only for a transient, a
+Only the terms a scene calls for are built (aromm.vocabulary): capacity only for a transient, a
 convection matrix only on faces with ``h``, one conductance block per phase present,
 directional blocks only for orthotropic phases.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
 from aromm.errors import InputError
-from aromm.system import (
-    Affine,
-    Coefficient,
-    Dirichlet,
-    FloatArray,
-    Geometry,
-    Term,
-    ThermalSystem,
-    TimeGrid,
+from aromm.system import Affine, FloatArray, Geometry, ThermalSystem, TimeGrid
+from aromm.vocabulary import (
+    FaceSpec,
+    PhaseSpec,
+    boundary_mass,
+    check_phases,
+    face_means,
+    face_terms,
+    parameter_values,
+    phase_terms,
 )
 
-FACES = ("x0", "x1", "y0", "y1", "z0", "z1")
 VTK_HEX = [0, 1, 3, 2, 4, 5, 7, 6]  # local corner order a + 2b + 4c -> VTK/meshio hexahedron order
-
-
-@dataclass(frozen=True)
-class PhaseSpec:
-    """A phase: image label, conductivity (W/(m K), scalar or (kx, ky, kz)), capacity (J/(m^3 K))."""
-
-    name: str
-    label: int
-    k: float | tuple[float, float, float]
-    c: float | None = None
-    q: float | None = None  # volumetric source, W/m^3
-
-    @property
-    def orthotropic(self) -> bool:
-        return isinstance(self.k, tuple)
-
-
-@dataclass(frozen=True)
-class FaceSpec:
-    """Condition on one face: entering flux (W/m^2), convection h (W/(m^2 K)) to T_ext, or fixed T."""
-
-    face: str
-    flux: float | None = None
-    h: float | None = None
-    T_ext: float = 0.0
-    T: float | None = None
 
 
 def _mass_1d(h: float) -> FloatArray:
@@ -140,12 +115,6 @@ def face_mass(shape: tuple[int, int, int], voxel_size: Sequence[float], face: st
     return scatter(quads, local, int(np.prod(np.asarray(shape) + 1)))
 
 
-def face_area(shape: tuple[int, int, int], voxel_size: Sequence[float], face: str) -> float:
-    axis = "xyz".index(face[0])
-    p, q = (ax for ax in range(3) if ax != axis)
-    return float(shape[p] * voxel_size[p] * shape[q] * voxel_size[q])
-
-
 def node_points(shape: tuple[int, int, int], voxel_size: Sequence[float]) -> FloatArray:
     nx, ny, nz = shape
     x, y, z = (np.arange(n + 1) * h for n, h in zip((nx, ny, nz), voxel_size, strict=True))
@@ -153,45 +122,57 @@ def node_points(shape: tuple[int, int, int], voxel_size: Sequence[float]) -> Flo
     return np.column_stack([xx.ravel(), yy.ravel(), zz.ravel()])
 
 
-def parameter_values(phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], initial_T: float,
-                     transient: bool) -> dict[str, float]:
-    """Named parameter values (DESIGN.md) of a voxel scene: ``fibre.k`` (or ``fibre.k_x``...),
-    ``fibre.c`` (transient only), ``fibre.q``, ``z0.flux``, ``z1.h``, ``z1.T_ext``, ``x0.T``, ``initial.T``."""
-    out: dict[str, float] = {"initial.T": float(initial_T)}
-    for ph in phases:
-        if isinstance(ph.k, tuple):
-            out.update({f"{ph.name}.k_{ax}": float(k) for ax, k in zip("xyz", ph.k, strict=True)})
-        else:
-            out[f"{ph.name}.k"] = float(ph.k)
-        if transient and ph.c is not None:
-            out[f"{ph.name}.c"] = float(ph.c)
-        if ph.q is not None:
-            out[f"{ph.name}.q"] = float(ph.q)
-    for f in boundary:
-        if f.T is not None:
-            out[f"{f.face}.T"] = float(f.T)
-            continue
-        if f.h is not None:
-            out[f"{f.face}.h"] = float(f.h)
-            out[f"{f.face}.T_ext"] = float(f.T_ext)
-        if f.flux is not None:
-            out[f"{f.face}.flux"] = float(f.flux)
-    return out
+@dataclass(frozen=True, eq=False)
+class VoxelGrid:
+    """The Q1 discretisation of a voxel image (aromm.vocabulary.Discretisation): one box element per voxel.
+
+    ``phase[v]`` is the index of voxel v's phase (C order over ``shape``).  Face masses are built once.
+    """
+
+    shape: tuple[int, int, int]
+    voxel_size: tuple[float, float, float]
+    phase: npt.NDArray[np.int64]
+    _faces: dict[str, sp.csr_array] = field(default_factory=dict, init=False, repr=False)
+
+    @property
+    def n(self) -> int:
+        return int(np.prod(np.asarray(self.shape) + 1))
+
+    @functools.cached_property
+    def _reference(self) -> dict[str, FloatArray]:
+        return element_matrices(self.voxel_size)
+
+    def _connectivity(self, phase: int) -> npt.NDArray[np.int64]:
+        return connectivity(self.shape, np.flatnonzero(self.phase == phase))
+
+    def conduction(self, phase: int, axis: str | None) -> sp.csr_array:
+        ref = self._reference
+        local = ref["kx"] + ref["ky"] + ref["kz"] if axis is None else ref[f"k{axis}"]
+        return scatter(self._connectivity(phase), local, self.n)
+
+    def mass(self, phase: int) -> sp.csr_array:
+        return scatter(self._connectivity(phase), self._reference["mass"], self.n)
+
+    def face_mass(self, face: str) -> sp.csr_array:
+        if face not in self._faces:
+            self._faces[face] = face_mass(self.shape, self.voxel_size, face)
+        return self._faces[face]
+
+    def face_dofs(self, face: str) -> npt.NDArray[np.int64]:
+        return face_nodes_and_quads(self.shape, face)[0]
+
+    def geometry(self, labels: npt.NDArray[np.integer]) -> Geometry:
+        cells = connectivity(self.shape, np.arange(int(np.prod(self.shape))))[:, VTK_HEX]
+        return Geometry(node_points(self.shape, self.voxel_size), cells, "hexahedron",
+                        {"label": np.asarray(labels).ravel(order="C")})
 
 
-def _check_inputs(labels: np.ndarray, voxel_size: Sequence[float], phases: Sequence[PhaseSpec],
-                  boundary: Sequence[FaceSpec]) -> None:
+def _check_inputs(labels: np.ndarray, voxel_size: Sequence[float], phases: Sequence[PhaseSpec]) -> None:
     if labels.ndim != 3:
         raise InputError(f"the image must be 3-D, got shape {labels.shape}")
     if len(voxel_size) != 3 or not all(np.isfinite(v) and v > 0 for v in voxel_size):
         raise InputError(f"voxel_size must be three positive lengths in m, got {tuple(voxel_size)}")
-    known = {p.label for p in phases}
-    present = set(np.unique(labels).tolist())
-    if present - known:
-        raise InputError(f"image labels {sorted(present - known)} belong to no phase; phases cover {sorted(known)}")
-    for f in boundary:
-        if f.face not in FACES:
-            raise InputError(f"unknown face {f.face!r}; allowed: {', '.join(FACES)}")
+    check_phases(phases, set(np.unique(labels).tolist()))
 
 
 def assemble_voxels(
@@ -211,72 +192,31 @@ def assemble_voxels(
     >>> sys_ = assemble_voxels(labels, (1e-3,) * 3, [PhaseSpec("gas", 0, 0.025)],
     ...                        [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)], outputs=["z0"])
     >>> sys_.term_names
-    ('K_gas', 'H_z1', 'U_z0', 'U_z1')
+    ('K_gas', 'H_z1', 'U_z0', 'UH_z1')
     """
     labels = np.asarray(labels)
     voxel_size = tuple(float(v) for v in voxel_size)
-    _check_inputs(labels, voxel_size, phases, boundary)
+    _check_inputs(labels, voxel_size, phases)
     shape = (int(labels.shape[0]), int(labels.shape[1]), int(labels.shape[2]))
-    n = int(np.prod(np.asarray(shape) + 1))
-    ref = element_matrices(voxel_size)
     flat = labels.ravel(order="C")
-
-    capacity: list[Term] = []
-    conductance: list[Term] = []
-    load: list[Term] = []
-    present = [ph for ph in phases if np.any(flat == ph.label)]
-    for ph in present:
-        voxels = np.flatnonzero(flat == ph.label)
-        conn = connectivity(shape, voxels)
-        if isinstance(ph.k, tuple):
-            for ax in "xyz":
-                conductance.append(Term(f"K_{ph.name}_{ax}", Coefficient((f"{ph.name}.k_{ax}",)),
-                                        scatter(conn, ref[f"k{ax}"], n)))
-        else:
-            conductance.append(Term(f"K_{ph.name}", Coefficient((f"{ph.name}.k",)),
-                                    scatter(conn, ref["kx"] + ref["ky"] + ref["kz"], n)))
-        mass = scatter(conn, ref["mass"], n) if (time is not None or ph.q is not None) else None
-        if time is not None and mass is not None:
-            if ph.c is None:
-                raise InputError(f"phase {ph.name!r} needs a capacity c for a transient scene")
-            capacity.append(Term(f"C_{ph.name}", Coefficient((f"{ph.name}.c",)), mass))
-        if ph.q is not None and mass is not None:
-            load.append(Term(f"Q_{ph.name}", Coefficient((f"{ph.name}.q",)), mass @ np.ones(n)))
-
-    dirichlet: list[Dirichlet] = []
-    face_loads: list[Term] = []
-    masses: dict[str, sp.csr_array] = {}
-
-    def mass_of(face: str) -> sp.csr_array:
-        if face not in masses:
-            masses[face] = face_mass(shape, voxel_size, face)
-        return masses[face]
-
-    for f in boundary:
-        if f.T is not None:
-            dofs, _, _ = face_nodes_and_quads(shape, f.face)
-            dirichlet.append(Dirichlet(f"T_{f.face}", dofs, f"{f.face}.T"))
-            continue
-        if f.h is not None:
-            conductance.append(Term(f"H_{f.face}", Coefficient((f"{f.face}.h",)), mass_of(f.face)))
-            face_loads.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.h", f"{f.face}.T_ext")),
-                                   mass_of(f.face) @ np.ones(n)))
-        if f.flux is not None:
-            load.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.flux",)), mass_of(f.face) @ np.ones(n)))
-    load.extend(face_loads)
-
-    params = parameter_values(present, boundary, initial_T, time is not None)
-    observation = {face: mass_of(face) @ np.ones(n) / face_area(shape, voxel_size, face) for face in outputs}
-    geometry = Geometry(node_points(shape, voxel_size), connectivity(shape, np.arange(flat.size))[:, VTK_HEX],
-                        "hexahedron", {"label": flat})
+    phase = np.full(flat.size, -1, dtype=np.int64)
+    for i, ph in enumerate(phases):
+        phase[flat == ph.label] = i
+    grid = VoxelGrid(shape, (voxel_size[0], voxel_size[1], voxel_size[2]), phase)
+    present = [i for i in range(len(phases)) if np.any(phase == i)]
+    transient = time is not None
+    volume = phase_terms(grid, phases, present, transient=transient)
+    faces, dirichlet = face_terms(grid, boundary)
+    terms = volume + faces
     return ThermalSystem(
-        n=n,
-        conductance=Affine(tuple(conductance)),
-        capacity=Affine(tuple(capacity)),
-        load=Affine(tuple(load)),
+        n=grid.n,
+        conductance=Affine(tuple(t for t in terms if t.role in ("conduction", "exchange"))),
+        capacity=Affine(tuple(t for t in terms if t.role == "capacity")),
+        load=Affine(tuple(t for t in terms if t.role == "load")),
         dirichlet=tuple(dirichlet),
-        observation=observation,
-        parameters=params,
+        observation=face_means(grid, outputs),
+        parameters=parameter_values([phases[i] for i in present], boundary, initial_T, transient),
         time=time,
-        geometry=geometry,
+        geometry=grid.geometry(labels),
+        boundary=boundary_mass(grid),
     )

@@ -1,0 +1,252 @@
+"""Offline reduction: detailed modal basis, reference simulations, a reductor, the reduced model [Chavez2020, § 3].
+
+1. Detailed basis Φ (:mod:`aromm.modes`): constants, Steklov and Dirichlet modes at reference properties
+   (``basis_values``), enriched by static and first-order correction vectors of the loads.
+2. Reference cases, simulated exactly on the detailed modal model (:class:`~aromm.rom.ReducedModel` on Φ):
+   the system itself at ``reference_values``, other scenarios on the same mesh, and the relaxation of the
+   body from 30 °C cooled on its whole boundary [Chavez2020, § 3.2].
+3. A :class:`~aromm.reductor.Reductor` (the amalgam by default, POD as a baseline) turns the reference
+   excitation states into coefficients A; the reduced model is the detailed one transformed by A.
+
+Reference values are explicit arguments: by default the bases and the reference case use the system's
+own parameters.  A scene may state other ones (``[reduction]`` section, e.g. the values of
+[Chavez2020, § 3.1–3.2] for the shipped wood scenes); the command line passes them on.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from tqdm import tqdm
+
+from aromm.amalgam import AmalgamReductor
+from aromm.cache import NpzCache, content_key
+from aromm.errors import InputError
+from aromm.modes import boundary_of, compute_basis, correction_samples, split_modes, with_corrections
+from aromm.pod import PodReductor
+from aromm.reductor import DetailedModel, Reductor
+from aromm.rom import ReducedModel, from_arrays, to_arrays
+from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
+
+log = logging.getLogger(__name__)
+
+#: The reductors known by name; any object implementing :class:`~aromm.reductor.Reductor` is accepted too.
+REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor())}
+METHODS = tuple(REDUCTORS)
+#: Relaxation reference case [Chavez2020, § 3.2]: initially at 30 °C, cooled on all faces (h in W/(m² K)).
+RELAXATION_T0 = 30.0
+RELAXATION_H = 20.0
+_ROM_VERSION = 3
+
+
+@dataclass(frozen=True)
+class ReferenceCase:
+    """A reference simulation for the reductor: a system on the same mesh, parameter values, times."""
+
+    system: ThermalSystem
+    values: Mapping[str, float] = field(default_factory=dict)
+    times: FloatArray | None = None
+    name: str = "reference"
+
+
+def default_modes(order: int) -> int:
+    """Default detailed basis size Ñ = 1.5 ñ + 20 (ñ = 200 → Ñ = 320: on the shipped wood VER Ñ = 300 gave
+    0.002 °C at ñ = 200 within 252 s of CPU, benchmarks/aromm_wood.py)."""
+    return int(1.5 * order) + 20
+
+
+def relaxation_case(system: ThermalSystem, values: Mapping[str, float], h: float = RELAXATION_H,
+                    initial: float = RELAXATION_T0) -> ReferenceCase:
+    """[Chavez2020, § 3.2]: the body at ``initial`` °C cooled by ``h`` on its whole boundary, no other load."""
+    cooled = ThermalSystem(
+        n=system.n,
+        conductance=Affine((*system.conductance.with_role("conduction").terms,
+                            Term("H_boundary", Coefficient(("relaxation.h",)), boundary_of(system), "exchange"))),
+        capacity=system.capacity,
+        parameters={**values, "relaxation.h": h},
+        time=system.time,
+        boundary=system.boundary,
+    )
+    return ReferenceCase(cooled, {**values, "relaxation.h": h, "initial.T": initial}, name="relaxation")
+
+
+def snapshot_times(grid: TimeGrid | None) -> FloatArray:
+    """The scene's output grid plus 60 log-spaced times from dt/100 (early boundary layers)."""
+    if grid is None:
+        raise InputError("the reduced model needs a time grid ([time] section)")
+    early = np.geomspace(grid.dt / 100.0, grid.end, 60)
+    return np.unique(np.concatenate([early, grid.times]))
+
+
+def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> NpzCache | None:
+    """True → the default cache folder; a folder or an NpzCache; False/None → no cache."""
+    if cache is None or cache is False:
+        return None
+    if cache is True:
+        return NpzCache()
+    if isinstance(cache, NpzCache):
+        return cache
+    return NpzCache(cache)
+
+
+def _reductor(method: str | Reductor) -> Reductor:
+    if isinstance(method, str):
+        if method not in REDUCTORS:
+            raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
+        return REDUCTORS[method]
+    if not isinstance(method, Reductor):
+        raise InputError(f"method must be a name ({', '.join(METHODS)}) or a Reductor, got {type(method).__name__}")
+    return method
+
+
+def _cases(system: ThermalSystem, reference_values: Mapping[str, float],
+           references: Sequence[ThermalSystem | ReferenceCase]) -> list[ReferenceCase]:
+    def at_reference(s: ThermalSystem) -> dict[str, float]:
+        own = {k: float(v) for k, v in s.parameters.items()}
+        return {**own, **{k: float(v) for k, v in reference_values.items() if k in own}}
+
+    cases = [ReferenceCase(system, at_reference(system), name="system")]
+    cases += [ReferenceCase(r, at_reference(r)) if isinstance(r, ThermalSystem) else r for r in references]
+    for case in cases:
+        if case.system.n != system.n:
+            raise InputError(f"reference case {case.name!r} has {case.system.n} unknowns, the system {system.n}")
+    return cases
+
+
+def reduce(
+    system: ThermalSystem,
+    order: int = 200,
+    *,
+    modes: int | None = None,
+    n_dirichlet: int | None = None,
+    n_steklov: int | None = None,
+    basis_values: Mapping[str, float] | None = None,
+    reference_values: Mapping[str, float] | None = None,
+    references: Sequence[ThermalSystem | ReferenceCase] = (),
+    relaxation: bool = True,
+    corrections: bool | Sequence[Mapping[str, float]] = True,
+    method: str | Reductor = "aromm",
+    solver: str = "auto",
+    cache: bool | str | os.PathLike[str] | NpzCache | None = True,
+    progress: bool = False,
+) -> ReducedModel:
+    """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3].
+
+    * Detailed basis: constants + Steklov + Dirichlet modes (aromm.modes) at the reference properties
+      ``basis_values`` (overrides of the system's parameters, default none), ``modes`` = Ñ in total
+      (default :func:`default_modes`), split evenly unless ``n_dirichlet`` / ``n_steklov`` are given
+      (``n_steklov`` counts the constants).
+    * Reference cases (exact simulations of the detailed modal model): the system itself at
+      ``reference_values`` (overrides of its parameters, default none), each of ``references`` (other
+      scenarios on the same mesh, at the same overrides), and the relaxation from 30 °C cooled on the
+      whole boundary (``relaxation``).
+    * ``corrections``: enrich the basis with static and first-order dynamic correction modes of the
+      system's loads (:func:`aromm.modes.with_corrections`; an extension of [Chavez2020]) at the samples of
+      :func:`aromm.modes.correction_samples` (True), at given samples, or not at all (False: the method of
+      the paper exactly).
+    * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline) or object.
+    * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
+      stored by content hash; a second call with the same inputs loads the result.
+    """
+    reductor = _reductor(method)
+    for label, given in (("basis_values", basis_values), ("reference_values", reference_values)):
+        unknown = sorted(set(given or {}) - system.parameter_names)
+        if unknown:
+            raise InputError(f"{label}: unknown parameter(s) {unknown}; "
+                             f"the system has {sorted(system.parameter_names)}")
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
+        raise InputError(f"order must be a positive integer, got {order!r}")
+    total = int(modes) if modes is not None else default_modes(int(order))
+    if n_dirichlet is None and n_steklov is None:
+        n_d, n_s = split_modes(system, total)
+    else:
+        n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
+        n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
+    basis_values = dict(basis_values or {})
+    cases = _cases(system, reference_values or {}, references)
+    store = resolve_cache(cache)
+    if corrections is True:
+        samples = correction_samples(system, basis_values)
+    else:
+        samples = [dict(s) for s in corrections] if corrections is not False else []
+    key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values, reductor.name, solver,
+                      relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
+    if store is not None:
+        stored = store.load("rom", key)
+        if stored is not None:
+            log.info("reduced model loaded from the cache %s", store.path("rom", key))
+            rom = from_arrays(stored)
+            return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+
+    start = time.perf_counter()
+    stages = _Stages(progress)
+    stages.next(f"modes (Ñ = {n_d} Dirichlet + {n_s} Steklov)")
+    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, cache=store)
+    if samples:
+        stages.next(f"correction vectors ({len(samples)} parameter samples)")
+        basis = with_corrections(system, basis, samples, values=basis_values, method=solver, cache=store)
+    stages.next("projection and reference cases")
+    memo: dict[int, FloatArray] = {}
+    model = ReducedModel.from_system(system, basis.vectors, memo)
+    if relaxation:
+        cases.append(relaxation_case(system, cases[0].values))
+    snapshots = [_snapshot(case, model if case.system is system else
+                           ReducedModel.from_system(case.system, basis.vectors, memo), basis.kinds, system.time)
+                 for case in cases]
+    detailed = DetailedModel(basis, model, np.hstack(snapshots))
+    stages.next(f"{reductor.name} to order {order}")
+    coefficients = np.eye(basis.size) if order >= basis.size else reductor.coefficients(detailed, int(order))
+    rom = model.transform(coefficients)
+    check_t = snapshot_times(system.time)
+    own = {k: v for k, v in cases[0].values.items() if k in model.parameter_names}
+    err = float(np.abs(rom.simulate(own, check_t).as_array() - model.simulate(own, check_t).as_array()).max(
+        initial=0.0))
+    stages.close()
+    info: dict[str, float | int | str] = {
+        "method": reductor.name, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
+        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
+        "zeta": basis.zeta,
+        "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
+        "gram_condition": float(basis.info.get("gram_condition", np.nan)),
+        "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
+    }
+    rom = replace(rom, info=info)
+    log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
+             rom.order, basis.size, info["offline_seconds"], err)
+    if store is not None:
+        store.save("rom", key, to_arrays(rom))
+    return rom
+
+
+def _snapshot(case: ReferenceCase, model: ReducedModel, kinds: np.ndarray, grid: TimeGrid | None) -> FloatArray:
+    """Excitation states (Ñ × K) of one reference case, scaled to unit norm outside the constants."""
+    names = model.parameter_names
+    times = case.times if case.times is not None else snapshot_times(case.system.time or grid)
+    x = model.states({k: v for k, v in case.values.items() if k in names}, times).T
+    scale = float(np.linalg.norm(x[np.flatnonzero(kinds != "zero")]))
+    return x / scale if scale > 0 else x
+
+
+class _Stages:
+    """The build's stages on a progress bar (terminal) and in the log (``logging``, for batch runs)."""
+
+    def __init__(self, progress: bool) -> None:
+        self.bar = tqdm(total=4, desc="reduce", disable=not progress, leave=False, file=sys.stderr)
+        self.started = False
+
+    def next(self, stage: str) -> None:
+        if self.started:
+            self.bar.update()
+        self.started = True
+        self.bar.set_postfix_str(stage)
+        log.info("reduce: %s", stage)
+
+    def close(self) -> None:
+        self.bar.update(self.bar.total - self.bar.n)
+        self.bar.close()
