@@ -265,11 +265,12 @@ def identify(
     notes = [f"{name} = {value:.6g} is at its {'lower' if u < 0.5 else 'upper'} bound: widen the bounds"
              for name, value, u in zip(box.names, theta, u_best, strict=True) if min(u, 1.0 - u) < AT_BOUND]
     starts0 = criterion.start(theta) if all(len(f.t) > 1 for f in fits) else [f.fitted[0] for f in fits]
-    notes += [n for f, y0 in zip(fits, starts0, strict=True)
-              if (n := offset_note(f.t, f.measured, f.fitted, start=y0, faces=f.faces, label=f.name)) is not None]
+    offsets = [n for f, y0 in zip(fits, starts0, strict=True)
+               if (n := offset_note(f.t, f.measured, f.fitted, start=y0, faces=f.faces, label=f.name)) is not None]
     starts = np.cumsum([0] + [f.measured.size for f in fits])[:-1]  # rows of r: scenarios, then times × faces
     blocks = [s0 + np.arange(f.measured.size).reshape(f.measured.shape) for s0, f in zip(starts, fits, strict=True)]
-    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std)
+    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
+                             data_notes=offsets)
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),

@@ -114,7 +114,8 @@ class Uncertainty:
 
 def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatArray,
                residuals: FloatArray, *, level: float = LEVEL, notes: Sequence[str] = (),
-               blocks: Sequence[npt.NDArray[np.intp]] | None = None, noise_std: float | None = None) -> Uncertainty:
+               blocks: Sequence[npt.NDArray[np.intp]] | None = None, noise_std: float | None = None,
+               data_notes: Sequence[str] = ()) -> Uncertainty:
     """Uncertainty from ``sensitivity`` X = ∂Ŷ/∂β (N, p) and ``residuals`` Y − Ŷ (N,) at the optimum.
 
     ``blocks`` are index arrays (n_times, n_faces) into the rows of X and r, one per independent
@@ -126,7 +127,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     parameter has no effect on the data, when the parameters are not separable, or when there
     are no more observations than unknowns; ``notes`` are further warnings of the caller.  Issues
     :class:`ResidualWarning` (listed too) when the residuals are systematic or disagree with
-    ``noise_std``.
+    ``noise_std``, and for the caller's ``data_notes`` (e.g. an offset of the data).
     """
     names = tuple(names)
     beta = np.asarray(estimates, dtype=float)
@@ -177,7 +178,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     t_q = float(st.t.ppf(0.5 + level / 2, dof)) if dof > 0 else math.inf
     half, half_hac = t_q * se, float(st.norm.ppf(0.5 + level / 2)) * se_hac
     diagnostics = diagnose([r[b[:, f]] for b in blocks for f in range(b.shape[1])])
-    residual_notes = []
+    residual_notes = list(data_notes)
     if diagnostics.systematic:
         residual_notes.append(
             f"the residuals are systematic, not white noise ({diagnostics.describe()}): the {100 * level:g} % "

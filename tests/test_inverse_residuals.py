@@ -203,7 +203,7 @@ def test_data_offset_from_the_initial_temperature_is_named(offset: float, needle
     model = scenario_model("z", n=4, end=40.0, dt=2.0)
     y = simulate_measurements(model, TRUTH, noise=0.02, rng=np.random.default_rng(1))
     shifted = Measurements(y.t, {f: v + offset for f, v in y.values.items()})
-    with warnings.catch_warnings(record=True):
+    with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = identify(model, shifted, {"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}, particles=8, iterations=6)
     named = [w for w in res.uncertainty.warnings if "first measured temperatures" in w]
@@ -211,3 +211,4 @@ def test_data_offset_from_the_initial_temperature_is_named(offset: float, needle
         assert not named
     else:
         assert len(named) == 1 and needle in named[0], named
+        assert [w.category for w in caught if "first measured" in str(w.message)] == [ResidualWarning]
