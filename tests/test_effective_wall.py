@@ -185,6 +185,18 @@ def test_wall_inf_b_profile_conserves_the_flux_and_is_regular_at_the_tip() -> No
     assert pytest.approx((1 + 1 / b) * (1 - prof.T[-1]), rel=1e-12) == prof.E
 
 
+@pytest.mark.parametrize(("b", "d"), [(0.798, 1.0), pytest.param(0.001, 2.0, marks=pytest.mark.slow),
+                                      pytest.param(0.1, 100.0, marks=pytest.mark.slow)])
+def test_wall_inf_b_where_the_solver_stalls_at_small_contact(b: float, d: float) -> None:
+    """solve_bvp stalls at C = 1e-10 for these (B, D) (found by the derandomized profile: B = 0.798,
+    C = 2e-311, D = 1); E then comes from the next floor, continuous with a direct solve at C = 1e-9.
+    The interpolation from 1e-9 to 1e-10 moves E by (E(1e-9) − E(0))·(1 − √0.1) at most."""
+    e0, e9 = float(wall_inf_b(b, 0.0, d)), float(wall_inf_b(b, 1e-9, d))
+    e10 = float(wall_inf_b(b, 1e-10, d))
+    assert e10 == pytest.approx(e0 + (e9 - e0) * np.sqrt(0.1), rel=1e-12)
+    assert float(wall_inf_b(b, 2.2e-311, d)) == pytest.approx(e0, rel=BVP_TOL)
+
+
 @pytest.mark.parametrize(("b", "c", "d"), [(1.0, 1e-4, 1.0), (1.0, 1e-4, 0.9998), (7.22, 0.016, 0.0727),
                                            (8.81, 0.0122, 0.116), (2.4, 10.3, 0.00225), (0.05, 1e-6, 1e3)])
 def test_wall_inf_b_error_is_below_its_solver_tolerance(b: float, c: float, d: float) -> None:
