@@ -24,6 +24,7 @@ from aromm.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeo
 from aromm.microstructure.generators import GENERATORS
 from aromm.observables import read_csv
 from aromm.profiles import Profile
+from aromm.resources import MAX_TIME_STEPS
 from aromm.system import ThermalSystem, TimeGrid
 from aromm.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values
 
@@ -127,8 +128,27 @@ def assemble(scene: Scene) -> ThermalSystem:
     Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel).  Mesh scenes: Lagrange simplices with
     the interface conductance 1/R on split interface nodes (aromm.fem.mesh).
     """
+    singular = singular_boundary(scene.boundary, scene.time)
+    if singular:
+        raise InputError(f"{scene.where}{singular}")
     return scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
                                    initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
+
+
+def singular_boundary(boundary: tuple[FaceSpec, ...], time: TimeGrid | None) -> str | None:
+    """Why a steady problem with these faces has no unique solution (``None`` when it has one).
+
+    Steady, ``K T = F`` with every face adiabatic or under a prescribed flux: ``K`` has the constant
+    field in its kernel (the temperature level is undetermined, and a solution exists only if the
+    loads balance), so a face with a fixed temperature ``T`` or an exchange ``h`` is needed.
+    """
+    if time is not None or any(f.T is not None or f.h is not None for f in boundary):
+        return None
+    given = ", ".join(f"{f.face} (flux)" for f in boundary)
+    faces = f"faces given: {given}, every other face is adiabatic" if given else "no face given, all are adiabatic"
+    return ("[boundary]: a steady scene needs at least one face with a fixed temperature T or an exchange "
+            f"coefficient h; {faces}, so the temperature level is undetermined (singular conductance). "
+            "Add e.g. [boundary.z1] with h = 20.0 (and T_ext) or T = 0.0, or a [time] section for a transient")
 
 
 def _where(path: Path | None) -> str:
@@ -214,6 +234,9 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
             if ph.c is None:
                 raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
     outputs = _outputs(r, data)
+    singular = singular_boundary(boundary, time)
+    if singular and ("boundary" in data or outputs):  # without either, a material for `aromm homogenize`
+        raise InputError(f"{_where(path)}{singular}")
     interfaces = _interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
@@ -395,6 +418,9 @@ def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:
     end = r.number(t["end"], "time.end", positive=True)
     if end < dt:
         raise r.fail("time.end", f"end ({end:g} s) must be at least dt ({dt:g} s)")
+    if end / dt > MAX_TIME_STEPS:
+        raise r.fail("time", f"end / dt = {end:g} s / {dt:g} s = {end / dt:.3g} time steps, more than the "
+                             f"{MAX_TIME_STEPS:.0e} allowed; raise dt or lower end")
     return TimeGrid(end, dt)
 
 
