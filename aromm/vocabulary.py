@@ -251,8 +251,9 @@ def singular_boundary(boundary: Sequence[FaceSpec], time: object | None) -> str 
     """Why a steady problem with these faces has no unique solution (``None`` when it has one).
 
     ``time`` is the scene's time grid (None: steady).  Steady, ``K T = F`` with every face adiabatic or
-    under a prescribed flux: ``K`` has the constant field in its kernel (the temperature level is undetermined, and a solution exists only if the
-    loads balance), so a face with a fixed temperature ``T`` or an exchange ``h`` is needed.
+    under a prescribed flux: ``K`` has the constant field in its kernel (the temperature level is
+    undetermined, and a solution exists only if the loads balance), so a face with a fixed temperature
+    ``T`` or an exchange ``h`` is needed.
     """
     if time is not None or any(f.T is not None or f.h is not None for f in boundary):
         return None
