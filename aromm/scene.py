@@ -7,8 +7,6 @@ the key and what is allowed; the command line turns it into exit code 2.
 from __future__ import annotations
 
 import inspect
-import math
-import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -24,18 +22,15 @@ from aromm.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeo
 from aromm.microstructure.generators import GENERATORS
 from aromm.observables import read_csv
 from aromm.profiles import Profile
+from aromm.resources import MAX_TIME_STEPS, available_memory
 from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values
+from aromm.tomlreader import TableReader, where
+from aromm.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
 PHASE_KEYS = ("label", "k", "c")
 FACE_KEYS = ("flux", "h", "T_ext", "T")
 REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
-
-
-def physical_memory() -> float:
-    """Bytes of physical memory of this machine (the default budget of :meth:`Scene.refined`)."""
-    return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
 
 
 @dataclass(frozen=True)
@@ -70,7 +65,7 @@ class Scene:
     @property
     def where(self) -> str:
         """Prefix naming the scene in messages: ``"<file>: "``, or ``"scene: "`` for one built in Python."""
-        return _where(self.path)
+        return where(self.path)
 
     @property
     def size(self) -> tuple[float, float, float]:
@@ -89,7 +84,8 @@ class Scene:
         geometry, the phases and the face conditions are unchanged, only the Q1 discretisation is finer
         (``aromm ... --refine R``).  Refused with :class:`InputError` when ``factor`` is not a positive
         integer, when the scene is a mesh, or when the refined problem's estimate
-        ``factor³ · n_voxels · bytes_per_voxel`` exceeds ``budget`` (bytes; default: the machine's memory).
+        ``factor³ · n_voxels · bytes_per_voxel`` exceeds ``budget`` (bytes; default: the memory available,
+        :mod:`aromm.resources`).
 
         >>> phases = (PhaseSpec("a", 0, 1.0), PhaseSpec("b", 1, 2.0))
         >>> s = Scene(VoxelGeometry(np.arange(2).reshape(2, 1, 1), (2e-3, 1e-3, 1e-3)), phases)
@@ -104,7 +100,7 @@ class Scene:
         if not isinstance(self.geometry, VoxelGeometry):
             raise InputError(f"{self.where}refine: a mesh scene has no voxels to split; refine the mesh instead")
         labels, size = self.geometry.labels, self.geometry.voxel_size
-        limit = physical_memory() if budget is None else float(budget)
+        limit = (available_memory()[0] or np.inf) if budget is None else float(budget)
         need = float(labels.size) * factor**3 * bytes_per_voxel
         if need > limit:
             shape = "×".join(str(n * factor) for n in labels.shape)
@@ -127,41 +123,11 @@ def assemble(scene: Scene) -> ThermalSystem:
     Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel).  Mesh scenes: Lagrange simplices with
     the interface conductance 1/R on split interface nodes (aromm.fem.mesh).
     """
+    singular = singular_boundary(scene.boundary, scene.time)
+    if singular:
+        raise InputError(f"{scene.where}{singular}")
     return scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
                                    initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
-
-
-def _where(path: Path | None) -> str:
-    return f"{path}: " if path is not None else "scene: "
-
-
-class _Reader:
-    """Typed access to a TOML table with messages naming the file and the dotted key."""
-
-    def __init__(self, path: Path | None) -> None:
-        self.path = path
-
-    def fail(self, key: str, message: str) -> InputError:
-        return InputError(f"{_where(self.path)}{key}: {message}")
-
-    def table(self, data: Mapping[str, Any], key: str, allowed: tuple[str, ...] | None,
-              name: str | None = None) -> dict[str, Any]:
-        """The sub-table ``data[name]`` (default: last part of the dotted ``key``), keys checked."""
-        value = data.get(name if name is not None else key.rsplit(".", 1)[-1], {})
-        if not isinstance(value, dict):
-            raise self.fail(key, f"must be a table, got {type(value).__name__}")
-        if allowed is not None:
-            unknown = sorted(set(value) - set(allowed))
-            if unknown:
-                raise self.fail(key, f"unknown key(s) {unknown}; allowed: {', '.join(allowed)}")
-        return value
-
-    def number(self, value: Any, key: str, positive: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-            raise self.fail(key, f"must be a finite number, got {value!r}")
-        if positive and value <= 0:
-            raise self.fail(key, f"must be > 0, got {value!r}")
-        return float(value)
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -194,7 +160,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     engine that reads the image slab by slab passes a stand-in holding each label present once
     (aromm.engines.petsc.problem), so that the phases are checked without the whole image in memory.
     """
-    r = _Reader(path)
+    r = TableReader(path)
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
@@ -214,13 +180,16 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
             if ph.c is None:
                 raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
     outputs = _outputs(r, data)
+    singular = singular_boundary(boundary, time)
+    if singular and ("boundary" in data or outputs):  # without either, a material for `aromm homogenize`
+        raise InputError(f"{where(path)}{singular}")
     interfaces = _interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
     return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed))
 
 
-def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None,
+def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
               image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None,
               ) -> tuple[np.ndarray, tuple[float, float, float]]:
     if not geo:
@@ -267,7 +236,7 @@ def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None,
 
 
 
-def _input_file(r: _Reader, geo: dict[str, Any], key: str, allowed: tuple[str, ...], path: Path | None) -> Path:
+def _input_file(r: TableReader, geo: dict[str, Any], key: str, allowed: tuple[str, ...], path: Path | None) -> Path:
     """The file named by ``geometry.<key>`` (relative to the scene file), after checking the other keys."""
     unknown = sorted(set(geo) - set(allowed))
     if unknown:
@@ -280,7 +249,7 @@ def _input_file(r: _Reader, geo: dict[str, Any], key: str, allowed: tuple[str, .
     return file
 
 
-def _mesh(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Mesh, int]:
+def _mesh(r: TableReader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Mesh, int]:
     """A conforming tetrahedral mesh (any format meshio reads; coordinates in m, phases by cell tag)."""
     file = _input_file(r, geo, "mesh", ("mesh", "order"), path)
     try:
@@ -297,7 +266,7 @@ def _mesh(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Me
     return mesh, int(order)
 
 
-def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float]:
+def _voxel_triple(r: TableReader, value: Any, key: str) -> tuple[float, float, float]:
     values = [value] * 3 if not isinstance(value, list | tuple | np.ndarray) else list(np.ravel(value))
     if len(values) != 3:
         raise r.fail(key, f"must be a number or three numbers [dx, dy, dz] in m, got {value!r}")
@@ -305,7 +274,7 @@ def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float
     return (dx, dy, dz)
 
 
-def _phases(r: _Reader, data: Mapping[str, Any], present: set[int]) -> tuple[PhaseSpec, ...]:
+def _phases(r: TableReader, data: Mapping[str, Any], present: set[int]) -> tuple[PhaseSpec, ...]:
     table = r.table(data, "phases", None)
     if not table:
         raise r.fail("phases", "missing: give at least one [phases.<name>] with label, k (and c)")
@@ -345,7 +314,7 @@ def _phases(r: _Reader, data: Mapping[str, Any], present: set[int]) -> tuple[Pha
     return tuple(phases)
 
 
-def _boundary(r: _Reader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
+def _boundary(r: TableReader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
     table = r.table(data, "boundary", None)
     faces = []
     for face in table:
@@ -368,7 +337,7 @@ def _boundary(r: _Reader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
     return tuple(faces)
 
 
-def _load(r: _Reader, value: Any, key: str) -> Load:
+def _load(r: TableReader, value: Any, key: str) -> Load:
     """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file) read
     as a piecewise-linear history held at its last value (:class:`~aromm.profiles.Profile`)."""
     if not isinstance(value, str):
@@ -385,7 +354,7 @@ def _load(r: _Reader, value: Any, key: str) -> Load:
     return Profile(tuple(np.asarray(table.t, dtype=float).tolist()), tuple(values.tolist()), source=str(file))
 
 
-def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:
+def _time(r: TableReader, data: Mapping[str, Any]) -> TimeGrid | None:
     if "time" not in data:
         return None
     t = r.table(data, "time", ("end", "dt"))
@@ -395,10 +364,13 @@ def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:
     end = r.number(t["end"], "time.end", positive=True)
     if end < dt:
         raise r.fail("time.end", f"end ({end:g} s) must be at least dt ({dt:g} s)")
+    if end / dt > MAX_TIME_STEPS:
+        raise r.fail("time", f"end / dt = {end:g} s / {dt:g} s = {end / dt:.3g} time steps, more than the "
+                             f"{MAX_TIME_STEPS:.0e} allowed; raise dt or lower end")
     return TimeGrid(end, dt)
 
 
-def _outputs(r: _Reader, data: Mapping[str, Any]) -> tuple[str, ...]:
+def _outputs(r: TableReader, data: Mapping[str, Any]) -> tuple[str, ...]:
     out = r.table(data, "outputs", ("mean_T",))
     faces = out.get("mean_T", [])
     if not isinstance(faces, list) or any(f not in FACES for f in faces):
@@ -406,7 +378,7 @@ def _outputs(r: _Reader, data: Mapping[str, Any]) -> tuple[str, ...]:
     return tuple(faces)
 
 
-def _interfaces(r: _Reader, data: Mapping[str, Any], names: set[str]) -> dict[tuple[str, str], float]:
+def _interfaces(r: TableReader, data: Mapping[str, Any], names: set[str]) -> dict[tuple[str, str], float]:
     table = r.table(data, "interfaces", None)
     out = {}
     for pair in table:
@@ -419,7 +391,7 @@ def _interfaces(r: _Reader, data: Mapping[str, Any], names: set[str]) -> dict[tu
     return out
 
 
-def _reduction(r: _Reader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
+def _reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
     """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers)."""
     table = r.table(data, "reduction", ("basis", "reference"))
     out: dict[str, dict[str, float]] = {}

@@ -29,14 +29,17 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from tqdm import tqdm
 
+from aromm import resources
 from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.linalg import factorize
 from aromm.observables import Observables
 from aromm.profiles import Profile, time_factor
+from aromm.resources import FLOAT
 from aromm.system import FloatArray, ParamValues, ThermalSystem, TimeGrid
 
 Scheme = Literal["bdf2", "euler"]
+Fields = bool | Literal["last"]
 
 
 @dataclass(frozen=True)
@@ -184,13 +187,17 @@ def transient(
     times: npt.ArrayLike | None = None,
     *,
     scheme: Scheme = "bdf2",
-    fields: bool = False,
+    fields: Fields = False,
     method: str = "auto",
     progress: bool = False,
 ) -> Observables:
     """Implicit time integration from the uniform initial temperature ``initial.T``.
 
-    Returns face means at ``times`` (default: the scene's grid); full fields too with ``fields``.
+    Returns face means at ``times`` (default: the scene's grid); full fields too with ``fields``:
+    ``True`` at every output time, ``"last"`` only at the last one (one row, what an export of
+    the final field needs).  Fields are interpolated as the steps pass, so only the rows asked
+    for are kept.  Refused before any factorisation when the kept arrays exceed the available
+    memory (:mod:`aromm.resources`).
     """
     grid = transient_grid(system.time, system.is_steady, scheme)
     t_out, steps = output_steps(times, grid)
@@ -202,6 +209,12 @@ def transient(
     dt = grid.dt
 
     names, e = system.observation_matrix()
+    field_t = t_out if fields is True else t_out[-1:] if fields == "last" else t_out[:0]
+    resources.require(FLOAT * ((steps + 1) * len(names) * 2 + field_t.size * system.n),
+                      f"the transient of {system.n} unknowns over {steps} steps",
+                      f"{steps + 1} times × {len(names)} outputs × 2 copies + {field_t.size} fields × "
+                      f"{system.n} unknowns, 8 bytes each",
+                      "keep fewer fields (simulate --out exports only the final one), raise [time] dt or lower end")
     e_free, e_fixed = e[:, part.free], e[:, part.fixed]
 
     def output(x: FloatArray, t: float) -> FloatArray:
@@ -210,8 +223,9 @@ def transient(
     x_prev = _initial(system, v, part)
     history_t = [0.0]
     history_y = [output(x_prev, 0.0)]
-    stored: list[FloatArray] = [part.full(system.n, x_prev, part.fixed_at(0.0))] if fields else []
     d_prev = d_older = part.fixed_at(0.0)
+    kept = _FieldRows(field_t, part, system.n)
+    kept.capture(0.0, 0.0, (x_prev, d_prev), (x_prev, d_prev))
 
     # Step 1 is backward Euler (BDF2's starter); the Euler factor is released before BDF2's is built,
     # so at most one factorisation is alive at a time (each costs ~1 GB at 1e5 unknowns).
@@ -231,17 +245,49 @@ def transient(
         if n == 1 and scheme == "bdf2" and steps > 1:
             del stepper
             stepper = factorize(1.5 * c_ff / dt + k_ff, method, points=points)
+        kept.capture((n - 1) * dt, t_n, (x_prev, d_prev), (x, d_n))
         x_older, x_prev = x_prev, x
         d_older, d_prev = d_prev, d_n
         history_t.append(t_n)
         history_y.append(output(x, t_n))
-        if fields:
-            stored.append(part.full(system.n, x, d_n))
+    kept.finish((steps - 1) * dt, steps * dt, (x_older, d_older), (x_prev, d_prev))
     ht = np.asarray(history_t)
     hy = interpolate_rows(t_out, ht, np.asarray(history_y))
     mean_t = {name: hy[:, i] for i, name in enumerate(names)}
-    field_out = interpolate_rows(t_out, ht, np.asarray(stored)) if fields else None
-    return Observables(t=t_out, mean_T=mean_t, fields=field_out)
+    return Observables(t=t_out, mean_T=mean_t, fields=kept.rows if fields else None)
+
+
+State = tuple[FloatArray, FloatArray]  # (free unknowns, fixed values) at one time
+
+
+class _FieldRows:
+    """Full fields at the times ``at`` (ascending), interpolated linearly between steps as they pass.
+
+    Same interpolation as :func:`interpolate_rows` on the stored steps, without storing them: only
+    ``len(at)`` rows of ``n`` values are kept.
+    """
+
+    def __init__(self, at: FloatArray, part: _Partition, n: int) -> None:
+        self.at = at
+        self.part = part
+        self.rows = np.empty((at.size, n))
+        self.next = 0
+
+    def _put(self, t0: float, t1: float, s0: State, s1: State, last: bool) -> None:
+        while self.next < self.at.size and (last or self.at[self.next] <= t1):
+            w = (self.at[self.next] - t0) / (t1 - t0) if t1 > t0 else 1.0
+            free = (1.0 - w) * s0[0] + w * s1[0]
+            fixed = (1.0 - w) * s0[1] + w * s1[1]
+            self.rows[self.next] = self.part.full(self.rows.shape[1], free, fixed)
+            self.next += 1
+
+    def capture(self, t0: float, t1: float, s0: State, s1: State) -> None:
+        """Rows due at or before ``t1`` from the step ``t0 → t1`` (states ``s0 → s1``)."""
+        self._put(t0, t1, s0, s1, last=False)
+
+    def finish(self, t0: float, t1: float, s0: State, s1: State) -> None:
+        """Rows after the last step (within round-off of it) from the last step, as interpolate_rows does."""
+        self._put(t0, t1, s0, s1, last=True)
 
 
 def interpolate_rows(t_out: FloatArray, t: FloatArray, rows: FloatArray) -> FloatArray:
@@ -256,13 +302,13 @@ def simulate(
     values: ParamValues | None = None,
     times: npt.ArrayLike | None = None,
     *,
-    fields: bool = False,
+    fields: Fields = False,
     method: str = "auto",
     scheme: Scheme = "bdf2",
     progress: bool = False,
     engine: str = "scipy",
 ) -> Observables:
-    """Full model: steady solve for a steady system, else :func:`transient`.
+    """Full model: steady solve for a steady system, else :func:`transient` (``fields`` as there).
 
     ``engine="petsc"``: the same solves distributed by PETSc under MPI (aromm.engines.petsc.transient; every
     rank calls it; ``system`` may be a voxel Scene, assembled by z-slabs; ``method`` is then ``gamg`` or

@@ -245,3 +245,20 @@ def check_phases(phases: Sequence[PhaseSpec], labels_present: Mapping[int, objec
     missing = set(labels_present) - known
     if missing:
         raise InputError(f"image labels {sorted(missing)} belong to no phase; phases cover {sorted(known)}")
+
+
+def singular_boundary(boundary: Sequence[FaceSpec], time: object | None) -> str | None:
+    """Why a steady problem with these faces has no unique solution (``None`` when it has one).
+
+    ``time`` is the scene's time grid (None: steady).  Steady, ``K T = F`` with every face adiabatic or
+    under a prescribed flux: ``K`` has the constant field in its kernel (the temperature level is
+    undetermined, and a solution exists only if the loads balance), so a face with a fixed temperature
+    ``T`` or an exchange ``h`` is needed.
+    """
+    if time is not None or any(f.T is not None or f.h is not None for f in boundary):
+        return None
+    given = ", ".join(f"{f.face} (flux)" for f in boundary)
+    faces = f"faces given: {given}, every other face is adiabatic" if given else "no face given, all are adiabatic"
+    return ("[boundary]: a steady scene needs at least one face with a fixed temperature T or an exchange "
+            f"coefficient h; {faces}, so the temperature level is undetermined (singular conductance). "
+            "Add e.g. [boundary.z1] with h = 20.0 (and T_ext) or T = 0.0, or a [time] section for a transient")

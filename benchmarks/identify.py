@@ -36,7 +36,7 @@ from aromm.system import ThermalSystem, TimeGrid
 from inverse.farm import FARMS, Farm
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
 from inverse.measurements import Measurements, load_measurements, save_measurements, simulate_measurements
-from inverse.uncertainty import IdentifiabilityWarning
+from inverse.uncertainty import UncertaintyWarning
 from studies.chavez2020 import (
     AXES,
     PAPER_PERTURBED,
@@ -120,7 +120,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=None, help="worker processes of the farm")
     args = parser.parse_args()
     farm = Farm(args.farm, args.workers)
-    warnings.simplefilter("ignore", IdentifiabilityWarning)  # listed with the results instead
+    warnings.simplefilter("ignore", UncertaintyWarning)  # listed with the results instead
 
     shipped = os.environ.get("AROMM_FULL") == "1"
     if shipped:

@@ -16,13 +16,15 @@ from inverse.measurements import (
     save_measurements,
     simulate_measurements,
 )
-from inverse.uncertainty import IdentifiabilityWarning, Uncertainty
+from inverse.uncertainty import IdentifiabilityWarning, ResidualWarning, Uncertainty, UncertaintyWarning
 
 __all__ = [
     "IdentifiabilityWarning",
     "Identification",
     "Measurements",
+    "ResidualWarning",
     "Uncertainty",
+    "UncertaintyWarning",
     "homogeneous_measurements",
     "identify",
     "load_measurements",

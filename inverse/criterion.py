@@ -62,12 +62,22 @@ class LeastSquares:
     def n_observations(self) -> int:
         return int(sum(d.size for d in self._data))
 
+    def _params(self, theta: FloatArray) -> dict[str, FloatArray]:
+        params: dict[str, FloatArray] = {k: np.full(theta.shape[0], float(v)) for k, v in self.fixed.items()}
+        params.update({name: theta[:, j] for j, name in enumerate(self.names)})
+        return params
+
+    def start(self, theta: FloatArray) -> list[FloatArray]:
+        """Ŷ at t = 0 (the initial temperatures) per scenario for one parameter set: (n_faces,) each."""
+        params = self._params(np.atleast_2d(np.asarray(theta, dtype=float))[:1])
+        return [np.asarray(sc.model.simulate_batch(params, [0.0]), dtype=float)[0, 0, cols]
+                for sc, cols in zip(self.scenarios, self._columns, strict=True)]
+
     def predictions(self, theta: FloatArray) -> list[FloatArray]:
         """Ŷ per scenario, each (m, n_times, n_faces) in the measurements' face order."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         m = theta.shape[0]
-        params: dict[str, FloatArray] = {k: np.full(m, float(v)) for k, v in self.fixed.items()}
-        params.update({name: theta[:, j] for j, name in enumerate(self.names)})
+        params = self._params(theta)
         out = []
         for sc, cols in zip(self.scenarios, self._columns, strict=True):
             y = np.asarray(sc.model.simulate_batch(params, sc.measurements.t), dtype=float)[:, :, cols]

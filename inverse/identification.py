@@ -27,6 +27,7 @@ from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
 from inverse.measurements import Measurements
+from inverse.residuals import offset_note
 from inverse.uncertainty import Uncertainty, linearised
 
 DEFAULT_PARTICLES = 20
@@ -203,6 +204,7 @@ def identify(
     resume: bool = False,
     progress: Callable[[Progress], None] | None = None,
     description: Mapping[str, object] | None = None,
+    noise_std: float | None = None,
 ) -> Identification:
     """Estimate ``unknowns`` (name → (lower, upper) bounds, SI units) from ``measurements``.
 
@@ -215,6 +217,7 @@ def identify(
     ``checkpoint`` names an ``.npz`` file rewritten after every step that carries a resumable state;
     with ``resume`` an existing one for the same problem is continued (and may be given more iterations).
     ``description`` adds entries to the result's ``model`` (e.g. ``{"kind": "reduced", "order": 200}``).
+    ``noise_std`` (°C), a known sensor noise, is compared with the residual (:mod:`inverse.uncertainty`).
     """
     if unknowns is None:
         raise InputError("unknowns are required, e.g. {'fibre.k': (0.05, 1.0), 'fibre.c': (1e5, 1e7)}")
@@ -274,7 +277,13 @@ def identify(
     sensitivity = -opt.jacobian(problem.residuals, u_best) / box.dtheta_du(u_best)[None, :]
     notes = [f"{name} = {value:.6g} is at its {'lower' if u < 0.5 else 'upper'} bound: widen the bounds"
              for name, value, u in zip(box.names, theta, u_best, strict=True) if min(u, 1.0 - u) < AT_BOUND]
-    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, scales=relative_scales(box, theta))
+    starts0 = criterion.start(theta) if all(len(f.t) > 1 for f in fits) else [f.fitted[0] for f in fits]
+    offsets = [n for f, y0 in zip(fits, starts0, strict=True)
+               if (n := offset_note(f.t, f.measured, f.fitted, start=y0, faces=f.faces, label=f.name)) is not None]
+    starts = np.cumsum([0] + [f.measured.size for f in fits])[:-1]  # rows of r: scenarios, then times × faces
+    blocks = [s0 + np.arange(f.measured.size).reshape(f.measured.shape) for s0, f in zip(starts, fits, strict=True)]
+    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
+                             data_notes=offsets, scales=relative_scales(box, theta))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),

@@ -16,6 +16,13 @@ Identifiability is judged on the *relative* sensitivities X_j β̂_j (K per unit
 change): a column that is zero (e.g. a capacity under steady measurements) or a
 near-singular matrix (condition number above :data:`CONDITION_LIMIT`) is reported; a numerically
 singular one (:data:`SINGULAR`) gets infinite standard errors.
+
+The white-noise assumption is checked on the residuals (:mod:`inverse.residuals`: lag-1
+autocorrelation, Durbin–Watson, runs test).  When they are systematic, a warning says that the
+interval reflects the noise only, and the Newey–West (HAC) interval of :mod:`inverse.hac`,
+β̂ ± z_{0.975} · se_HAC, accounts for correlated residuals (not for a model bias).  A known
+sensor noise σ (``noise_std``) is compared with s: (N − p) s²/σ² is χ²_{N−p} when the model
+explains the data to the noise level; either tail beyond :data:`NOISE_ALPHA` is reported.
 """
 
 from __future__ import annotations
@@ -26,9 +33,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 import scipy.stats as st
 
+from aromm.errors import InputError
 from aromm.system import FloatArray
+from inverse import hac
+from inverse.residuals import ResidualDiagnostics, diagnose
 
 CONDITION_LIMIT = 1e6  # relative-sensitivity condition number above which parameters are not separable
 # a relative-sensitivity column this small (vs the largest) carries no information; above the noise
@@ -36,10 +47,23 @@ CONDITION_LIMIT = 1e6  # relative-sensitivity condition number above which param
 NULL_SENSITIVITY = 1e-6
 SINGULAR = 1e-12  # singular values below this fraction of the largest are zero (no covariance)
 LEVEL = 0.95
+NOISE_ALPHA = 0.01  # two-sided level of the χ² comparison of the residual with a known sensor noise
 
 
-class IdentifiabilityWarning(UserWarning):
+class UncertaintyWarning(UserWarning):
+    """The reported uncertainty is incomplete or misleading for these data (see the message)."""
+
+
+class IdentifiabilityWarning(UncertaintyWarning):
     """The data cannot (or can hardly) identify one of the unknowns."""
+
+
+class ResidualWarning(UncertaintyWarning):
+    """The residuals are not the white noise the interval assumes, or disagree with the stated noise."""
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
 
 
 @dataclass(frozen=True)
@@ -56,11 +80,16 @@ class Uncertainty:
     dof: int
     condition: float
     warnings: tuple[str, ...]
+    std_error_hac: FloatArray
+    lower_hac: FloatArray
+    upper_hac: FloatArray
+    bandwidth: float
+    residuals: ResidualDiagnostics
+    noise_std: float | None = None
+    noise_p_value: float = math.nan
 
     def to_json(self) -> dict[str, object]:
-        def num(x: float) -> float | None:
-            return float(x) if math.isfinite(x) else None
-
+        num = _num
         idx = range(len(self.names))
         return {
             "std_error": {n: num(self.std_error[i]) for i, n in zip(idx, self.names, strict=True)},
@@ -72,22 +101,36 @@ class Uncertainty:
             "residual_std": num(self.residual_std),
             "dof": self.dof,
             "condition_number": num(self.condition),
+            "std_error_hac": {n: num(self.std_error_hac[i]) for i, n in zip(idx, self.names, strict=True)},
+            "interval95_hac": {n: [num(self.lower_hac[i]), num(self.upper_hac[i])]
+                               for i, n in zip(idx, self.names, strict=True)},
+            "hac": {"kernel": "bartlett", "bandwidth": num(self.bandwidth)},
+            "residuals": self.residuals.to_json(),
+            "noise_std": self.noise_std,
+            "noise_p_value": num(self.noise_p_value),
             "warnings": list(self.warnings),
         }
 
 
 def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatArray,
                residuals: FloatArray, *, level: float = LEVEL, notes: Sequence[str] = (),
-               scales: FloatArray | None = None) -> Uncertainty:
+               blocks: Sequence[npt.NDArray[np.intp]] | None = None, noise_std: float | None = None,
+               data_notes: Sequence[str] = (), scales: FloatArray | None = None) -> Uncertainty:
     """Uncertainty from ``sensitivity`` X = ∂Ŷ/∂β (N, p) and ``residuals`` Y − Ŷ (N,) at the optimum.
 
+    ``blocks`` are index arrays (n_times, n_faces) into the rows of X and r, one per independent
+    experiment (scenario), times in order: they define the residual time series (one per face)
+    and the lags of the HAC covariance; default one experiment observing one output, rows in
+    time order.  ``noise_std`` is a known sensor noise (°C) to compare the residual with.
     ``scales`` (p,) are the magnitudes of the relative sensitivities X_j s_j (default ``|β̂|``, 1 where β̂ = 0;
     give them for a parameter without a relative scale, such as a clock offset or a temperature in °C,
     whose estimate may be zero); they change the identifiability checks only, not the covariance.
 
     Issues :class:`IdentifiabilityWarning` (and lists the message in ``.warnings``) when a
     parameter has no effect on the data, when the parameters are not separable, or when there
-    are no more observations than unknowns; ``notes`` are further warnings of the caller.
+    are no more observations than unknowns; ``notes`` are further warnings of the caller.  Issues
+    :class:`ResidualWarning` (listed too) when the residuals are systematic or disagree with
+    ``noise_std``, and for the caller's ``data_notes`` (e.g. an offset of the data).
     """
     names = tuple(names)
     beta = np.asarray(estimates, dtype=float)
@@ -95,6 +138,9 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     r = np.asarray(residuals, dtype=float).ravel()
     n_obs, p = x.shape
     notes = list(notes)
+    if noise_std is not None and not (math.isfinite(noise_std) and noise_std > 0):
+        raise InputError(f"noise_std must be a finite sensor noise > 0 (°C), got {noise_std!r}")
+    blocks = [np.arange(n_obs)[:, None]] if blocks is None else [np.asarray(b).reshape(len(b), -1) for b in blocks]
 
     unit = np.where(beta != 0, np.abs(beta), 1.0) if scales is None else np.asarray(scales, dtype=float)
     scaled = x * unit
@@ -106,6 +152,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     live = ~dead
     condition = math.inf
     se = np.full(p, np.inf)
+    se_hac = np.full(p, np.inf)
+    window = math.nan
     corr = np.full((p, p), np.nan)  # undefined for parameters the data do not determine
     dof = n_obs - p
     s2 = float(r @ r) / dof if dof > 0 else math.inf
@@ -121,13 +169,44 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
         if math.isfinite(condition):
             # (XᵀX)⁻¹ = D V Σ⁻² Vᵀ D with X D = U Σ Vᵀ the relative sensitivities (D = diag|β|)
             scale = unit[live]
-            shape = (vt.T / sv**2) @ vt * np.outer(scale, scale)
+            bread = (vt.T / sv**2) @ vt
+            shape = bread * np.outer(scale, scale)
             d = np.sqrt(np.diag(shape))
             corr[np.ix_(live, live)] = np.clip(shape / np.outer(d, d), -1.0, 1.0)
             if math.isfinite(s2):
                 se[live] = math.sqrt(s2) * d
+                g = hac.scores(scaled[:, live], r, blocks)
+                window = hac.bandwidth(g)
+                sandwich = bread @ hac.long_run(g, window) @ bread * (n_obs / dof)  # small-sample factor N/(N−p)
+                se_hac[live] = np.sqrt(np.clip(np.diag(sandwich), 0.0, None)) * scale
     t_q = float(st.t.ppf(0.5 + level / 2, dof)) if dof > 0 else math.inf
-    half = t_q * se
+    half, half_hac = t_q * se, float(st.norm.ppf(0.5 + level / 2)) * se_hac
+    diagnostics = diagnose([r[b[:, f]] for b in blocks for f in range(b.shape[1])])
+    residual_notes = list(data_notes)
+    if diagnostics.systematic:
+        residual_notes.append(
+            f"the residuals are systematic, not white noise ({diagnostics.describe()}): the {100 * level:g} % "
+            "interval reflects the noise only, not the model error (homogenisation, discretisation, reduced model) "
+            + (f"behind them; the HAC interval (Newey-West, Bartlett window of {window:.3g} time steps) accounts for "
+               "correlated residuals, not for a bias of the model" if math.isfinite(window) else "behind them"))
+    noise_p = math.nan
+    if noise_std is not None and dof > 0:
+        q = dof * s2 / noise_std**2
+        noise_p = float(min(1.0, 2.0 * min(st.chi2.cdf(q, dof), st.chi2.sf(q, dof))))
+        ratio = math.sqrt(s2) / noise_std
+        if noise_p < NOISE_ALPHA and ratio > 1:
+            residual_notes.append(
+                f"the residual std {math.sqrt(s2):.3g} °C is {ratio:.3g} times the stated sensor noise "
+                f"{noise_std:.3g} °C (χ² p = {noise_p:.2g}): the model does not reproduce the data to the noise "
+                "level (model error, or the noise is understated); the interval includes that misfit as if noise")
+        elif noise_p < NOISE_ALPHA:
+            residual_notes.append(
+                f"the residual std {math.sqrt(s2):.3g} °C is below the stated sensor noise {noise_std:.3g} °C "
+                f"(ratio {ratio:.3g}, χ² p = {noise_p:.2g}): the noise is overstated, or the data were smoothed")
     for msg in notes:
         warnings.warn(msg, IdentifiabilityWarning, stacklevel=2)
-    return Uncertainty(names, beta, se, beta - half, beta + half, corr, math.sqrt(s2), dof, condition, tuple(notes))
+    for msg in residual_notes:
+        warnings.warn(msg, ResidualWarning, stacklevel=2)
+    return Uncertainty(names, beta, se, beta - half, beta + half, corr, math.sqrt(s2), dof, condition,
+                       (*notes, *residual_notes), se_hac, beta - half_hac, beta + half_hac, window, diagnostics,
+                       noise_std, noise_p)

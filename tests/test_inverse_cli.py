@@ -75,6 +75,26 @@ def test_table_output(case: tuple[Path, Path], capsys: pytest.CaptureFixture[str
     assert main(["identify", str(scene), "--measurements", str(csv), *ARGS]) == 0
     out = capsys.readouterr().out
     assert "fibre.k" in out and "95 % interval" in out and "correlation fibre.k / fibre.c" in out
+    assert "95 % HAC interval" in out and "Durbin-Watson" in out
+
+
+def test_noise_std_and_residual_diagnostics_in_json(case: tuple[Path, Path],
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """Measurements with 0.02 °C noise, stated as 0.001 °C: the residual is ~20 times the stated noise."""
+    scene, csv = case
+    model = FullModel(assemble(load_scene(scene)))
+    save_measurements(simulate_measurements(model, TRUTH, noise=0.02, rng=np.random.default_rng(2)), csv)
+    code = main(["identify", str(scene), "--measurements", str(csv), *ARGS, "--json", "--noise-std", "0.001"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    unc = json.loads(out.out)["uncertainty"]
+    assert unc["noise_std"] == 0.001 and unc["noise_p_value"] < 0.01
+    assert set(unc["residuals"]) >= {"lag1_autocorrelation", "durbin_watson", "runs", "runs_p_value", "systematic"}
+    assert set(unc["interval95_hac"]) == set(TRUTH) and unc["hac"]["kernel"] == "bartlett"
+    assert any("times the stated sensor noise" in w for w in unc["warnings"])
+    assert "times the stated sensor noise" in out.err
+    assert main(["identify", str(scene), "--measurements", str(csv), *ARGS, "--noise-std", "-1"]) == 2
+    assert "--noise-std" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(("extra", "needle"), [

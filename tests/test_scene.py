@@ -87,11 +87,55 @@ def test_cli_exit_codes_and_json(scene_dir: Path, capsys: pytest.CaptureFixture[
     assert main(["simulate", str(good), "--model", "bogus"]) == 2
 
 
-def test_cli_singular_problem_exits_1(scene_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """A steady body heated by a flux with no exchange anywhere has no solution: numerical failure."""
-    text = GOOD.replace("[boundary.z1]\nh = 20.0\nT_ext = 0.0\n", "").replace("[time]\nend = 1.0\ndt = 0.1\n", "")
-    assert main(["simulate", str(_write(scene_dir, text))]) == 1
-    assert "numerical failure" in capsys.readouterr().err
+STEADY_FLUX_ONLY = (GOOD.replace("[boundary.z1]\nh = 20.0\nT_ext = 0.0\n", "")
+                    .replace("[time]\nend = 1.0\ndt = 0.1\n", ""))
+
+
+def test_steady_scene_without_temperature_or_exchange_is_refused_at_load(scene_dir: Path,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """Steady, flux on z0, every other face adiabatic: K has constant fields in its kernel (no solution).
+
+    Refused when the scene is read, naming [boundary] and what is needed, before any assembly."""
+    path = _write(scene_dir, STEADY_FLUX_ONLY)
+    with pytest.raises(InputError, match=r"\[boundary\]: a steady scene needs .* T or .* h; faces given: z0 \(flux\)"):
+        load_scene(path)
+    assert main(["simulate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "[boundary]" in err and "Traceback" not in err
+    adiabatic = STEADY_FLUX_ONLY.replace("[boundary.z0]\nflux = 500.0\n", "[boundary.z0]\nflux = 0.0\n")
+    with pytest.raises(InputError, match=r"\[boundary\]"):
+        load_scene(_write(scene_dir, adiabatic))
+
+
+def test_material_scene_loads_for_homogenize_but_is_not_simulated(scene_dir: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """No [boundary], no [outputs], no [time]: a material description (aromm homogenize applies its own faces)."""
+    material = STEADY_FLUX_ONLY.replace("[boundary.z0]\nflux = 500.0\n", "").split("[outputs]")[0]
+    path = _write(scene_dir, material)
+    assert load_scene(path).boundary == ()
+    assert main(["homogenize", str(path), "--json"]) == 0
+    capsys.readouterr()
+    assert main(["simulate", str(path)]) == 2
+    assert "[boundary]: a steady scene needs" in capsys.readouterr().err
+
+
+def test_singular_system_built_in_python_is_a_numerical_failure() -> None:
+    """Below the scene checks, the solver still names a singular steady system instead of returning NaN."""
+    from aromm.errors import NumericalError
+    from aromm.fem import assemble_voxels
+    from aromm.solve import steady_field
+    from aromm.vocabulary import FaceSpec, PhaseSpec
+
+    system = assemble_voxels(np.ones((3, 3, 3), dtype=np.int32), (1e-3,) * 3, (PhaseSpec("a", 1, 1.0),),
+                             [FaceSpec("z0", flux=10.0)])
+    with pytest.raises(NumericalError):
+        steady_field(system)
+
+
+def test_time_step_count_beyond_the_limit_is_refused_at_load(scene_dir: Path) -> None:
+    text = GOOD.replace("[time]\nend = 1.0\ndt = 0.1\n", "[time]\nend = 1.0e6\ndt = 0.01\n")
+    with pytest.raises(InputError, match=r"time: end / dt = .* 1e\+08 time steps, more than the 1e\+07 allowed"):
+        load_scene(_write(scene_dir, text))
 
 
 def test_cli_measure_uses_the_scenario_fluxmetric_k_by_default(scene_dir: Path,

@@ -84,7 +84,8 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
                      reference_values=sc.reduction.reference, progress=progress, engine=engine,
                      solver=solver).simulate()
     else:
-        obs = simulate_full(system if system is not None else sc, fields=out is not None and system is not None,
+        obs = simulate_full(system if system is not None else sc,
+                            fields="last" if out is not None and system is not None else False,
                             method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
     if not is_root(engine):
         return

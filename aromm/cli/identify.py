@@ -17,7 +17,7 @@ from aromm.solve import FullModel
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.measurements import load_measurements
 from inverse.plotting import save_identification_plot
-from inverse.uncertainty import IdentifiabilityWarning
+from inverse.uncertainty import UncertaintyWarning
 
 
 def parse_unknown(text: str) -> tuple[str, tuple[float, float]]:
@@ -52,14 +52,18 @@ def _model(scene: Path, kind: str, order: int, tty: bool) -> tuple[ForwardModel,
 
 def _table(result: Identification) -> str:
     unc = result.uncertainty
-    lines = [f"{'parameter':<12}{'estimate':>14}{'std error':>12}{'rel. se':>10}   95 % interval"]
+    lines = [f"{'parameter':<12}{'estimate':>14}{'std error':>12}{'rel. se':>10}   {'95 % interval':<28}"
+             "95 % HAC interval"]
     for i, name in enumerate(unc.names):
         est, se = result.estimates[name], unc.std_error[i]
         rel = f"{100 * se / abs(est):.3g} %" if math.isfinite(se) and est else "-"
         ci = f"[{unc.lower[i]:.6g}, {unc.upper[i]:.6g}]" if math.isfinite(se) else "(not identifiable)"
-        lines.append(f"{name:<12}{est:>14.6g}{se:>12.3g}{rel:>10}   {ci}")
+        hac = f"[{unc.lower_hac[i]:.6g}, {unc.upper_hac[i]:.6g}]" if math.isfinite(unc.std_error_hac[i]) else "-"
+        lines.append(f"{name:<12}{est:>14.6g}{se:>12.3g}{rel:>10}   {ci:<28}{hac}")
     lines.append(f"criterion J = {result.criterion:.4g} °C² (eq. 12), residual std {unc.residual_std:.3g} °C, "
                  f"{result.evaluations} evaluations, {result.seconds:.1f} s")
+    lines.append(f"residuals: {unc.residuals.describe()}: "
+                 + ("systematic (see the warning)" if unc.residuals.systematic else "consistent with white noise"))
     for i, a in enumerate(unc.names):
         for j in range(i + 1, len(unc.names)):
             lines.append(f"correlation {a} / {unc.names[j]}: {unc.correlation[i, j]:+.3f}")
@@ -89,9 +93,11 @@ def _table(result: Identification) -> str:
 @click.option("--checkpoint", type=click.Path(path_type=Path), default=None,
               help="Checkpoint file (.npz) rewritten after every swarm iteration.")
 @click.option("--resume", is_flag=True, help="Continue from --checkpoint when it exists.")
+@click.option("--noise-std", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="S",
+              help="Known standard deviation of the sensor noise (°C), compared with the residual.")
 def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, ...], kind: str, order: int, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
-                 resume: bool) -> None:
+                 resume: bool, noise_std: float | None) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean temperatures.
 
     The criterion is [Chavez2020, eq. 12]; the model is evaluated at the measurement times.
@@ -112,10 +118,11 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
         bar.set_postfix_str(f"J={p.criterion:.3g}")
 
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", IdentifiabilityWarning)
+        warnings.simplefilter("always", UncertaintyWarning)
         try:
             result = identify(model, data, bounds, seed=seed, particles=particles, iterations=iterations,
-                              checkpoint=checkpoint, resume=resume, progress=report, description=info)
+                              checkpoint=checkpoint, resume=resume, progress=report, description=info,
+                              noise_std=noise_std)
         finally:
             bar.close()
     for w in caught:
