@@ -11,7 +11,7 @@ weight of a mode is ``E_j = Σ_k x_j(t_k)²``):
 1. the ñ modes of largest weight are principal; the constant (zero) modes are forced principal
    and receive no minor mode (they carry the mean temperature: energy balance);
 2. every other mode j joins the principal p whose history it best follows up to a factor, i.e.
-   the largest uncentred correlation |ρ_jp|, with ``α_{j,p} = ⟨x_j, x_p⟩ / ⟨x_p, x_p⟩``, which
+   the largest uncentred correlation ``|ρ_jp|``, with ``α_{j,p} = ⟨x_j, x_p⟩ / ⟨x_p, x_p⟩``, which
    minimises ``Σ_k (x_j − α x_p)²``;
 3. Ψ = Φ A with A (Ñ × ñ) holding 1 for principal modes and α for minor ones.  No mode is
    discarded and the columns of A have disjoint supports.

@@ -4,8 +4,8 @@ Each boundary condition defines an *apparent* conductivity of the image; they di
 whose weight falls like 1/n with the image size n [Huet1990] [Kanit2003]:
 
 * ``periodic`` — T = G·x + T̃ with T̃ periodic, for the three unit gradients G = e_j.  The full tensor,
-  off-diagonal terms included, is k_ij = δ_ij ⟨k_j⟩ − b_i·T̃_j / |Ω| with b_j = −Qᵀ A g_j the load of the
-  gradient g_j = x_j (energy identity: k_ij |Ω| = ∫ ∇T_i · k ∇T_j).  It is the standard for a
+  off-diagonal terms included, is ``k_ij = δ_ij ⟨k_j⟩ − b_i·T̃_j / |Ω|`` with b_j = −Qᵀ A g_j the load of the
+  gradient g_j = x_j (energy identity: ``k_ij |Ω| = ∫ ∇T_i · k ∇T_j``).  It is the standard for a
   representative volume: exact for laminates in every direction, equal to the effective tensor of the
   periodic medium the image tiles, and between the two values below for a random image.
 * ``flux`` — seed eq. 13 [Chavez2020, eq. 13]: uniform flux q into face i0, T = 0 on face i1, the others

@@ -6,7 +6,7 @@ to the effective property of the medium), ``"flux"`` ([Chavez2020, eq. 13]: unif
 T = 0 on face i1, adiabatic sides — a lower-bound type condition) and ``"temperature"`` (T fixed on both
 faces, adiabatic sides — a mixed condition, exact for laminates and mirror-symmetric cells).  Mesh scenes
 take ``"flux"`` or ``"temperature"`` on the assembled mesh model.  The effective capacity is the volume
-average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
+average (eq. 14): ``c̄ = Σ_phases c_p |Ω_p| / |Ω|``.
 
 [Chavez2020, § 4.2] applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
 experimental technique on the heterogeneous model *according to the three scenarios of Table 1*", i.e.

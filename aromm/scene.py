@@ -78,7 +78,7 @@ class Scene:
 
     def refined(self, factor: int, bytes_per_voxel: float = REFINE_BYTES_PER_VOXEL,
                 budget: float | None = None) -> Scene:
-        """The same scene with each voxel split into ``factor``³ sub-voxel elements.
+        """The same scene with each voxel split into ``factor³`` sub-voxel elements.
 
         Labels are repeated ``factor`` times along each axis and ``voxel_size`` is divided by ``factor``: the
         geometry, the phases and the face conditions are unchanged, only the Q1 discretisation is finer

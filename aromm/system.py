@@ -160,7 +160,8 @@ class Affine:
         return np.stack([np.broadcast_to(t.coefficient(values), (m,)) for t in self.terms], axis=1)
 
     def stack(self, values: Mapping[str, FloatArray], m: int, at: float | None = None) -> FloatArray:
-        """``Σ_j c_j(p_i) g_j(at) A_j`` for m parameter sets at once, for dense operators: shape (m, *operator shape).
+        """``Σ_j c_j(p_i) g_j(at) A_j`` for m parameter sets at once, for dense operators:
+        shape ``(m, *operator.shape)``.
 
         ``at`` (s) is needed when a term varies in time (``inf``: the held final values).
         """

@@ -9,18 +9,18 @@ This module turns that vocabulary into the affine :class:`~aromm.system.Term` s 
 :class:`~aromm.system.ThermalSystem` [Chavez2020, eq. 2–3], the same way for every discretisation
 (voxel Q1 elements, conforming simplex meshes, DEM bond networks):
 
-=================  ===============================  ================  ==============
-condition          term                             coefficient       role
-=================  ===============================  ================  ==============
-phase p, k         ``K_p`` = ∫_p ∇φ_a·∇φ_b          ``p.k``            conduction
-phase p, (kx,...)  ``K_p_x`` = ∫_p ∂_xφ_a ∂_xφ_b    ``p.k_x``          conduction
-phase p, c         ``C_p`` = ∫_p φ_a φ_b            ``p.c``            capacity
-phase p, q         ``Q_p`` = ∫_p φ_a                ``p.q``            load
-face f, flux φ     ``U_f`` = ∫_f φ_a                ``f.flux``         load
-face f, h, T_ext   ``H_f`` = ∫_f φ_a φ_b            ``f.h``            exchange
-                   ``UH_f`` = ∫_f φ_a               ``f.h · f.T_ext``  load
-face f, T          Dirichlet on the face's unknowns ``f.T``            —
-=================  ===============================  ================  ==============
+==================  ===================================  ===================  ==========
+condition           term                                 coefficient          role
+==================  ===================================  ===================  ==========
+phase p, k          ``K_p`` = ∫_p ∇φ_a·∇φ_b              ``p.k``              conduction
+phase p, (kx,...)   ``K_p_x`` = ∫_p ∂_xφ_a ∂_xφ_b        ``p.k_x``            conduction
+phase p, c          ``C_p`` = ∫_p φ_a φ_b                ``p.c``              capacity
+phase p, q          ``Q_p`` = ∫_p φ_a                    ``p.q``              load
+face f, flux φ      ``U_f`` = ∫_f φ_a                    ``f.flux``           load
+face f, h           ``H_f`` = ∫_f φ_a φ_b                ``f.h``              exchange
+face f, h, T_ext    ``UH_f`` = ∫_f φ_a                   ``f.h · f.T_ext``    load
+face f, T           Dirichlet on the face's unknowns     ``f.T``              —
+==================  ===================================  ===================  ==========
 
 A face's ``flux``, ``T_ext`` or ``T`` may be a :class:`~aromm.profiles.Profile` g(t) (a CSV history,
 piecewise linear) instead of a number.  Its term then carries g as its function of time and the named

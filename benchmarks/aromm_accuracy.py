@@ -101,7 +101,7 @@ def sweep(systems: Sequence[ThermalSystem], orders: Sequence[int], modes: Sequen
     """Every (method, Ñ, ñ, parameter point) against the full model of scenario 1.
 
     ``methods``: ``aromm``, ``pod`` (with correction modes), ``aromm-seed``, ``pod-seed`` (without, i.e.
-    the seed's method).  ``refine`` > 1 measures the error against the full model with dt / refine
+    the method of [Chavez2020]).  ``refine`` > 1 measures the error against the full model with dt / refine
     (the reduced model is exact in time; the full model's BDF2 error is then removed from the figures).
     """
     s1, *refs = systems

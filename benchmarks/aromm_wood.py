@@ -10,7 +10,7 @@ values of the bases (0.53, 1.2e6) nor of the amalgam (0.1, 1.2e6) — measured s
 * with ``--fine-dt``: the full model again with a smaller step, to separate the full model's own
   time-discretisation error (the reduced model is exact in time);
 * the reduced model on a swarm of 32 parameter sets in one call (seconds per set);
-* ``--seed-variant``: the same order without correction modes (the seed's method exactly).
+* ``--seed-variant``: the same order without correction modes (the method of [Chavez2020] exactly).
 
     python benchmarks/aromm_wood.py                      # ñ = 200 from Ñ = 300 modes
     python benchmarks/aromm_wood.py --fine-dt 0.02 --seed-variant
@@ -20,7 +20,7 @@ offline ñ = 200 from Ñ = 314 (150 Dirichlet, 150 Steklov, 14 correction) in 25
 peak 2.31 GB; full model 111 s, reduced 9.5 ms per evaluation (11 639×), 8.9 ms per set in a swarm
 of 32; max |reduced − full(dt = 0.1 s)| = 0.042 / 0.027 °C (z0 / z1), of which the full model's own
 BDF2 error is 0.041 / 0.025 °C (|full(0.1) − full(0.02)|); max |reduced − full(dt = 0.02 s)| =
-0.0009 / 0.0019 °C; the seed variant (no correction modes) 0.080 / 0.017 °C.
+0.0009 / 0.0019 °C; the variant of [Chavez2020] (no correction modes) 0.080 / 0.017 °C.
 """
 
 from __future__ import annotations

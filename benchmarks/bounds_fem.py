@@ -1,4 +1,4 @@
-"""Conforming-mesh FE of the seed-002 cell: mesh size vs error vs seconds, and the convergence rate.
+"""Conforming-mesh FE of the cell of [GarnierDanes]: mesh size vs error vs seconds, and the convergence rate.
 
 Reference for E_c: Rayleigh's series for the simple-cubic array with the SC lattice coefficients
 (effective_formulas.md §7; relative error < 2e-6 at phi = 4 pi/81 = 0.155, with or without contact

@@ -1,5 +1,7 @@
 """inverse: identification of phase properties from measurements [Chavez2020, § 4].
 
+Usage::
+
     from inverse import identify, load_measurements
     result = identify(model, load_measurements("y.csv", model.outputs),
                       unknowns={"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}, seed=0)

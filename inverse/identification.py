@@ -172,7 +172,7 @@ def _signature(optimiser: opt.Optimiser) -> object:
 
 
 def relative_scales(box: opt.Box, estimates: FloatArray) -> FloatArray:
-    """Magnitudes of the relative sensitivities: |β̂| for a parameter searched in a positive (or negative)
+    """Magnitudes of the relative sensitivities: ``|β̂|`` for a parameter searched in a positive (or negative)
     interval, the half-width of its bounds for one whose bounds reach zero (a clock offset, a temperature
     in °C: no relative scale, and the estimate may be zero)."""
     estimates = np.abs(np.asarray(estimates, dtype=float))

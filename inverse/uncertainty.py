@@ -122,7 +122,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     experiment (scenario), times in order: they define the residual time series (one per face)
     and the lags of the HAC covariance; default one experiment observing one output, rows in
     time order.  ``noise_std`` is a known sensor noise (°C) to compare the residual with.
-    ``scales`` (p,) are the magnitudes of the relative sensitivities X_j s_j (default |β̂|, 1 where β̂ = 0;
+    ``scales`` (p,) are the magnitudes of the relative sensitivities X_j s_j (default ``|β̂|``, 1 where β̂ = 0;
     give them for a parameter without a relative scale, such as a clock offset or a temperature in °C,
     whose estimate may be zero); they change the identifiability checks only, not the covariance.
 

@@ -5,7 +5,7 @@ Shared by ``notebooks/table2.ipynb`` and ``benchmarks/identify.py``.  Equation n
 scenario come from the homogeneous orthotropic twin (k̄ by eq. 13 applied as § 4.2 does, i.e. under
 that scenario's own faces: :func:`aromm.fluxmetric`; c̄ by eq. 14) and the
 unknowns k_F, c_F of the heterogeneous model are searched in the bounds of :data:`UNKNOWNS`;
-the error of an estimate is eq. 15, σ = |β̂ − β| / β, against the scene's own fibre values.
+the error of an estimate is eq. 15, ``σ = |β̂ − β| / β``, against the scene's own fibre values.
 Loading directions follow docs/design.md: scenario 1 heats z0 (Table 2 row "zz"), 2 heats x0
 ("xx"), 3 heats y0 ("yy").
 """
@@ -54,7 +54,7 @@ PAPER_HOMOGENEOUS = (0.087, 0.099, 0.123, 1.558e6)
 
 
 def relative_errors(estimates: Mapping[str, float], truth: Mapping[str, float]) -> dict[str, float]:
-    """Eq. 15, σ_β = |β̂ − β| / β, for every parameter of ``truth``."""
+    """Eq. 15, ``σ_β = |β̂ − β| / β``, for every parameter of ``truth``."""
     return {k: abs(float(estimates[k]) - v) / abs(v) for k, v in truth.items()}
 
 

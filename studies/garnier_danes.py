@@ -2,7 +2,7 @@
 
 ``eps_X = 100 ln(E_X / E_c)`` [GarnierDanes, Table 1] for the lower bounds V3L, W_inf_a, W1a and the
 upper bounds W1b, W_inf_b, V3U, over a (B, C, D) grid, with ``E_c`` the exact cell value
-computed by conforming finite elements (:mod:`aromm.effective.cell_fem`).  The seed does not
+computed by conforming finite elements (:mod:`aromm.effective.cell_fem`).  [GarnierDanes] does not
 give its grid; :data:`COARSE` (CI, about a minute) and :data:`FULL` are ours.
 """
 
@@ -22,7 +22,7 @@ from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
 from aromm.errors import NumericalError
 from aromm.system import FloatArray
 
-# [GarnierDanes, Table 1]: logarithmic deviation eps (%), average / min / max (W1b is not in the seed's table).
+# [GarnierDanes, Table 1]: logarithmic deviation eps (%), average / min / max (W1b is not in the poster's table).
 SEED_TABLE1: dict[str, tuple[float, float, float]] = {
     "V3L": (-28.0, -127.0, -2.0),
     "W_inf_a": (-13.0, -45.0, -6.0),
@@ -137,7 +137,7 @@ def preference_map(B: npt.ArrayLike, C: npt.ArrayLike, D: npt.ArrayLike) -> Floa
 
 
 def preference_thresholds(B: npt.ArrayLike, C: npt.ArrayLike, D: npt.ArrayLike) -> tuple[float, float]:
-    """The seed's two statements as thresholds on the given 1-D axes.
+    """The two statements of [GarnierDanes] as thresholds on the given 1-D axes.
 
     Returns ``(C*, D*)``: the largest C, and the largest D, at which W_inf_a is still the tighter
     lower bound for some (B, D), resp. (B, C), of the axes; NaN when V3L is tighter everywhere.

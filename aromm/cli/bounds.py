@@ -22,7 +22,7 @@ from aromm.effective.summary import MODEL_KEYS, ROLE, every_model, material
                    "[default: zeta2 of the simple-cubic array at phi].")
 @click.option("--mesh-size", type=float, default=0.3, show_default=True,
               help="Element size / a of the coarse quadratic finite-element meshes computed on demand for "
-                   "wall_1a (E_II) and wall_1b (E_1bot), a few seconds; wall_1a/wall_1b within ~0.3 %% at 0.3 "
+                   "wall_1a (E_II) and wall_1b (E_1bot), a few seconds; wall_1a/wall_1b within ~0.3 % at 0.3 "
                    "(benchmarks/bounds_fem.py).")
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout: one key per model, E = lambda_eff/lambda_m.")
 def bounds(*, phi: float, ratio: float, contact: float, cell_b: float | None, xi: float | None, mesh_size: float,

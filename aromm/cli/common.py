@@ -24,7 +24,7 @@ T = TypeVar("T")
 
 
 def run_guarded(cli: click.Group, argv: list[str]) -> int:
-    """Run the click group; bad input -> exit 2, numerical failure -> exit 1, both with a message."""
+    """Run the click group; bad input -> exit 2, numerical failure -> exit 1, both with a message; Ctrl-C -> 130."""
     try:
         cli.main(args=argv, prog_name="aromm", standalone_mode=False)
     except click.exceptions.Exit as done:
@@ -32,9 +32,9 @@ def run_guarded(cli: click.Group, argv: list[str]) -> int:
     except click.ClickException as err:
         err.show()
         return 2
-    except click.exceptions.Abort:
+    except click.exceptions.Abort:  # Ctrl-C (click turns KeyboardInterrupt into Abort)
         click.echo("aborted", err=True)
-        return 1
+        return 130
     except InputError as err:
         click.echo(f"aromm: error: {err}", err=True)
         return 2

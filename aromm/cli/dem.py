@@ -105,7 +105,8 @@ def pack(*, particles: int, seed: int, phi: float, cv: float, box: float, out: P
 @Z
 @RADIUS
 @click.option("--boundary", type=click.Choice(["periodic", "slab"]), default="periodic", show_default=True,
-              help="periodic: imposed gradient on the periodic network; slab: seed Figure 3 test on the cut box.")
+              help="periodic: imposed gradient on the periodic network; "
+                   "slab: the test of [Hassan2019, Fig. 3] on the cut box.")
 @JSON
 @QUIET
 def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, boundary: str,
@@ -132,7 +133,8 @@ def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float,
               help="Direction(s) of the imposed gradient; E is averaged over them.")
 @click.option("--boundary", type=click.Choice(["periodic", "faces"]), default="periodic", show_default=True,
               help="periodic: cell of a cubic array (= isothermal/adiabatic faces by symmetry); "
-                   "faces: cut packing with two faces at fixed T (the seed's set-up, cut layer included).")
+                   "faces: cut packing with two faces at fixed T "
+                   "(the set-up of [Hassan2019, § 3.2], cut layer included).")
 @JSON
 @QUIET
 def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, ratio: float,
@@ -169,7 +171,8 @@ def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float
 @click.option("--cp", type=click.FloatRange(min=0, min_open=True), default=0.9, show_default=True,
               help="Specific heat, J/(kg K) [Hassan2019, Table 1 prints 0.9].")
 @click.option("--times", default="0.05,0.1,0.2", show_default=True, help="Output times (s), comma-separated.")
-@click.option("--scheme", type=click.Choice(["explicit", "implicit"]), default="explicit", show_default=True)
+@click.option("--scheme", type=click.Choice(["explicit", "implicit"]), default="explicit", show_default=True,
+              help="explicit: forward Euler as [Hassan2019, eq. 5]; implicit: backward Euler on the network.")
 @click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Time step (s); explicit default 0.9 x stability limit, implicit default end/400.")
 @click.option("--bins", type=click.IntRange(min=1), default=10, show_default=True,

@@ -58,12 +58,14 @@ def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Pat
 
 @click.command("simulate")
 @SCENE
-@click.option("--model", type=click.Choice(["full", "reduced"]), default="full", show_default=True)
+@click.option("--model", type=click.Choice(["full", "reduced"]), default="full", show_default=True,
+              help="full: finite elements; reduced: the AROMM reduced model [Chavez2020, § 3] (built or cached).")
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
-@click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
+@click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True,
+              help="Time stepping of the full model: BDF2 (second order) or backward Euler.")
 @engine_cli.SOLVER
 @engine_cli.ENGINE
 @REFINE
@@ -156,8 +158,8 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
 @click.option("--homogeneous", is_flag=True, required=True,
               help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as [Chavez2020] does.")
 @click.option("--conductivity", type=click.Choice(("scenario", *BOUNDARIES)), default="scenario", show_default=True,
-              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces [Chavez2020, § 4.2; the twin then "
-                   "has the sample's steady face means]; flux, temperature: as `aromm homogenize --boundary`.")
+              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces [Chavez2020, § 4.2] (the twin "
+                   "then has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
 @click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")

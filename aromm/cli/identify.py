@@ -77,12 +77,16 @@ def _table(result: Identification) -> str:
               help="CSV t,<face>,... of measured face-mean temperatures (s, °C).")
 @click.option("--unknown", "unknowns", multiple=True, required=True, metavar="NAME=LOW:HIGH",
               help="An unknown parameter and its search bounds (repeat), e.g. fibre.k=0.05:1.")
-@click.option("--model", "kind", type=click.Choice(["reduced", "full"]), default="reduced", show_default=True)
+@click.option("--model", "kind", type=click.Choice(["reduced", "full"]), default="reduced", show_default=True,
+              help="Model evaluated by the optimiser: the reduced model (seconds) or the full one (hours).")
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the particle swarm.")
-@click.option("--particles", type=click.IntRange(min=2), default=DEFAULT_PARTICLES, show_default=True)
-@click.option("--iterations", type=click.IntRange(min=0), default=DEFAULT_ITERATIONS, show_default=True)
+@click.option("--particles", type=click.IntRange(min=2), default=DEFAULT_PARTICLES, show_default=True,
+              help="Swarm size of the particle swarm [ClercKennedy2002].")
+@click.option("--iterations", type=click.IntRange(min=0), default=DEFAULT_ITERATIONS, show_default=True,
+              help="Swarm iterations before the least-squares refinement; particles × (iterations + 1) "
+                   "evaluations (0: the random initial swarm only).")
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 @click.option("--plot", type=click.Path(path_type=Path), default=None,
               help="Write a figure of the fit and of the convergence (e.g. fit.png).")

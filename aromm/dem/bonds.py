@@ -13,7 +13,7 @@ connected (each smaller component joined to the rest by its smallest-gap candida
 
 For a cut (non-periodic) packing use the threshold of the periodic packing it was cut
 from (``gap=`` argument): particles near the cut faces then simply lose the bonds that
-crossed them, as in the seed's sample.
+crossed them, as in the sample of [Hassan2019].
 """
 
 from __future__ import annotations

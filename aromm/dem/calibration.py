@@ -13,7 +13,7 @@ where ``lambda_e`` is the network's effective conductivity computed with an arbi
   particle pinned.  The mean heat-flux density is exactly (Love-Weber average)
   ``q = -(1/V) sum_bonds H_pq (T_q - T_p) (x_q - x_p)``, and ``k_e = -q / G`` for
   G = e_x, e_y, e_z gives the full tensor.  No boundary layer: this is the bulk value.
-* ``"slab"``: the seed's test (Figure 3, eq. 7): the periodic packing is cut along its box,
+* ``"slab"``: the test of [Hassan2019, Fig. 3, eq. 7]: the periodic packing is cut along its box,
   T = T_0 on the particles of face z0, an entering flux density ``varphi`` on face z1,
   other faces adiabatic; at steady state ``lambda_e = varphi L / (T_z1 - T_0)`` with T_z1
   the cross-section-weighted mean temperature of the z1 particles (those receiving the flux).
@@ -60,7 +60,7 @@ def solver_for(n: int, method: str = "auto") -> str:
 
 def periodic_field(packing: Packing, bonds: Bonds, conductances: FloatArray, gradients: FloatArray,
                    method: str = "auto") -> FloatArray:
-    """Periodic fluctuations t (K) with ``T_p = G . x_p + t_p`` at balance, one column per gradient.
+    """Periodic fluctuations t (K) with ``T_p = G·x_p + t_p`` at balance, one column per gradient.
 
     ``gradients`` is (3,) or (3, k) (K/m).  Solves ``L t = b``, ``b_p = sum_q H_pq G . (x_q - x_p)``
     with particle 0 pinned (the periodic Laplacian has the constants as kernel).  ``method``:
@@ -164,7 +164,7 @@ def inclusion_network(packing: Packing, z: float = 7.5, *, radius: Radius = "pai
     simple-cubic array of inclusions, which by mirror symmetry has the same k_eff as the
     cube with two isothermal and four adiabatic faces (the FE set-up).  ``"faces"`` cuts
     the packing along its box (bonds from the periodic packing's gap threshold) for a
-    test with fixed temperatures on two faces, as in the seed, cut layer included.
+    test with fixed temperatures on two faces, as in [Hassan2019], cut layer included.
     C_t is left at 1: E is a ratio of two solves on the same network, so C_t cancels (the
     calibration on the same packing and boundary conditions, [Hassan2019, § 2.3]).
     """

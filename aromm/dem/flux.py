@@ -4,8 +4,8 @@ Conventions (stated here and tested in tests/test_dem_flux.py):
 
 * **Sign.**  [Hassan2019, eq. 9] sums ``phi_pq e_pq = lambda S^t (T_q - T_p) e_pq``, which points
   along +grad T.  We return the *heat flux* density ``q = -lambda grad T`` (W/m^2), i.e. the
-  negative of the seed's sum, so that a uniform gradient G gives ``q = -lambda G``.
-* **Volume.**  The seed divides by the particle volume V_p; summed over the particles that
+  negative of that sum, so that a uniform gradient G gives ``q = -lambda G``.
+* **Volume.**  [Hassan2019, eq. 10] divides by the particle volume V_p; summed over the particles that
   overestimates the flux by 1/phi.  We divide by the particle's representative volume
   ``V_p / phi`` (the volumes of [Hassan2019, § 2.2], which add up to the domain):
 

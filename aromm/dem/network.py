@@ -4,7 +4,7 @@ Each bond (p, q) carries the conductance [Hassan2019, eq. 3, 6]
 
     H_pq = lambda_pq S^t_pq / d_pq,      S^t_pq = C_t pi R_moy^2,
 
-with ``R_moy`` the **pair mean radius** (r_p + r_q) / 2 by default (the seed's "rayon
+with ``R_moy`` the **pair mean radius** (r_p + r_q) / 2 by default ([Hassan2019]: "rayon
 moyen des particules en contact"); ``radius="global"`` uses the packing's mean radius
 instead.  C_t must be calibrated for the choice made (aromm.dem.calibration): with the same
 packing the two choices give different C_t, not different physics.

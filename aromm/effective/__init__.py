@@ -6,7 +6,7 @@
 * :mod:`aromm.effective.wall`: the Danes-Garnier wall-insertion bounds W1a, W_inf_a, W1b, W_inf_b;
 * :mod:`aromm.fem.mesh`: a ThermalSystem from any conforming simplex mesh (meshio),
   phases from cell sets, contact resistance on split interface nodes;
-* :mod:`aromm.effective.cell_fem`: gmsh meshes of the seed-002 cell and its FE values
+* :mod:`aromm.effective.cell_fem`: gmsh meshes of the simple-cubic cell of [GarnierDanes] and its FE values
   (E_c, E_II, E_1bot);
 * :mod:`aromm.effective.summary`: every model at once (``aromm bounds``);
 * :mod:`studies.garnier_danes`: Table 1 and the preference map of [GarnierDanes].

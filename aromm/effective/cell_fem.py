@@ -1,4 +1,4 @@
-"""Finite-element values of the seed-002 cell with contact resistance, on conforming tetrahedral meshes.
+"""Finite-element values of the cell of [GarnierDanes] with contact resistance, on conforming tetrahedral meshes.
 
 Three octant sub-problems (sphere of radius ``a`` at the origin, ``b = a (1 + B)``), all with
 T = 0 on the mid-plane z = 0, T = 1 on the top face and every other face adiabatic (the
@@ -240,5 +240,5 @@ CELL_VALUES: tuple[tuple[str, Kind], ...] = (("E_c", "cell"), ("E_II", "cylinder
 
 
 def cell_values(B: float, C: float, D: float, h: float = DEFAULT_H, order: int = DEFAULT_ORDER) -> dict[str, float]:
-    """``E_c``, ``E_II`` and ``E_1bot`` of the seed-002 cell by finite elements (three meshes)."""
+    """``E_c``, ``E_II`` and ``E_1bot`` of the cell of [GarnierDanes] by finite elements (three meshes)."""
     return {name: CellModel(kind, B, h, order).E(C, D) for name, kind in CELL_VALUES}

@@ -290,7 +290,7 @@ def torquato_rintoul_lower(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike 
 
     ``xi`` defaults to zeta_2 of the simple-cubic array (:func:`zeta2_simple_cubic`); at ``C = 0``
     the bound is Beran-Milton's with ``zeta_2 = xi``.  The bracket ``8/27 + phi(5+phi)/2`` is
-    the seed's hard-wired interfacial three-point parameter, of unconfirmed provenance (flagged
+    the hard-wired interfacial three-point parameter, of unconfirmed provenance (flagged
     in effective_formulas.md §9).  The denominator is a sum of non-negative terms (``3 - (1-D)(2-2 phi+xi) >=
     1 + 2 phi - xi > 0``) that vanishes only at ``D = 1, C = 0`` together with the numerator.
     """

@@ -13,8 +13,8 @@ on the sphere; ``B = b/a - 1``, ``C = R_c lambda_m / a``, ``D = lambda_m / lambd
   a singular ODE boundary-value problem, :func:`wall_inf_b`).
 
 W1a and W1b need finite-element values of a sub-cell (``E_II``, ``E_1bot``): see
-:mod:`aromm.effective.cell_fem`.  The derivation of the W_inf_b system, and where the seed's
-transcription of it is inconsistent, are in ``docs/notes/wall_inf_b.md``.
+:mod:`aromm.effective.cell_fem`.  The derivation of the W_inf_b system, and where the
+transcription of [GarnierDanes] of it is inconsistent, are in ``docs/notes/wall_inf_b.md``.
 """
 
 from __future__ import annotations
@@ -243,7 +243,7 @@ def wall_inf_b(B: ArrayLike, C: ArrayLike, D: ArrayLike, tol: float = BVP_TOL) -
         T(0) = S(0) = 0,   T(1) + B P(1) = 1,   Q(1) = (T(1) - S(1))/C   (regularity at Z = 1),
         E = (1 + B) P(1)
 
-    (the seed's ``U = T + B P``, ``V = T + B Q``).  Solved by ``scipy.integrate.solve_bvp`` with
+    ([GarnierDanes]: ``U = T + B P``, ``V = T + B Q``).  Solved by ``scipy.integrate.solve_bvp`` with
     the singular term at Z = 1 (relative collocation tolerance ``tol``; agreement with an
     independent 1-D Galerkin solution is ~1e-9).  ``C = 0`` uses :func:`wall_inf_b_perfect`;
     ``0 < C < 1e-10``, or ``C < 1e-8`` where the solver stalls, interpolates in ``sqrt(C)``

@@ -37,7 +37,7 @@ def probe_solver(solver: str = "gamg", comm: Any = None) -> ProbeSolver:
 
 
 def mean_capacity(problem: VoxelProblem, comm: Any = None) -> float:
-    """Volume-averaged capacity c̄ = Σ c_p |Ω_p| / |Ω| (J/(m³ K)), eq. 14, from the voxel counts of the slabs."""
+    """Volume-averaged capacity ``c̄ = Σ c_p |Ω_p| / |Ω|`` (J/(m³ K)), eq. 14, from the voxel counts of the slabs."""
     comm = comm if comm is not None else runtime.world()
     missing = [ph.name for ph in problem.phases if ph.c is None]
     if missing:

@@ -15,7 +15,7 @@ from aromm.errors import InputError
 
 
 def even_split(count: int, parts: int) -> tuple[int, ...]:
-    """Boundaries ``0 = b_0 <= ... <= b_parts = count`` of ``parts`` blocks whose sizes differ by at most one."""
+    """Boundaries ``0 = b_0 <= … <= b_parts = count`` of ``parts`` blocks whose sizes differ by at most one."""
     base, extra = divmod(count, parts)
     bounds = [0]
     for r in range(parts):
