@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from aromm.errors import InputError
-from aromm.files import atomic_write
+from aromm.files import OutputKind, atomic_write
 from aromm.system import FloatArray
 
 HEADER_TIME = "t"
@@ -148,6 +148,44 @@ def read_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = None)
                              f"(previous row t = {data[r - 1, 0]:g} s); times must be strictly increasing")
     values = {name: data[:, j + 1].copy() for j, name in enumerate(names)}
     return Observables(data[:, 0].copy(), values, source=str(p))
+
+
+def written_by_write_csv(path: Path) -> bool:
+    """Whether ``path`` reads exactly as :func:`write_csv` writes: a header ``t,<name>,...``, then rows of as
+    many fields, each the shortest ``repr`` of a float (``1.0``, ``0.8915329250625168``), newline-terminated.
+
+    A spreadsheet export or a hand-typed file (``0,20.5``, ``1.50``, ``1e3``) does not; a file another program
+    wrote with the same repr convention would.
+
+    >>> import tempfile, pathlib
+    >>> file = pathlib.Path(tempfile.mkdtemp()) / "y.csv"
+    >>> _ = file.write_text("t,z0\\n0.5,1.25\\n"); written_by_write_csv(file)
+    True
+    >>> _ = file.write_text("t,z0\\n0,1.25\\n"); written_by_write_csv(file)
+    False
+    """
+    try:
+        lines = path.read_text(encoding="utf-8").split("\n")
+    except (OSError, UnicodeDecodeError):
+        return False
+    header = lines[0].split(",")
+    if header[0] != HEADER_TIME or len(header) < 2 or len(lines) < 3 or lines[-1] != "":
+        return False
+    for line in lines[1:-1]:
+        cells = line.split(",")
+        if len(cells) != len(header):
+            return False
+        for cell in cells:
+            try:
+                if repr(float(cell)) != cell:
+                    return False
+            except ValueError:
+                return False
+    return True
+
+
+#: A time-series CSV (observables, measurements) as :func:`write_csv` writes it.
+TIME_SERIES = OutputKind("time-series CSV (t,<face>,...)", written_by_write_csv)
 
 
 def write_csv(table: Observables, path: str | os.PathLike[str], what: str = "time-series file") -> None:

@@ -142,6 +142,18 @@ def load_scene(path: str | Path) -> Scene:
     return scene_from_dict(read_toml(path), path)
 
 
+def scene_files(path: str | Path) -> tuple[Path, ...]:
+    """The scene file and the files it names (``geometry.image`` or ``mesh``, load histories of ``[boundary]``),
+    relative paths taken from the scene's folder: the inputs a command must never overwrite."""
+    path = Path(path)
+    data = read_toml(path)
+    geo, boundary = data.get("geometry", {}), data.get("boundary", {})
+    named = [geo.get(k) for k in ("image", "mesh")] if isinstance(geo, dict) else []
+    if isinstance(boundary, dict):
+        named += [v for spec in boundary.values() if isinstance(spec, dict) for v in spec.values()]
+    return (path, *(path.parent / v for v in named if isinstance(v, str)))
+
+
 def read_toml(path: Path) -> dict[str, Any]:
     """The parsed scene file (not yet validated); InputError when missing or not TOML."""
     if not path.is_file():
@@ -217,11 +229,15 @@ def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
         if "voxel_size" in accepted and "voxel_size" in geo:
             options["voxel_size"] = geo["voxel_size"]
         if "rng" in accepted:
-            options["rng"] = np.random.default_rng(int(geo.get("seed", 0)))
+            seed = geo.get("seed", 0)
+            if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+                raise r.fail("geometry.seed", f"must be a non-negative integer, got {seed!r}")
+            options["rng"] = np.random.default_rng(seed)
         try:
             labels = generate(**options)
-        except TypeError as err:
-            raise r.fail("geometry", f"bad options for generator {name!r}: {err}") from None
+        except (TypeError, ValueError, MemoryError) as err:  # InputError is a ValueError: its own refusals
+            raise r.fail("geometry", f"bad options for generator {name!r} (options: "
+                                     f"{', '.join(k for k in accepted if k != 'rng')}): {err}") from None
     labels = np.asarray(labels)
     if labels.ndim != 3:
         raise r.fail("geometry.image", f"the image must be 3-D, got shape {labels.shape}")

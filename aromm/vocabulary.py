@@ -154,6 +154,20 @@ def parameter_values(phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], 
     return out
 
 
+#: Properties positive by nature: conductivity (or one of its axes), capacity, exchange coefficient.
+POSITIVE_PROPERTIES = ("k", "k_x", "k_y", "k_z", "c", "h")
+
+
+def is_positive(name: str) -> bool:
+    """Whether the parameter ``name`` must be > 0 (``fibre.k``, ``fibre.k_x``, ``fibre.c``, ``z1.h``); temperatures,
+    fluxes, sources and scales of histories may take any sign.
+
+    >>> [is_positive(n) for n in ("fibre.k", "gas.c", "z1.h", "z1.T_ext", "z0.flux", "initial.T")]
+    [True, True, True, False, False, False]
+    """
+    return name.rpartition(".")[2] in POSITIVE_PROPERTIES
+
+
 class FaceDiscretisation(Protocol):
     """The face operators :func:`face_terms` needs: ``face_mass(f)`` is ``∫_f φ_a φ_b`` (m²; lumped for a
     bond network), ``face_dofs(f)`` the unknowns fixed by a temperature on face f."""

@@ -31,12 +31,12 @@ ROOT = Path(__file__).resolve().parents[1]
 PREVIOUS = """
 import resource, sys
 from pathlib import Path
-from aromm.cli.forward import _save
+from aromm.cli.forward import _write_field
 from aromm.scene import assemble, load_scene
 from aromm.solve import simulate
 system = assemble(load_scene(sys.argv[1]))
 obs = simulate(system, fields=True)
-_save(obs, system, Path(sys.argv[2]))
+_write_field(obs, system, Path(sys.argv[2]) / "field.vtu")
 print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, system.n)
 """
 
@@ -83,9 +83,9 @@ def main() -> None:
         from aromm.scene import load_scene
 
         sc = load_scene(scene)
-        nodes = int(np.prod(np.asarray(sc.labels.shape) + 1))
+        nodes = int(np.prod(np.asarray(sc.geometry.labels.shape) + 1))
         steps = len(sc.time.times) if sc.time is not None else 0
-        print(f"scene {scene.name}: {sc.labels.shape} voxels, {nodes} nodes, {steps} steps; "
+        print(f"scene {scene.name}: {sc.geometry.labels.shape} voxels, {nodes} nodes, {steps} steps; "
               f"one field = {nodes * 8 / 1e6:.1f} MB, every step = {(steps + 1) * nodes * 8 / 1e9:.2f} GB")
         rows = []
         if not args.skip_previous:
@@ -94,7 +94,7 @@ def main() -> None:
         rows.append(("no --out", run(CLI, [str(scene)])))
         print(f"{'path':<28}{'peak GB':>9}{'B/voxel':>9}{'wall s':>8}{'CPU s':>8}")
         for name, (peak, wall, cpu, _) in rows:
-            print(f"{name:<28}{peak / 1e9:9.3f}{peak / sc.labels.size:9.0f}{wall:8.1f}{cpu:8.1f}")
+            print(f"{name:<28}{peak / 1e9:9.3f}{peak / sc.geometry.labels.size:9.0f}{wall:8.1f}{cpu:8.1f}")
         if len(rows) == 3:
             print(f"ratio previous / this path: {rows[0][1][0] / rows[1][1][0]:.2f}; "
                   f"this path / no --out: {rows[1][1][0] / rows[2][1][0]:.2f}")

@@ -17,8 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from aromm.errors import InputError
-from aromm.files import atomic_write
+from aromm.files import OutputKind, atomic_write, npz_with, read_npz
 from inverse.measurements import Measurements
+
+#: What ``--checkpoint`` writes: an ``.npz`` archive with a ``problem`` entry.
+CHECKPOINT = OutputKind("identification checkpoint (.npz)", npz_with("problem"))
 
 
 def measurements_digest(measurements: Sequence[Measurements]) -> str:
@@ -44,16 +47,16 @@ def save(path: str | os.PathLike[str], problem: str, arrays: Mapping[str, np.nda
         np.savez(fh, **payload)  # type: ignore[arg-type]  # numpy's stub confuses **arrays with allow_pickle
 
 
+def read(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """The arrays of a checkpoint file (with its ``problem`` entry); InputError naming the file when it is empty,
+    truncated or something else."""
+    return read_npz(path, "identification checkpoint (.npz written by --checkpoint)", ("problem",))
+
+
 def load(path: str | os.PathLike[str], problem: str) -> dict[str, np.ndarray]:
     """Arrays of a checkpoint written for the same ``problem``; InputError otherwise."""
     p = Path(path)
-    try:
-        with np.load(p, allow_pickle=False) as data:
-            arrays = {k: np.array(data[k]) for k in data.files}
-    except (OSError, ValueError) as err:
-        raise InputError(f"{p}: not a readable identification checkpoint ({err})") from None
-    if "problem" not in arrays:
-        raise InputError(f"{p}: not an identification checkpoint (no 'problem' entry)")
+    arrays = read(p)
     stored = str(arrays.pop("problem"))
     if stored != problem:
         raise InputError(f"{p}: this checkpoint was written for another identification problem;\n"

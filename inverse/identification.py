@@ -23,6 +23,7 @@ from aromm.errors import InputError
 from aromm.model import ForwardModel
 from aromm.offset import TIME_OFFSET, TimeShifted
 from aromm.system import FloatArray
+from aromm.vocabulary import is_positive
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
@@ -230,6 +231,9 @@ def identify(
         scenarios = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(
             sc.model)) for sc in scenarios]
     box = opt.Box.from_bounds(unknowns)
+    for name, low in zip(box.names, box.lower, strict=True):
+        if is_positive(name) and low <= 0:
+            raise InputError(f"unknown {name!r}: positive by nature, its lower bound must be > 0, got {low:g}")
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
     problem_key = ckpt.problem_key({"format": CHECKPOINT_FORMAT, "unknowns": box.as_dict(),

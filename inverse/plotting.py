@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import itertools
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib
@@ -14,8 +15,25 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from aromm.files import output_path
+from aromm.errors import InputError
+from aromm.files import Input, OutputKind, atomic_path, check_output, signed
 from inverse.identification import Identification
+
+#: A figure written by matplotlib: its PNG, PDF, SVG, PS and EPS files name it as their producer; the other
+#: formats (jpg, tif, webp, gif, avif, svgz, raw, rgba) carry no producer and are replaced only with --force.
+PLOT = OutputKind("figure", signed(b"matplotlib"))
+
+
+def check_plot(path: str | os.PathLike[str], *, inputs: Sequence[Input] = (), force: bool = False,
+               option: str = "--plot") -> Path:
+    """``path`` if a figure can be written there (:func:`aromm.files.check_output`) in a format matplotlib
+    knows from its suffix; InputError naming ``option`` and the supported formats otherwise."""
+    p = Path(path)
+    formats = sorted(FigureCanvasAgg(Figure()).get_supported_filetypes())
+    if p.suffix.lower().lstrip(".") not in formats:
+        raise InputError(f"{option}: {p}: unsupported figure format {p.suffix or '(no suffix)'!r}; "
+                         f"supported suffixes: {', '.join('.' + f for f in formats)}")
+    return check_output(p, PLOT, inputs=inputs, force=force, option=option)
 
 
 def identification_figure(result: Identification) -> Figure:
@@ -55,6 +73,10 @@ def identification_figure(result: Identification) -> Figure:
 
 def save_identification_plot(result: Identification, path: str | os.PathLike[str], dpi: int = 120) -> Path:
     """Write :func:`identification_figure` to ``path`` (format from the suffix, e.g. ``.png``)."""
-    p = output_path(path, "plot")
-    identification_figure(result).savefig(p, dpi=dpi)
+    p = Path(path)
+    with atomic_path(p, "plot") as tmp:
+        try:
+            identification_figure(result).savefig(tmp, dpi=dpi, format=p.suffix.lstrip(".").lower() or None)
+        except (RuntimeError, ValueError) as err:  # e.g. .pgf without a TeX installation
+            raise InputError(f"{p}: matplotlib could not write the figure ({err})") from None
     return p

@@ -100,7 +100,7 @@ def test_noise_std_and_residual_diagnostics_in_json(case: tuple[Path, Path],
 @pytest.mark.parametrize(("extra", "needle"), [
     (["--unknown", "fibre.k=0.05-1"], "NAME=LOW:HIGH"),
     (["--unknown", "fibre.k=1:0.05"], "LOW < HIGH"),
-    (["--unknown", "fibre.q=0:1"], "unknown parameter 'fibre.q'"),
+    (["--unknown", "fibre.q=0:1"], "'fibre.q' is not a parameter"),
     (["--unknown", "fibre.k=0.05:1", "--resume"], "--resume needs --checkpoint"),
 ])
 def test_bad_arguments_exit_2(case: tuple[Path, Path], capsys: pytest.CaptureFixture[str], extra: list[str],

@@ -1,6 +1,8 @@
 """The ``aromm`` command line: JSON on stdout with ``--json``, tables otherwise, progress on stderr.
 
-Exit codes (docs/design.md): 0 success, 2 bad input (message on stderr), 1 numerical failure.
+Exit codes (docs/design.md, :mod:`aromm.cli.common`): 0 success, 1 numerical failure, 2 bad input (message on
+stderr), 3 result printed but an optional extra (plot, field) not written, 130 interrupted.  Outputs are checked
+before the work and never replace an input or a file aromm did not write without ``--force`` (:mod:`aromm.files`).
 Each group of subcommands lives in its own module and is registered below.
 """
 
@@ -12,6 +14,7 @@ import click
 
 from aromm.cli import bounds, dem, forward, identify, reduce
 from aromm.cli.common import run_guarded
+from aromm.cli.console import fallback_streams
 
 COMMANDS: list[click.Command] = [*forward.COMMANDS, *dem.COMMANDS, *identify.COMMANDS, *reduce.COMMANDS,
                                  *bounds.COMMANDS]
@@ -29,4 +32,5 @@ for _command in COMMANDS:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
-    return run_guarded(cli, argv if argv is not None else sys.argv[1:])
+    with fallback_streams():
+        return run_guarded(cli, argv if argv is not None else sys.argv[1:])

@@ -1,10 +1,18 @@
-"""Helpers shared by the subcommands: error mapping, JSON output, progress bars."""
+"""Helpers shared by the subcommands: exit codes, finite numbers, --force, extras, JSON output, progress bars.
+
+Exit codes (:func:`run_guarded`; docs/design.md): 0 success; 1 numerical failure (the message names the solver
+and why); 2 bad input (the message names the file, option or key and what is allowed); 3 the result was printed
+(and the main output written) but an optional extra (a plot, a field VTU) could not be written; 130 interrupted
+(Ctrl-C), with a one-line hint when there is a checkpoint to resume from.
+"""
 
 from __future__ import annotations
 
 import json
+import math
 import sys
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
 from typing import Any, TypeVar
 
 import click
@@ -20,30 +28,83 @@ DIRECT_BYTES_PER_VOXEL = 1.1e4
 REFINE = click.option("--refine", type=click.IntRange(min=1), default=1, show_default=True,
                       help="Split each voxel into R³ sub-voxel elements (same geometry, finer Q1 discretisation).")
 
+FORCE = click.option("--force", is_flag=True,
+                     help="Replace an existing output file that aromm did not write (never one of the inputs).")
+SEED = click.IntRange(min=0)  # numpy's generators take non-negative seeds
+
 T = TypeVar("T")
+
+EXIT_NUMERICAL, EXIT_INPUT, EXIT_EXTRA, EXIT_INTERRUPTED = 1, 2, 3, 130
+
+
+class FiniteFloat(click.FloatRange):
+    """A float option that must be finite (click's FloatRange lets ``nan`` through every bound, and ``inf``
+    through a lower one), within optional bounds."""
+
+    name = "finite float"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return super().convert(number, param, ctx)
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C during a command; ``hint`` (one line) says how to continue, e.g. from a checkpoint."""
+
+    def __init__(self, hint: str = "") -> None:
+        super().__init__(hint)
+        self.hint = hint
+
+
+class ExtraFailed(Exception):
+    """The result was printed, but an optional extra could not be written (exit code 3; message printed)."""
+
+
+def write_extras(*extras: tuple[str, Callable[[], Path]]) -> None:
+    """Write optional outputs (plot, field) after the result was printed; each failure is reported on stderr
+    and, once all were tried, ends the command with exit code 3."""
+    failed = []
+    for what, write in extras:
+        try:
+            click.echo(f"wrote {write()}", err=True)
+        except (InputError, NumericalError, OSError) as err:
+            click.echo(f"aromm: error: the {what} was not written: {err}", err=True)
+            failed.append(what)
+    if failed:
+        raise ExtraFailed(", ".join(failed))
 
 
 def run_guarded(cli: click.Group, argv: list[str]) -> int:
-    """Run the click group; bad input -> exit 2, numerical failure -> exit 1, both with a message; Ctrl-C -> 130."""
+    """Run the click group and map what ends it to an exit code (module docstring), with a message."""
     try:
         cli.main(args=argv, prog_name="aromm", standalone_mode=False)
     except click.exceptions.Exit as done:
         return int(done.exit_code)
     except click.ClickException as err:
         err.show()
-        return 2
-    except click.exceptions.Abort:  # Ctrl-C (click turns KeyboardInterrupt into Abort)
-        click.echo("aborted", err=True)
-        return 130
+        return EXIT_INPUT
+    except click.exceptions.Abort as err:  # click turns KeyboardInterrupt (and EOFError) into Abort
+        cause = err.__cause__
+        if isinstance(cause, EOFError):
+            click.echo(f"aromm: error: unexpected end of input ({cause})", err=True)
+            return EXIT_INPUT
+        click.echo("aromm: interrupted", err=True)
+        if isinstance(cause, Interrupted) and cause.hint:
+            click.echo(f"aromm: {cause.hint}", err=True)
+        return EXIT_INTERRUPTED
+    except ExtraFailed:
+        return EXIT_EXTRA
     except InputError as err:
         click.echo(f"aromm: error: {err}", err=True)
-        return 2
+        return EXIT_INPUT
     except NumericalError as err:
         click.echo(f"aromm: numerical failure: {err}", err=True)
-        return 1
+        return EXIT_NUMERICAL
     except OSError as err:
         click.echo(f"aromm: error: {err}", err=True)
-        return 2
+        return EXIT_INPUT
     return 0
 
 

@@ -15,14 +15,17 @@ import click
 import numpy as np
 from tqdm import tqdm
 
-from aromm.cli.common import echo_json
+from aromm.cli.common import FORCE, FiniteFloat, echo_json
+from aromm.cli.common import SEED as SEED_RANGE
 from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate as calibrate_ct
 from aromm.dem.calibration import inclusion_network, inclusion_ratio
 from aromm.dem.explicit import simulate_explicit
 from aromm.dem.network import Network
+from aromm.dem.packing import PACKING as PACKING_FILE
 from aromm.dem.packing import Packing, load_packing, pack_spheres
 from aromm.errors import InputError
+from aromm.files import check_output
 from aromm.solve import simulate as simulate_implicit
 from aromm.system import TimeGrid
 from aromm.vocabulary import FaceSpec
@@ -30,10 +33,10 @@ from aromm.vocabulary import FaceSpec
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 PARTICLES = click.option("--particles", type=click.IntRange(min=50), default=10000, show_default=True,
                          help="Number of spheres of a new packing.")
-SEED = click.option("--seed", type=int, default=0, show_default=True, help="Random seed of the packing.")
+SEED = click.option("--seed", type=SEED_RANGE, default=0, show_default=True, help="Random seed of the packing.")
 PACKING = click.option("--packing", "packing_path", type=click.Path(path_type=Path), default=None,
                        help="Use a packing saved by 'aromm dem pack' instead of making one.")
-Z = click.option("--z", "z", type=click.FloatRange(min=1.0), default=7.5, show_default=True,
+Z = click.option("--z", "z", type=FiniteFloat(min=1.0), default=7.5, show_default=True,
                  help="Mean coordination number of the bond network ([Hassan2019]: 7.5).")
 RADIUS = click.option("--radius", type=click.Choice(["pair", "global"]), default="pair", show_default=True,
                       help="R_moy of S = C_t pi R_moy^2: the pair's mean radius or the packing's mean radius.")
@@ -59,7 +62,7 @@ def _packing(path: Path | None, particles: int, seed: int, box: float, quiet: bo
     if path is None:
         return _pack(particles, seed, quiet, box=box)
     if not path.exists():
-        raise InputError(f"--packing: {path} does not exist")
+        raise InputError(f"--packing: {path} does not exist; give a file written by 'aromm dem pack --out'")
     packing = load_packing(path)
     if not packing.periodic:
         raise InputError(f"--packing: {path} is not periodic (save the packing before cutting it)")
@@ -74,17 +77,19 @@ def dem() -> None:
 @dem.command("pack")
 @PARTICLES
 @SEED
-@click.option("--phi", type=click.FloatRange(0.05, 0.7), default=0.64, show_default=True, help="Volume fraction.")
-@click.option("--cv", type=click.FloatRange(0.0, 0.39), default=0.3, show_default=True,
+@click.option("--phi", type=FiniteFloat(0.05, 0.7), default=0.64, show_default=True, help="Volume fraction.")
+@click.option("--cv", type=FiniteFloat(0.0, 0.39), default=0.3, show_default=True,
               help="Coefficient of variation of the Gaussian radii.")
-@click.option("--box", type=click.FloatRange(min=0, min_open=True), default=0.1, show_default=True,
+@click.option("--box", type=FiniteFloat(min=0, min_open=True), default=0.1, show_default=True,
               help="Side of the periodic cube (m).")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="Output .npz file.")
 @JSON
 @QUIET
+@FORCE
 def pack(*, particles: int, seed: int, phi: float, cv: float, box: float, out: Path, as_json: bool,
-         quiet: bool) -> None:
+         quiet: bool, force: bool) -> None:
     """Make a periodic dense random packing (FIRE relaxation) and save it as .npz."""
+    check_output(out, PACKING_FILE, force=force)
     start = time.perf_counter()
     packing = _pack(particles, seed, quiet, phi=phi, cv=cv, box=box)
     seconds = time.perf_counter() - start
@@ -127,7 +132,7 @@ def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float,
 @PACKING
 @Z
 @RADIUS
-@click.option("--ratio", type=click.FloatRange(min=0, min_open=True), required=True,
+@click.option("--ratio", type=FiniteFloat(min=0, min_open=True), required=True,
               help="Contrast k_inclusion / k_matrix.")
 @click.option("--axes", type=click.Choice(["x", "y", "z", "xyz"]), default="xyz", show_default=True,
               help="Direction(s) of the imposed gradient; E is averaged over them.")
@@ -160,20 +165,20 @@ def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float
 @PACKING
 @Z
 @RADIUS
-@click.option("--c-t", "c_t", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--c-t", "c_t", type=FiniteFloat(min=0, min_open=True), default=None,
               help="C_t (default: calibrated on the periodic packing).")
-@click.option("--length", type=click.FloatRange(min=0, min_open=True), default=0.1, show_default=True,
+@click.option("--length", type=FiniteFloat(min=0, min_open=True), default=0.1, show_default=True,
               help="Cube side L (m).")
-@click.option("--k", "k", type=click.FloatRange(min=0, min_open=True), default=33.0, show_default=True,
+@click.option("--k", "k", type=FiniteFloat(min=0, min_open=True), default=33.0, show_default=True,
               help="Conductivity lambda, W/(m K).")
-@click.option("--rho", type=click.FloatRange(min=0, min_open=True), default=7800.0, show_default=True,
+@click.option("--rho", type=FiniteFloat(min=0, min_open=True), default=7800.0, show_default=True,
               help="Density rho_c, kg/m^3.")
-@click.option("--cp", type=click.FloatRange(min=0, min_open=True), default=0.9, show_default=True,
+@click.option("--cp", type=FiniteFloat(min=0, min_open=True), default=0.9, show_default=True,
               help="Specific heat, J/(kg K) [Hassan2019, Table 1 prints 0.9].")
 @click.option("--times", default="0.05,0.1,0.2", show_default=True, help="Output times (s), comma-separated.")
 @click.option("--scheme", type=click.Choice(["explicit", "implicit"]), default="explicit", show_default=True,
               help="explicit: forward Euler as [Hassan2019, eq. 5]; implicit: backward Euler on the network.")
-@click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--dt", type=FiniteFloat(min=0, min_open=True), default=None,
               help="Time step (s); explicit default 0.9 x stability limit, implicit default end/400.")
 @click.option("--bins", type=click.IntRange(min=1), default=10, show_default=True,
               help="Slabs of the y profile reported as outputs y_slab<k>.")
@@ -187,6 +192,10 @@ def simulate(*, particles: int, seed: int, packing_path: Path | None, z: float, 
         t_out = np.array([float(s) for s in times.split(",") if s.strip()])
     except ValueError:
         raise InputError(f"--times: expected comma-separated numbers, got {times!r}") from None
+    if (t_out.size == 0 or not np.all(np.isfinite(t_out)) or t_out[0] < 0 or t_out[-1] <= 0
+            or np.any(np.diff(t_out) <= 0)):
+        raise InputError(f"--times: expected finite times >= 0 s, strictly increasing, the last > 0, e.g. "
+                         f"0.05,0.1,0.2; got {times!r}")
     packing = _packing(packing_path, particles, seed, length, quiet)
     bonds = build_bonds(packing, z)
     if c_t is None:

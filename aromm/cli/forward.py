@@ -10,14 +10,16 @@ import meshio
 import numpy as np
 
 from aromm.cell_problems import CellResult, effective_conductivity
+from aromm.cli import checks
 from aromm.cli import engine as engine_cli
-from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json
+from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, FORCE, REFINE, SEED, FiniteFloat, echo_json, write_extras
 from aromm.engines import is_root
 from aromm.errors import InputError
+from aromm.files import OutputKind, atomic_path, check_folder, check_output, signed
 from aromm.geometry import VoxelGeometry
 from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import DEFAULT_RTOL, METHODS
-from aromm.observables import Observables, write_csv
+from aromm.observables import TIME_SERIES, Observables, write_csv
 from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from aromm.solve import simulate as simulate_full
 from aromm.system import ThermalSystem
@@ -39,21 +41,32 @@ def _table(obs: Observables, rows: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Path]:
-    """observables.csv always; field.vtu (last time, or steady) when fields were kept."""
-    out.mkdir(parents=True, exist_ok=True)
-    written = [out / "observables.csv"]
-    if not obs.mean_T:
-        raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
-    write_csv(obs, written[0], "observables file")
-    if obs.fields is not None and system is not None and system.geometry is not None:
-        geo = system.geometry
-        mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
-                           point_data={"T": obs.fields[-1]},
-                           cell_data={k: [np.asarray(v)] for k, v in geo.cell_data.items()})
-        written.append(out / "field.vtu")
-        mesh.write(written[-1])
-    return written
+#: The final field written by ``aromm simulate --out`` (meshio names itself in the VTU header).
+FIELD = OutputKind("VTU field", signed(b"created by meshio"))
+
+
+def _check_out(out: Path, scene: Path, outputs: tuple[str, ...], field: bool, force: bool) -> tuple[Path, Path]:
+    """The two files ``--out`` gets (observables.csv, field.vtu), checked before the simulation."""
+    if not outputs:
+        raise InputError(f"--out: {scene} has no [outputs] mean_T: nothing to write; list faces to observe")
+    check_folder(out, "simulation results", "--out")
+    inputs = checks.scene_inputs(scene)
+    csv_path = check_output(out / "observables.csv", TIME_SERIES, inputs=inputs, force=force)
+    vtu_path = out / "field.vtu"
+    if field:
+        check_output(vtu_path, FIELD, inputs=inputs, force=force)
+    return csv_path, vtu_path
+
+
+def _write_field(obs: Observables, system: ThermalSystem, path: Path) -> Path:
+    """The last temperature field (and the geometry's cell data) as VTU, atomically."""
+    geo = system.geometry
+    assert obs.fields is not None and geo is not None
+    mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)], point_data={"T": obs.fields[-1]},
+                       cell_data={k: [np.asarray(v)] for k, v in geo.cell_data.items()})
+    with atomic_path(path, "field") as tmp:
+        mesh.write(tmp, file_format="vtu")
+    return path
 
 
 @click.command("simulate")
@@ -70,11 +83,19 @@ def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Pat
 @engine_cli.ENGINE
 @REFINE
 @JSON
+@FORCE
 def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str, engine: str,
-                 refine: int, as_json: bool) -> None:
-    """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
+                 refine: int, as_json: bool, force: bool) -> None:
+    """Simulate SCENE: face-mean temperatures over time (or at steady state).
+
+    The table (or JSON) is printed first; with --out, observables.csv is written next and the final field
+    (field.vtu) last, as an extra: if only the field fails, the exit code is 3."""
     solver = engine_cli.resolve(engine, solver)
     sc = engine_cli.load(scene, engine, refine)
+    field = out is not None and model == "full" and engine == "scipy"
+    files = _check_out(out, scene, tuple(sc.outputs), field, force) if out is not None else None
+    if model == "reduced":
+        checks.cache_folder(None)
     system = assemble(sc) if engine == "scipy" else None
     progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
@@ -84,18 +105,19 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
                      reference_values=sc.reduction.reference, progress=progress, engine=engine,
                      solver=solver).simulate()
     else:
-        obs = simulate_full(system if system is not None else sc,
-                            fields="last" if out is not None and system is not None else False,
+        obs = simulate_full(system if system is not None else sc, fields="last" if field else False,
                             method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
     if not is_root(engine):
         return
-    written = _save(obs, system, out) if out is not None else []
     if as_json:
         echo_json(obs.to_json())
     else:
         click.echo(_table(obs))
-        for path in written:
-            click.echo(f"wrote {path}")
+    if files is not None:
+        write_csv(obs, files[0], "observables file")
+        click.echo(f"wrote {files[0]}", err=True)
+        if field and system is not None and system.geometry is not None:
+            write_extras(("field", lambda: _write_field(obs, system, files[1])))
 
 
 @click.command("homogenize")
@@ -105,7 +127,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
                    "[Chavez2020, eq. 13] (flux in, fixed T out; lower-bound type; default for mesh scenes and the "
                    "petsc engine); temperature: fixed T on both faces (mixed, exact on laminates).")
 @engine_cli.SOLVER
-@click.option("--rtol", type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
+@click.option("--rtol", type=FiniteFloat(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
               show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach (scipy engine).")
 @engine_cli.ENGINE
 @REFINE
@@ -160,18 +182,24 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
 @click.option("--conductivity", type=click.Choice(("scenario", *BOUNDARIES)), default="scenario", show_default=True,
               help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces [Chavez2020, § 4.2] (the twin "
                    "then has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
-@click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+@click.option("--noise", type=FiniteFloat(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
-@click.option("--perturb", type=float, default=0.0, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--perturb", type=FiniteFloat(min=-1.0, min_open=True), default=0.0, show_default=True,
               help="Relative change of every homogeneous property ([Chavez2020]'s +2 % study: 0.02).")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @SOLVER
 @JSON
+@FORCE
 def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: float, seed: int, perturb: float,
-                out: Path, solver: str, as_json: bool) -> None:
+                out: Path, solver: str, as_json: bool, force: bool) -> None:
     """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model."""
     sc = load_scene(scene)
+    if sc.time is None:
+        raise InputError(f"{scene}: [time]: measurements need a transient scene; add [time] with end and dt (s)")
+    if not sc.outputs:
+        raise InputError(f"{scene}: [outputs] mean_T: no face to measure; list faces, e.g. mean_T = [\"z0\", \"z1\"]")
+    check_output(out, TIME_SERIES, inputs=checks.scene_inputs(scene), force=force)
     if conductivity == "scenario":
         probe = fluxmetric(sc, method=solver)
         k = probe.k * np.eye(3)  # isotropic twin = orthotropic one along the loaded axis

@@ -10,34 +10,19 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
-from aromm.cli.common import echo_json
+from aromm.cli import checks
+from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
+from aromm.files import check_output, distinct
 from aromm.model import ForwardModel
-from aromm.scene import assemble, load_scene
+from aromm.scene import Scene, assemble, load_scene
 from aromm.solve import FullModel
+from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
-from inverse.measurements import load_measurements
-from inverse.plotting import save_identification_plot
+from inverse.plotting import check_plot, save_identification_plot
 from inverse.uncertainty import UncertaintyWarning
 
 
-def parse_unknown(text: str) -> tuple[str, tuple[float, float]]:
-    """``NAME=LOW:HIGH`` (SI units), e.g. ``fibre.k=0.05:1`` or ``fibre.c=1e5:1e7``."""
-    name, eq, bounds = text.partition("=")
-    low, colon, high = bounds.partition(":")
-    try:
-        if not (eq and colon and name.strip()):
-            raise ValueError
-        lo, hi = float(low), float(high)
-    except ValueError:
-        raise click.BadParameter(f"{text!r}: expected NAME=LOW:HIGH, e.g. fibre.k=0.05:1",
-                                 param_hint="--unknown") from None
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise click.BadParameter(f"{text!r}: bounds must be finite with LOW < HIGH", param_hint="--unknown")
-    return name.strip(), (lo, hi)
-
-
-def _model(scene: Path, kind: str, order: int, tty: bool) -> tuple[ForwardModel, dict[str, object]]:
-    sc = load_scene(scene)
+def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[ForwardModel, dict[str, object]]:
     system = assemble(sc)
     if kind == "full":
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
@@ -81,7 +66,7 @@ def _table(result: Identification) -> str:
               help="Model evaluated by the optimiser: the reduced model (seconds) or the full one (hours).")
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the particle swarm.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the particle swarm.")
 @click.option("--particles", type=click.IntRange(min=2), default=DEFAULT_PARTICLES, show_default=True,
               help="Swarm size of the particle swarm [ClercKennedy2002].")
 @click.option("--iterations", type=click.IntRange(min=0), default=DEFAULT_ITERATIONS, show_default=True,
@@ -93,21 +78,34 @@ def _table(result: Identification) -> str:
 @click.option("--checkpoint", type=click.Path(path_type=Path), default=None,
               help="Checkpoint file (.npz) rewritten after every swarm iteration.")
 @click.option("--resume", is_flag=True, help="Continue from --checkpoint when it exists.")
-@click.option("--noise-std", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="S",
+@click.option("--noise-std", type=FiniteFloat(min=0.0, min_open=True), default=None, metavar="S",
               help="Known standard deviation of the sensor noise (°C), compared with the residual.")
+@FORCE
 def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, ...], kind: str, order: int, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
-                 resume: bool, noise_std: float | None) -> None:
+                 resume: bool, noise_std: float | None, force: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean temperatures.
 
-    The criterion is [Chavez2020, eq. 12]; the model is evaluated at the measurement times.
+    The criterion is [Chavez2020, eq. 12]; the model is evaluated at the measurement times.  Everything is
+    checked before the model is built; the result is printed before the plot is written.
     """
     if resume and checkpoint is None:
         raise click.UsageError("--resume needs --checkpoint FILE")
-    bounds = dict(parse_unknown(u) for u in unknowns)
+    sc = load_scene(scene)
+    bounds = checks.unknowns(unknowns, sc)
+    data = checks.measurements(measurements_path, sc, kind, bounds)
+    inputs = [*checks.scene_inputs(scene), (measurements_path, "the measurement file (--measurements)")]
+    distinct([(plot, "--plot"), (checkpoint, "--checkpoint")])
+    if plot is not None:
+        check_plot(plot, inputs=inputs, force=force)
+    if checkpoint is not None:
+        check_output(checkpoint, ckpt.CHECKPOINT, inputs=inputs, force=force, option="--checkpoint")
+        if resume and checkpoint.exists():
+            ckpt.read(checkpoint)
+    if kind == "reduced":
+        checks.cache_folder(None)
     tty = sys.stderr.isatty()
-    model, info = _model(scene, kind, order, tty)
-    data = load_measurements(measurements_path, model.outputs)
+    model, info = _model(scene, sc, kind, order, tty)
     bar = tqdm(total=iterations, desc="PSO", file=sys.stderr, disable=not tty, leave=False)
 
     def report(p: Progress) -> None:
@@ -123,16 +121,19 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
             result = identify(model, data, bounds, seed=seed, particles=particles, iterations=iterations,
                               checkpoint=checkpoint, resume=resume, progress=report, description=info,
                               noise_std=noise_std)
+        except KeyboardInterrupt:
+            saved = checkpoint is not None and checkpoint.exists()
+            raise Interrupted(f"resume with --resume --checkpoint {checkpoint}" if saved else "") from None
         finally:
             bar.close()
     for w in caught:
         click.echo(f"aromm: warning: {w.message}", err=True)
-    if plot is not None:
-        click.echo(f"wrote {save_identification_plot(result, plot)}", err=True)
     if as_json:
         echo_json(result.to_json())
     else:
         click.echo(_table(result))
+    if plot is not None:
+        write_extras(("plot", lambda: save_identification_plot(result, plot)))
 
 
 COMMANDS: list[click.Command] = [identify_cmd]

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from aromm.cache import NpzCache
+from aromm.cli import checks
 from aromm.cli import engine as engine_cli
 from aromm.cli.common import REFINE, echo_json
 from aromm.engines import is_root
@@ -39,6 +40,8 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, refer
 
     With --engine petsc run it under `mpiexec -n P`: every rank assembles its z-slab of the image."""
     solver = engine_cli.resolve(engine, solver)
+    if not no_cache:
+        checks.cache_folder(cache_dir)
     sc, *refs = [engine_cli.load(path, engine, refine) for path in (scene, *references)]
     system = assemble(sc) if engine == "scipy" else sc
     if engine == "scipy":

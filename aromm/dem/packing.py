@@ -30,10 +30,13 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from aromm.errors import InputError, NumericalError
-from aromm.files import output_path
+from aromm.files import OutputKind, atomic_write, npz_with, read_npz
 from aromm.system import FloatArray
 
 TRUNCATION = 2.5  # radii are kept within mean +- TRUNCATION * sd
+ARRAYS = ("centers", "radii", "box", "periodic")
+#: What ``aromm dem pack --out`` writes.
+PACKING = OutputKind("packing (.npz written by aromm dem pack)", npz_with(*ARRAYS))
 
 
 @dataclass(frozen=True)
@@ -73,11 +76,10 @@ class Packing:
         return float(self.radii.mean())
 
     def save(self, path: str | Path) -> None:
-        """Write a ``.npz`` (plain arrays, readable with ``allow_pickle=False``)."""
-        np.savez_compressed(
-            output_path(path, "packing"), centers=self.centers, radii=self.radii, box=self.box, lower=self.lower,
-            periodic=np.array(self.periodic),
-        )
+        """Write a ``.npz`` (plain arrays, readable with ``allow_pickle=False``), atomically."""
+        with atomic_write(path, "packing", binary=True) as fh:
+            np.savez_compressed(fh, centers=self.centers, radii=self.radii, box=self.box, lower=self.lower,
+                                periodic=np.array(self.periodic))
 
     def cut(self, lower: npt.ArrayLike, upper: npt.ArrayLike) -> Packing:
         """Non-periodic packing of the spheres whose centres lie in ``[lower, upper)`` (m).
@@ -123,17 +125,19 @@ class Packing:
 def load_packing(path: str | Path) -> Packing:
     """Read a packing written by :meth:`Packing.save` (``allow_pickle=False``)."""
     p = Path(path)
+    data = read_npz(p, "packing (.npz written by aromm dem pack)", ARRAYS)
     try:
-        with np.load(p, allow_pickle=False) as data:
-            centers = np.asarray(data["centers"], dtype=float)
-            radii = np.asarray(data["radii"], dtype=float)
-            box = np.asarray(data["box"], dtype=float)
-            lower = np.asarray(data["lower"], dtype=float) if "lower" in data else np.zeros(3)
-            periodic = bool(data["periodic"])
-    except (KeyError, ValueError) as err:
-        raise InputError(f"{p}: not a packing file (needs arrays centers, radii, box, periodic): {err}") from None
-    if centers.ndim != 2 or centers.shape[1] != 3 or radii.shape != (centers.shape[0],) or box.shape != (3,):
-        raise InputError(f"{p}: centers must be (n, 3), radii (n,), box (3,)")
+        centers, radii, box, lower = (np.asarray(data[k] if k in data else np.zeros(3), dtype=float)
+                                      for k in ("centers", "radii", "box", "lower"))
+        periodic = bool(data["periodic"])
+    except (TypeError, ValueError) as err:
+        raise InputError(f"{p}: not a packing file (centers, radii, box must be numbers, periodic a flag): "
+                         f"{err}") from None
+    if (centers.ndim != 2 or centers.shape[1] != 3 or radii.shape != (centers.shape[0],) or box.shape != (3,)
+            or lower.shape != (3,)):
+        raise InputError(f"{p}: centers must be (n, 3), radii (n,), box and lower (3,)")
+    if not all(np.all(np.isfinite(a)) for a in (centers, radii, box, lower)):
+        raise InputError(f"{p}: centers, radii, box and lower must be finite numbers (m)")
     if np.any(radii <= 0) or np.any(box <= 0):
         raise InputError(f"{p}: radii and box lengths must be positive")
     return Packing(centers, radii, box, periodic, lower)
