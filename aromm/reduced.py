@@ -40,6 +40,7 @@ from tqdm import tqdm
 
 from aromm.amalgam import amalgam
 from aromm.cache import NpzCache, content_key
+from aromm.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
 from aromm.errors import InputError, NumericalError
 from aromm.modes import (
     ModalBasis,
@@ -390,8 +391,10 @@ def reduce(
     corrections: bool | Sequence[Mapping[str, float]] = True,
     method: str = "aromm",
     solver: str = "auto",
+    eigensolver: str = "auto",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
+    eigen_progress: ProgressCallback | None = None,
 ) -> ReducedModel:
     """AROMM reduced model of ``system`` at order ``order`` (seed 001 §3).
 
@@ -411,6 +414,11 @@ def reduce(
     * ``method``: ``"aromm"`` (amalgam, eq. 9) or ``"pod"`` (POD–Galerkin baseline).
     * ``cache``: True (default directory), a directory, an NpzCache, or False.  Bases and reduced
       models are stored by content hash; a second call with the same inputs loads the result.
+    * ``eigensolver``: ``"arpack"`` (shift-invert on a sparse factorisation ``solver``), ``"lobpcg"``
+      (aromm.eigensolvers; the correction modes then use multigrid-preconditioned CG unless ``solver``
+      says otherwise) or ``"auto"`` (by size).  ``eigen_progress`` receives every
+      :class:`~aromm.eigensolvers.EigenProgress` report (converged pairs, iterations); ``progress``
+      shows them as a bar.
     """
     if method not in METHODS:
         raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
@@ -442,8 +450,11 @@ def reduce(
         samples = []
     else:
         samples = [dict(s) for s in corrections]
+    eig = choose_eigensolver(eigensolver, system.n)
+    linear = "amg" if eig == "lobpcg" and solver == "auto" else solver
     key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values or {}, method, solver,
-                      relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
+                      relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases],
+                      *([eig] if eig != "arpack" else []))
     if store is not None:
         stored = store.load("rom", key)
         if stored is not None:
@@ -453,9 +464,13 @@ def reduce(
     start = time.perf_counter()
     stages = tqdm(total=4, desc="reduce", disable=not progress, leave=False, file=sys.stderr)
     stages.set_postfix_str("modes")
-    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, cache=store)
+    pairs = PairsBar(enabled=progress, listener=eigen_progress)
+    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, eigensolver=eig, cache=store,
+                          progress=pairs)
+    pairs.close()
+    stages.set_postfix_str("correction modes")
     if samples:
-        basis = with_corrections(system, basis, samples, values=basis_values, method=solver, cache=store)
+        basis = with_corrections(system, basis, samples, values=basis_values, method=linear, cache=store)
     stages.update()
     stages.set_postfix_str("projection")
     memo: dict[int, FloatArray] = {}
@@ -491,6 +506,7 @@ def reduce(
         "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
         "gram_condition": float(basis.info.get("gram_condition", np.nan)),
         "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
+        "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values()),
     }
     rom = replace(rom, info=info)
     if store is not None:
