@@ -388,3 +388,35 @@ def _final_rayleigh_ritz(a: sp.csr_array, m: sp.csr_array, v: FloatArray) -> tup
         rows = slice(lo, min(lo + ROW_SLAB, v.shape[0]))
         v[rows] = v[rows] @ c
     return mu, v
+
+
+# ----------------------------------------------------------------- checks by chunks of columns (bounded memory)
+
+CHECK_COLUMNS = 32
+
+
+def relative_residuals(k: sp.csr_array, n_mat: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
+    """``||K v − λ N v|| / (||K v|| + |λ| ||N v||)`` per column (temporaries of CHECK_COLUMNS columns)."""
+    out = np.empty(v.shape[1])
+    for lo in range(0, v.shape[1], CHECK_COLUMNS):
+        cols = slice(lo, lo + CHECK_COLUMNS)
+        kv = k @ v[:, cols]
+        nv = n_mat @ v[:, cols]
+        num = np.linalg.norm(kv - nv * lam[cols], axis=0)
+        den = np.linalg.norm(kv, axis=0) + np.abs(lam[cols]) * np.linalg.norm(nv, axis=0)
+        out[cols] = num / np.maximum(den, 1e-300)
+    return out
+
+
+def column_norms(m: sp.csr_array, v: FloatArray) -> FloatArray:
+    """``sqrt(diag(vᵀ M v))`` (temporaries of CHECK_COLUMNS columns)."""
+    return np.sqrt(np.concatenate([np.einsum("ij,ij->j", v[:, lo:lo + CHECK_COLUMNS], m @ v[:, lo:lo + CHECK_COLUMNS])
+                                   for lo in range(0, v.shape[1], CHECK_COLUMNS)]))
+
+
+def gram(m: sp.csr_array, v: FloatArray) -> FloatArray:
+    """``vᵀ M v`` (temporaries of CHECK_COLUMNS columns)."""
+    out = np.empty((v.shape[1], v.shape[1]))
+    for lo in range(0, v.shape[1], CHECK_COLUMNS):
+        out[:, lo:lo + CHECK_COLUMNS] = v.T @ (m @ v[:, lo:lo + CHECK_COLUMNS])
+    return out

@@ -39,7 +39,15 @@ import scipy.sparse.linalg as spla
 from scipy.sparse import csgraph
 
 from aromm.cache import NpzCache, content_key
-from aromm.eigensolvers import ProgressCallback, choose_eigensolver, report_done, smallest_eigenpairs
+from aromm.eigensolvers import (
+    ProgressCallback,
+    choose_eigensolver,
+    column_norms,
+    gram,
+    relative_residuals,
+    report_done,
+    smallest_eigenpairs,
+)
 from aromm.errors import InputError, NumericalError
 from aromm.fem import FACES, face_mass
 from aromm.linalg import Factorization, factorize, resolve_method
@@ -58,6 +66,8 @@ ORTHOGONALITY_TOL = 1e-6
 GRAM_CONDITION_MAX = 1e12
 
 _BASIS_VERSION = 2
+#: Precisions in which a basis may be kept (and cached).
+BASIS_STORAGE = ("float64", "float32")
 #: Default conductivity factors of the correction samples (each conduction parameter in turn); on the
 #: generated 10³ wood image (0.1, 1, 3) was as accurate as (0.1, 0.3, 1, 3) with two fewer factorisations
 #: per parameter, and (1,) alone 100× less accurate at k_F = 0.05.
@@ -229,18 +239,6 @@ def zero_modes(ops: ReferenceOperators) -> FloatArray:
     return out
 
 
-def _relative_residuals(k: sp.csr_array, m: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
-    out = np.empty(v.shape[1])
-    for lo in range(0, v.shape[1], 32):  # column chunks: temporary memory of 32 columns
-        cols = slice(lo, lo + 32)
-        kv = k @ v[:, cols]
-        mv = m @ v[:, cols]
-        num = np.linalg.norm(kv - mv * lam[cols], axis=0)
-        den = np.linalg.norm(kv, axis=0) + np.abs(lam[cols]) * np.linalg.norm(mv, axis=0)
-        out[cols] = num / np.maximum(den, 1e-300)
-    return out
-
-
 def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, fac: Factorization, label: str) -> tuple[
         FloatArray, FloatArray]:
     """ARPACK shift-invert with our own factorisation ``fac`` of ``A − σM`` as OPinv."""
@@ -275,7 +273,7 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto", *
         found = smallest_eigenpairs(k_ii, c_ii, count, rng=np.random.default_rng(0), label="Dirichlet modes",
                                     progress=progress)
         lam, vec = found.eigenvalues, found.vectors
-        vec /= _norms(c_ii, vec)
+        vec /= column_norms(c_ii, vec)
     else:
         if n_i <= DENSE_LIMIT:
             lam, vec = sla.eigh(k_ii.toarray(), c_ii.toarray(), subset_by_index=(0, count - 1))
@@ -284,32 +282,18 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto", *
             lam, vec = _eigsh(k_ii, c_ii, count, 0.0, fac=factorize(k_ii, method, points=pts),
                               label="Dirichlet modes")
         report_done(progress, "Dirichlet modes", count)
-    res = _relative_residuals(k_ii, c_ii, lam, vec)
+    res = relative_residuals(k_ii, c_ii, lam, vec)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(
             f"Dirichlet eigensolver: relative residual {res.max():.1e} exceeds {RESIDUAL_TOL:.0e} "
             f"(mode {int(res.argmax())} of {count})"
         )
-    dev = float(np.abs(_gram(c_ii, vec) - np.eye(count)).max())
+    dev = float(np.abs(gram(c_ii, vec) - np.eye(count)).max())
     if dev > ORTHOGONALITY_TOL:
         raise NumericalError(f"Dirichlet eigensolver: modes not C0-orthonormal (max |VᵀCV − I| = {dev:.1e})")
     full = np.zeros((ops.n, count))
     full[interior] = vec
     return lam, full
-
-
-def _norms(m: sp.csr_array, v: FloatArray) -> FloatArray:
-    """``sqrt(diag(vᵀ M v))`` by chunks of 32 columns."""
-    return np.sqrt(np.concatenate([np.einsum("ij,ij->j", v[:, lo:lo + 32], m @ v[:, lo:lo + 32])
-                                   for lo in range(0, v.shape[1], 32)]))
-
-
-def _gram(m: sp.csr_array, v: FloatArray) -> FloatArray:
-    """``vᵀ M v`` by chunks of 32 columns (temporary memory of 32 columns)."""
-    out = np.empty((v.shape[1], v.shape[1]))
-    for lo in range(0, v.shape[1], 32):
-        out[:, lo:lo + 32] = v.T @ (m @ v[:, lo:lo + 32])
-    return out
 
 
 def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto", *, eigensolver: str = "auto",
@@ -338,7 +322,7 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto", *, 
         lam, vec = _steklov_shift_invert(ops, b, want, n_zero, sigma=sigma, method=method)
         label = f"shift-invert, {resolve_method(method)}"
         report_done(progress, "Steklov modes", count)
-    res = _relative_residuals(ops.stiffness, b, lam, vec)
+    res = relative_residuals(ops.stiffness, b, lam, vec)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(
             f"Steklov eigensolver ({label}, shift {sigma:.2e} s⁻¹): relative residual {res.max():.1e} "
@@ -346,7 +330,7 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto", *, 
         )
     if lam[0] <= 1e-8 * lam[-1]:
         raise NumericalError("Steklov eigensolver: a zero eigenvalue beyond the constants (disconnected body?)")
-    return lam, vec / _norms(ops.capacity, vec)
+    return lam, vec / column_norms(ops.capacity, vec)
 
 
 def _steklov_shift_invert(ops: ReferenceOperators, b: sp.csr_array, want: int, n_zero: int, *, sigma: float,
@@ -376,8 +360,8 @@ def _steklov_shift_invert(ops: ReferenceOperators, b: sp.csr_array, want: int, n
 
 def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> float:
     """Condition number of the capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal); refuses a dependent basis."""
-    gram = vectors.T @ (ops.capacity @ vectors)
-    ev = np.linalg.eigvalsh((gram + gram.T) / 2)
+    g = gram(ops.capacity, vectors)
+    ev = np.linalg.eigvalsh((g + g.T) / 2)
     cond = float(ev[-1] / ev[0]) if ev[0] > 0 else np.inf
     if not cond < GRAM_CONDITION_MAX:
         raise NumericalError(
@@ -397,19 +381,24 @@ def compute_basis(
     eigensolver: str = "auto",
     cache: NpzCache | None = None,
     progress: ProgressCallback | None = None,
+    storage: str = "float64",
 ) -> ModalBasis:
     """Constants + ``n_steklov`` Steklov + ``n_dirichlet`` Dirichlet modes of ``system`` at reference ``values``.
 
     ``n_steklov`` counts the constants.  Cached in ``cache`` (key: K0, C0, B and the options), so
     scenes that differ only in their loads and exchanges share one basis.  ``eigensolver`` and
-    ``progress`` (converged pairs of each family) as in :func:`dirichlet_modes`.
+    ``progress`` (converged pairs of each family) as in :func:`dirichlet_modes`.  ``storage``
+    ``"float32"`` rounds the vectors to single precision (half the bytes in memory and in the cache;
+    the effect on face means is measured in benchmarks/reduce_scaling.py --float32).
     """
     if n_dirichlet < 0 or n_steklov < 1:
         raise InputError(f"mode counts must be n_dirichlet >= 0 and n_steklov >= 1, got {n_dirichlet}, {n_steklov}")
+    if storage not in BASIS_STORAGE:
+        raise InputError(f"unknown basis storage {storage!r}; allowed: {', '.join(BASIS_STORAGE)}")
     ops = reference_operators(system, values)
     solver = choose_eigensolver(eigensolver, ops.n)
     key = content_key(_BASIS_VERSION, ops.key(), n_dirichlet, n_steklov, method,
-                      *([solver] if solver != "arpack" else []))
+                      *([solver] if solver != "arpack" else []), *([storage] if storage != "float64" else []))
     if cache is not None:
         stored = cache.load("basis", key)
         if stored is not None:
@@ -424,6 +413,7 @@ def compute_basis(
     eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
     kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
     cond = _check_combined(ops, vectors)
+    vectors = vectors.astype(storage, copy=False)
     seconds = time.perf_counter() - start
     if cache is not None:
         cache.save("basis", key, {"vectors": vectors, "eigenvalues": eigenvalues, "kinds": kinds,
@@ -480,7 +470,7 @@ def with_corrections(
         extra, coefficients = _correction_vectors(system, basis, ops, samples, method)
         if cache is not None:
             cache.save("corrections", key, {"vectors": extra, "coefficients": coefficients})
-    return ModalBasis(np.column_stack([basis.vectors, extra]),
+    return ModalBasis(np.column_stack([basis.vectors, extra.astype(basis.vectors.dtype)]),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
                       basis.zeta, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
@@ -512,11 +502,11 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
         x = x - z @ np.linalg.solve(z.T @ (ops.capacity @ z), z.T @ (ops.capacity @ x))
     s = _orthonormal(x, ops.capacity, CORRECTION_RANK_TOL)
     phi = basis.vectors
-    gram = phi.T @ (ops.capacity @ phi)
+    g = gram(ops.capacity, phi)
     a = np.zeros((phi.shape[1], s.shape[1]))
     r = s
     for _ in range(2):  # block Gram–Schmidt in the C0 product, twice for accuracy
-        step = np.linalg.solve(gram, phi.T @ (ops.capacity @ r))
+        step = np.linalg.solve(g, phi.T @ (ops.capacity @ r))
         a += step
         r = r - phi @ step
     p = _orthonormal(r, ops.capacity, CORRECTION_RANK_TOL)

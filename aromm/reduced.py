@@ -392,6 +392,7 @@ def reduce(
     method: str = "aromm",
     solver: str = "auto",
     eigensolver: str = "auto",
+    basis_storage: str = "float64",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
     eigen_progress: ProgressCallback | None = None,
@@ -418,7 +419,7 @@ def reduce(
       (aromm.eigensolvers; the correction modes then use multigrid-preconditioned CG unless ``solver``
       says otherwise) or ``"auto"`` (by size).  ``eigen_progress`` receives every
       :class:`~aromm.eigensolvers.EigenProgress` report (converged pairs, iterations); ``progress``
-      shows them as a bar.
+      shows them as a bar.  ``basis_storage``: ``"float32"`` keeps and caches the modes in single precision.
     """
     if method not in METHODS:
         raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
@@ -454,7 +455,7 @@ def reduce(
     linear = "amg" if eig == "lobpcg" and solver == "auto" else solver
     key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values or {}, method, solver,
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases],
-                      *([eig] if eig != "arpack" else []))
+                      *([eig] if eig != "arpack" else []), *([basis_storage] if basis_storage != "float64" else []))
     if store is not None:
         stored = store.load("rom", key)
         if stored is not None:
@@ -466,7 +467,7 @@ def reduce(
     stages.set_postfix_str("modes")
     pairs = PairsBar(enabled=progress, listener=eigen_progress)
     basis = compute_basis(system, n_d, n_s, basis_values, method=solver, eigensolver=eig, cache=store,
-                          progress=pairs)
+                          progress=pairs, storage=basis_storage)
     pairs.close()
     stages.set_postfix_str("correction modes")
     if samples:
