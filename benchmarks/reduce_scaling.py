@@ -9,7 +9,10 @@ scenario 1 of seed 001 Table 1 (500 W/m² into z0, h = 20 W/(m² K) on z1, 60 s,
   memory, bytes per voxel, and the memory floor of the float64 basis (Ñ × 8 bytes per node);
 * the error of the reduced model at (k_F, c_F) = (0.3, 4e6) against the full model at the same dt (BDF2,
   0.1 s) over the first ``--steps`` steps, and against the full steady solve (the t → ∞ limit), in °C;
-  the full model uses CHOLMOD up to ``--amg-above`` nodes and smoothed-aggregation CG above;
+  the full model uses CHOLMOD up to ``--amg-above`` nodes and smoothed-aggregation CG above.  The reduced
+  model is exact in time, so with ``--half-step`` the full model also runs at dt/2: its own BDF2 error
+  (4/3 |full(dt) − full(dt/2)|) and the error of the reduced model against the Richardson value
+  (4 full(dt/2) − full(dt))/3;
 * with ``--float32``: the same reduced model on the float32-rounded basis (compact storage), max change of
   the face means.
 
@@ -33,6 +36,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -41,10 +45,12 @@ POINT = {"fibre.k": 0.3, "fibre.c": 4e6}
 MEMORY_LIMIT_GB = 14.0  # address-space cap of a worker: a MemoryError instead of the machine's OOM killer
 
 
-def worker(n: int, eigensolver: str, steps: int, amg_above: int, float32: bool) -> dict[str, object]:
+def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: bool, half_step: bool) -> dict[
+        str, object]:
     from aromm.reduced import reduce
     from aromm.scene import assemble
     from aromm.solve import steady_field, transient
+    from aromm.system import TimeGrid
     from inverse.study import loading, small_wood
 
     out: dict[str, object] = {"n": n, "eigensolver": eigensolver, "load_start": os.getloadavg()[0]}
@@ -78,6 +84,11 @@ def worker(n: int, eigensolver: str, steps: int, amg_above: int, float32: bool) 
     reduced = rom.simulate(POINT, times).as_array()
     out["max_error"] = float(np.abs(reduced - full).max())
     out["max_face_mean"] = float(np.abs(full).max())
+    if half_step:  # the full model at dt/2: its own BDF2 error, and a reference accurate to O(dt³)
+        halved = replace(system, time=TimeGrid(system.time.end, system.time.dt / 2))
+        finer = transient(halved, POINT, times, method=method).as_array()
+        out["full_time_error"] = float(np.abs(full - finer).max() * 4 / 3)
+        out["max_error_richardson"] = float(np.abs(reduced - (4 * finer - full) / 3).max())
     _, e = system.observation_matrix()
     steady_full = e @ steady_field(system, POINT, method=method)
     out["steady_error"] = float(np.abs(rom.steady({k: [v] for k, v in POINT.items()})[0] - steady_full).max())
@@ -107,20 +118,24 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=300, help="time steps of the full model compared (dt 0.1 s)")
     parser.add_argument("--amg-above", type=int, default=150_000, help="full model by AMG-CG above this many nodes")
     parser.add_argument("--float32", action="store_true", help="also measure float32 storage of the basis")
+    parser.add_argument("--half-step", action="store_true",
+                        help="also run the full model at dt/2 (its own time error; ROM against the Richardson value)")
     parser.add_argument("--json", type=Path, default=None, help="append each worker's result to this file")
     parser.add_argument("--worker", nargs=2, metavar=("N", "EIGENSOLVER"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         limit = int(MEMORY_LIMIT_GB * 1e9)
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-        result = worker(int(args.worker[0]), args.worker[1], args.steps, args.amg_above, args.float32)
+        result = worker(int(args.worker[0]), args.worker[1], args.steps, args.amg_above, float32=args.float32,
+                        half_step=args.half_step)
         print(json.dumps(result))
         return
     rows: list[dict[str, object]] = []
     for solver in args.eigensolvers:
         for n in args.sizes:
             cmd = [sys.executable, __file__, "--worker", str(n), solver, "--steps", str(args.steps),
-                   "--amg-above", str(args.amg_above)] + (["--float32"] if args.float32 else [])
+                   "--amg-above", str(args.amg_above)] + (["--float32"] if args.float32 else []) + (
+                       ["--half-step"] if args.half_step else [])
             env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
             done = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
             if done.returncode != 0:
@@ -143,6 +158,8 @@ def print_row(r: dict[str, object]) -> None:
           f"(basis floor {r['basis_floor_bytes_per_voxel']:.0f})"
           f" | max |ROM − full| {r['max_error']:.2e} °C over {r['max_face_mean']:.2f} °C "
           f"(full {r['full_method']}, {r['full_cpu']:.0f} s CPU), steady {r['steady_error']:.2e} °C"
+          + (f" | full model's own BDF2 error {r['full_time_error']:.2e} °C, |ROM − full(dt→0)| "
+             f"{r['max_error_richardson']:.2e} °C" if "full_time_error" in r else "")
           + (f" | float32 basis changes face means by {r['float32_change']:.1e} °C" if "float32_change" in r else "")
           + f" | load {r['load_start']:.1f}–{r['load_end']:.1f}", flush=True)
 
