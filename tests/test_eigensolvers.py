@@ -4,10 +4,13 @@ trilinear Steklov mode of a cube, and the symmetry and mesh-independence of the 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scene_text import scenario_1
 from test_reduced import exact_outputs
 
 from aromm import eigensolvers
@@ -157,3 +160,16 @@ def test_reduced_model_from_lobpcg_bases_agrees_with_direct_bases_within_its_own
     agreement = np.abs(y["lobpcg"] - y["arpack"]).max()
     print(f"ROM (ARPACK bases) error {own_error:.2e} °C; LOBPCG vs ARPACK bases {agreement:.2e} °C")
     assert agreement < 0.1 * own_error
+
+
+def test_cli_reduce_with_lobpcg_bases(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from aromm.cli import main
+
+    np.savez(tmp_path / "img.npz", labels=(np.random.default_rng(3).random((6, 6, 6)) < 0.4).astype(int))
+    scene = tmp_path / "s1.toml"
+    scene.write_text(scenario_1("img.npz", "5.0e-6", "2.0", "0.1"))
+    args = ["reduce", str(scene), "--order", "12", "--modes", "30", "--eigensolver", "lobpcg", "--no-cache", "--json"]
+    assert main(args) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["eigensolver"] == "lobpcg" and info["eigen_iterations"] > 0
+    assert main([*args[:6], "--eigensolver", "lanczos"]) == 2

@@ -9,6 +9,7 @@ import click
 
 from aromm.cache import NpzCache
 from aromm.cli.common import echo_json
+from aromm.eigensolvers import EIGENSOLVERS
 from aromm.linalg import METHODS
 from aromm.reduced import METHODS as REDUCTIONS
 from aromm.reduced import reduce
@@ -27,18 +28,21 @@ from aromm.scene import assemble, load_scene
               help="Extra reference scene on the same image (e.g. the other scenarios of seed 001); repeatable.")
 @click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
               help="Sparse factorisation used by the eigensolvers.")
+@click.option("--eigensolver", type=click.Choice(EIGENSOLVERS), default="auto", show_default=True,
+              help="Modal bases by ARPACK shift-invert on a factorisation, or by LOBPCG with a multigrid "
+                   "preconditioner (memory: the basis plus the preconditioner); auto picks by size.")
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
               help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
-               cache_dir: Path | None, no_cache: bool, as_json: bool) -> None:
+               eigensolver: str, cache_dir: Path | None, no_cache: bool, as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant)."""
     system = assemble(load_scene(scene))
     refs = [assemble(load_scene(path)) for path in references]
     cache = False if no_cache else NpzCache(cache_dir)
-    rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
-                 progress=sys.stderr.isatty())
+    rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver,
+                 eigensolver=eigensolver, cache=cache, progress=sys.stderr.isatty())
     info = dict(rom.info)
     info["cache_dir"] = "" if no_cache else str(NpzCache(cache_dir).directory)
     if as_json:
