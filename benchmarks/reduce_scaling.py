@@ -137,9 +137,9 @@ def main() -> None:
                    "--amg-above", str(args.amg_above)] + (["--float32"] if args.float32 else []) + (
                        ["--half-step"] if args.half_step else [])
             env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-            done = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+            done = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=env, check=False)  # stderr: progress
             if done.returncode != 0:
-                print(f"{n}³ {solver}: worker failed ({done.returncode}): {done.stderr.strip().splitlines()[-1:]}")
+                print(f"{n}³ {solver}: worker failed with exit code {done.returncode} (its messages: stderr)")
                 continue
             row = json.loads(done.stdout.strip().splitlines()[-1])
             rows.append(row)

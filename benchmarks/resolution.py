@@ -134,9 +134,9 @@ def richardson(values: list[float], factors: list[int]) -> tuple[float, float]:
 
 def spawn(args: list[str]) -> dict[str, object] | None:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, __file__, *args], capture_output=True, text=True, env=env, check=False)
+    done = subprocess.run([sys.executable, __file__, *args], stdout=subprocess.PIPE, text=True, env=env, check=False)
     if done.returncode != 0:
-        print(f"worker {args} failed ({done.returncode}): {done.stderr.strip().splitlines()[-3:]}", flush=True)
+        print(f"worker {args} failed with exit code {done.returncode} (its messages: stderr)", flush=True)
         return None
     return json.loads(done.stdout.strip().splitlines()[-1])  # type: ignore[no-any-return]
 
