@@ -51,7 +51,10 @@ class BlockMultigrid:
         if a.shape[0] <= COARSEST:
             self.levels: list[_Level] = [_Level(a, np.ones(a.shape[0]), 1.0, None)]
         else:
-            ml = pyamg.smoothed_aggregation_solver(sp.csr_matrix(a), symmetry="symmetric", max_coarse=COARSEST)
+            # 'local' Jacobi weighting of the prolongation smoother: pyamg's default estimates a spectral radius
+            # from a random vector of numpy's global generator (not reproducible)
+            ml = pyamg.smoothed_aggregation_solver(sp.csr_matrix(a), symmetry="symmetric", max_coarse=COARSEST,
+                                                   smooth=("jacobi", {"weighting": "local"}))
             self.levels = []
             for lev in ml.levels:
                 mat = sp.csr_array(lev.A)

@@ -55,7 +55,9 @@ MAX_ITERATIONS = 400
 #: Preconditioned inverse-iteration steps ``X ← T N X`` applied to the random start of a chunk.
 WARMUP = 2
 #: Gram eigenvalues below this fraction of the largest are dependent directions (SVQB drops them).
-DEPENDENT = 1e-12
+DEPENDENT = 1e-10
+#: N is kept on its non-zero rows only when they are fewer than this fraction of all rows.
+SPARSE_ROWS = 0.5
 #: Rows per slab when combining large blocks (bounds the temporary memory of the updates).
 ROW_SLAB = 65536
 
@@ -164,6 +166,8 @@ def _smallest(k: sp.sparray | sp.spmatrix, n_mat: sp.sparray | sp.spmatrix, coun
     m = sp.csr_array(k - shift * a) if shift != 0.0 else sp.csr_array(k)
     n = m.shape[0]
     precondition = BlockMultigrid(m, rng=rng, cycles=CYCLES)
+    support = np.flatnonzero(np.diff(a.indptr))
+    rows = support if support.size < SPARSE_ROWS * n else None  # N = ζB lives on the boundary rows only
     fixed = 0 if constraints is None else constraints.shape[1]
     found = np.empty((n, fixed + count), order="F")
     if constraints is not None:
@@ -179,7 +183,7 @@ def _smallest(k: sp.sparray | sp.spmatrix, n_mat: sp.sparray | sp.spmatrix, coun
         width = min(want + guard, n - fixed - done)
         x0 = np.column_stack([start, rng.standard_normal((n, max(0, width - start.shape[1])))])[:, :width]
         locked = found[:, : fixed + done]
-        chunk = _Chunk(a, m, precondition=precondition, locked=locked, tol=tol, label=label)
+        chunk = _Chunk(a, m, precondition=precondition, locked=locked, tol=tol, label=label, rows=rows)
         x0 = chunk.warm_start(x0)
 
         def report(conv: int, it: int, res: float, offset: int = done, before: int = iterations) -> None:
@@ -203,13 +207,20 @@ def _smallest(k: sp.sparray | sp.spmatrix, n_mat: sp.sparray | sp.spmatrix, coun
 class _Chunk:
     """LOBPCG on ``N x = μ M x`` for the largest μ, M-orthogonal to the columns of ``locked``.
 
-    Three buffers of n × 3b columns hold ``S = [X | W | P]``, ``MS`` and ``NS`` (b the chunk width);
-    every update is done in place by slabs of rows, so the working set stays fixed.
+    Three buffers of 3b columns hold ``S = [X | W | P]``, ``MS`` and ``NS`` (b the chunk width); every
+    update is done in place by slabs of rows, so the working set stays fixed.  When N vanishes outside
+    ``rows`` (the boundary mass), ``NS`` keeps those rows only.
     """
 
     def __init__(self, a: sp.csr_array, m: sp.csr_array, *, precondition: BlockMultigrid, locked: FloatArray,
-                 tol: float, label: str) -> None:
+                 tol: float, label: str, rows: np.ndarray | None) -> None:
         self.a, self.m, self.t, self.locked, self.tol, self.label = a, m, precondition, locked, tol, label
+        self.rows = rows
+        self.a_rows = sp.csr_array(a[rows]) if rows is not None else a
+
+    def restrict(self, v: FloatArray) -> FloatArray:
+        """The rows of v where N may be non-zero."""
+        return v if self.rows is None else v[self.rows]
 
     def project(self, w: FloatArray, passes: int = 1) -> FloatArray:
         """Remove the M-components along the locked columns (one matrix product per pass)."""
@@ -220,23 +231,30 @@ class _Chunk:
         return w
 
     def warm_start(self, x: FloatArray) -> FloatArray:
+        """A few steps of preconditioned subspace iteration ``X ← T N X`` from ``x``, M-orthonormalised after
+        each (without it the columns collapse onto the dominant eigenvectors)."""
         for _ in range(max(WARMUP, 0)):
             x = self.t(self.a @ self.project(x))
+            x = x @ _svqb_factor(x.T @ (self.m @ x))
         return self.project(x, passes=2)
 
     def run(self, x0: FloatArray, want: int, max_iterations: int,
             report: Callable[[int, int, float], None]) -> tuple[FloatArray, FloatArray, int]:
         n, b = x0.shape
-        bufs = _Buffers(n, b)
-        if bufs.load(0, x0, self.m @ x0, self.a @ x0) < b:
+        bufs = _Buffers(n, b, self.a_rows.shape[0])
+        if bufs.load(0, x0, self.m @ x0, self.a_rows @ x0) < b:
             raise NumericalError(f"LOBPCG ({self.label}): the start block is rank-deficient")
         x, mx, ax = bufs.block(0, b)
-        mu, c = _ritz(x.T @ ax, None, b)
+        mu, c = _ritz(self.restrict(x).T @ ax, x.T @ mx, b)
         bufs.rotate(c, b)
         kp = 0
         for it in range(1, max_iterations + 1):
             x, mx, ax = bufs.block(0, b)
-            r = ax - mx * mu
+            r = mx * -mu
+            if self.rows is None:
+                r += ax
+            else:
+                r[self.rows] += ax
             res = np.linalg.norm(r, axis=0) / np.maximum(
                 np.linalg.norm(ax, axis=0) + np.abs(mu) * np.linalg.norm(mx, axis=0), 1e-300)
             conv = res <= self.tol
@@ -248,16 +266,16 @@ class _Chunk:
             w = self.project(self.t(r[:, act]))
             del r
             w -= x @ (mx.T @ w)
-            kw = bufs.load(b, w, self.m @ w, self.a @ w)
+            kw = bufs.load(b, w, self.m @ w, self.a_rows @ w)
             del w
             if kp:
                 kp = bufs.orthonormalise(2 * b, kp)
             try:
-                mu, c = _ritz(*_grams(bufs, b, kw, kp, mu), b)
+                mu, c = _ritz(*_grams(bufs, (b, kw, kp), self.restrict), b)
             except np.linalg.LinAlgError:
                 kp = 0  # restart without P
                 try:
-                    mu, c = _ritz(*_grams(bufs, b, kw, kp, mu), b)
+                    mu, c = _ritz(*_grams(bufs, (b, kw, kp), self.restrict), b)
                 except np.linalg.LinAlgError:
                     raise NumericalError(f"LOBPCG ({self.label}): Rayleigh–Ritz Gram matrix is not definite "
                                          "(search directions dependent)") from None
@@ -268,11 +286,11 @@ class _Chunk:
 
 
 class _Buffers:
-    """``S = [X | W | P]``, ``MS`` and ``NS`` in three (n, 3b) arrays; X at columns [0, b), W at [b, 2b),
-    P at [2b, 3b)."""
+    """``S = [X | W | P]``, ``MS`` (n rows) and ``NS`` (``n_rows`` rows) with 3b columns each; X at columns
+    [0, b), W at [b, 2b), P at [2b, 3b)."""
 
-    def __init__(self, n: int, b: int) -> None:
-        self.arrays = [np.empty((n, 3 * b)) for _ in range(3)]
+    def __init__(self, n: int, b: int, n_rows: int) -> None:
+        self.arrays = [np.empty((n, 3 * b)), np.empty((n, 3 * b)), np.empty((n_rows, 3 * b))]
         self.b = b
 
     def block(self, lo: int, k: int) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -296,11 +314,11 @@ class _Buffers:
 
     def update(self, c: FloatArray, b: int, kw: int, kp: int, act: np.ndarray) -> int:
         """X ← X Cx + Q and P ← Q[:, act] with Q = [W P] C_wp (the LOBPCG update); returns the width of P."""
-        n = self.arrays[0].shape[0]
         cx, cwp = c[:b], c[b:]
         spans = [(b, kw)] + ([(2 * b, kp)] if kp else [])
         ka = act.size
         for arr in self.arrays:
+            n = arr.shape[0]
             for lo in range(0, n, ROW_SLAB):
                 rows = slice(lo, min(lo + ROW_SLAB, n))
                 q = _product(arr[rows], spans, cwp)
@@ -311,8 +329,8 @@ class _Buffers:
         return ka
 
     def _transform(self, spans: list[tuple[int, int]], c: FloatArray, dest: int) -> None:
-        n = self.arrays[0].shape[0]
         for arr in self.arrays:
+            n = arr.shape[0]
             for lo in range(0, n, ROW_SLAB):
                 rows = slice(lo, min(lo + ROW_SLAB, n))
                 arr[rows, dest:dest + c.shape[1]] = _product(arr[rows], spans, c)
@@ -330,27 +348,28 @@ def _product(slab: FloatArray, spans: list[tuple[int, int]], c: FloatArray) -> F
     return out
 
 
-def _grams(bufs: _Buffers, b: int, kw: int, kp: int, mu: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``SᵀNS`` and ``SᵀMS`` of S = [X, W, (P)]; X's own blocks are diag(μ) and I (Ritz vectors), W's and
-    P's own M-blocks I (SVQB)."""
+def _grams(bufs: _Buffers, widths: tuple[int, int, int],
+           restrict: Callable[[FloatArray], FloatArray]) -> tuple[FloatArray, FloatArray]:
+    """``SᵀNS`` and ``SᵀMS`` of S = [X, W, (P)], every block computed (none assumed from the previous
+    Rayleigh–Ritz or SVQB: rounding in the implicit updates of MS and NS would otherwise stall the
+    residuals near 1e-6).  ``restrict`` picks the rows of NS."""
+    b, kw, kp = widths
     spans = [(0, b), (b, kw)] + ([(2 * b, kp)] if kp else [])
     sizes = [k for _, k in spans]
     offsets = np.concatenate([[0], np.cumsum(sizes)])
-    gm = np.eye(offsets[-1])
+    gm = np.zeros((offsets[-1], offsets[-1]))
     ga = np.zeros_like(gm)
-    ga[:b, :b] = np.diag(mu)
     s, ms, ns = bufs.arrays
     for i, (lo_i, k_i) in enumerate(spans):
         vi = s[:, lo_i:lo_i + k_i]
+        vi_rows = restrict(vi)
         for j in range(i, len(spans)):
             lo_j, k_j = spans[j]
             si, sj = slice(offsets[i], offsets[i + 1]), slice(offsets[j], offsets[j + 1])
-            if j > i:
-                gm[si, sj] = vi.T @ ms[:, lo_j:lo_j + k_j]
-                gm[sj, si] = gm[si, sj].T
-            if i or j:
-                ga[si, sj] = vi.T @ ns[:, lo_j:lo_j + k_j]
-                ga[sj, si] = ga[si, sj].T
+            gm[si, sj] = vi.T @ ms[:, lo_j:lo_j + k_j]
+            gm[sj, si] = gm[si, sj].T
+            ga[si, sj] = vi_rows.T @ ns[:, lo_j:lo_j + k_j]
+            ga[sj, si] = ga[si, sj].T
     return (ga + ga.T) / 2, (gm + gm.T) / 2
 
 
