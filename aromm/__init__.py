@@ -1,20 +1,23 @@
 """aromm: thermal properties of the phases of heterogeneous materials.
 
-Public API (DESIGN.md)::
+Public API::
 
     scene = aromm.load_scene("data/scenes/wood_s1.toml")
     system = aromm.assemble(scene)                  # ThermalSystem
     obs = aromm.simulate(system, scene.parameters)  # full model -> Observables
     k_eff = aromm.homogenize(scene)                 # 3x3 tensor, W/(m K)
+    k_s1 = aromm.fluxmetric(scene).k                # [Chavez2020, eq. 13] under the scene's own faces
     rom = aromm.reduce(system, order=200)           # AROMM ReducedModel (cached bases)
 """
 
 from aromm.errors import InputError, NumericalError
-from aromm.homogenize import homogeneous_twin, homogenize, mean_capacity
-from aromm.reduced import ReducedModel, reduce
+from aromm.homogenization import fluxmetric, homogeneous_twin, homogenize, mean_capacity
+from aromm.observables import Observables
+from aromm.reduction import reduce
+from aromm.rom import ReducedModel
 from aromm.scene import Scene, assemble, load_scene
 from aromm.solve import FullModel, simulate
-from aromm.system import Observables, ThermalSystem
+from aromm.system import ThermalSystem
 
 __all__ = [
     "FullModel",
@@ -25,6 +28,7 @@ __all__ = [
     "Scene",
     "ThermalSystem",
     "assemble",
+    "fluxmetric",
     "homogeneous_twin",
     "homogenize",
     "load_scene",

@@ -1,4 +1,4 @@
-"""Amalgam reduction of a modal basis (seed 001 §3.2, eq. 9; method note ../shared/method/aromm.md §4).
+"""Amalgam reduction of a modal basis [Chavez2020, § 3.2, eq. 9; Quemener2012].
 
 The Ñ modes of a detailed basis are distributed into ñ disjoint sub-spaces, each made of one
 *principal* mode ``V_{i,0}`` and a few *minor* modes with weights α (eq. 9)::
@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError
+from aromm.reductor import DetailedModel
 from aromm.system import FloatArray
 
 
@@ -81,3 +82,26 @@ def amalgam(states: FloatArray, order: int, forced: Sequence[int] | npt.NDArray[
     elif minor.size:
         group[minor] = -1  # only constants are principal: minor modes are dropped
     return Amalgam(coefficients, principal, group)
+
+
+@dataclass(frozen=True)
+class AmalgamReductor:
+    """The AROMM reductor [Chavez2020, eq. 9]: the amalgam of the detailed modes on the reference states.
+
+    The constants are forced principal and alone; when the order leaves room, the correction vectors are
+    kept as whole columns and the amalgam groups the Dirichlet–Steklov modes into the remaining columns.
+    """
+
+    name: str = "aromm"
+
+    def coefficients(self, detailed: DetailedModel, order: int) -> FloatArray:
+        zero = detailed.basis.zero_modes
+        corr = detailed.corrections(order)
+        if not corr.shape[1]:
+            return amalgam(detailed.states, order, zero).coefficients
+        rows = detailed.modal_rows()
+        sub = amalgam(detailed.states[rows], order - corr.shape[1], np.searchsorted(rows, zero)).coefficients
+        a = np.zeros((detailed.size, order))
+        a[rows, : sub.shape[1]] = sub
+        a[:, sub.shape[1]:] = corr
+        return a

@@ -2,7 +2,7 @@
 
 ``slab_dirichlet_series``: transient conduction in a slab 0 <= x <= L with fixed
 temperatures T(0) = T_left, T(L) = T_right and a uniform initial temperature T0
-(seed 000 eq. 11-13, after Weigand 2004):
+[Hassan2019, eq. 11-13, after Weigand 2004]:
 
     T(x, t) = T_1 + x dT / L + dT sum_{n>=1} C_n sin(n pi x / L) exp(-(n pi / L)^2 alpha t),
     C_n = 2 ((-1)^n (1 - theta_0) + theta_0) / (n pi),   theta_0 = (T0 - T_1) / dT,
@@ -32,7 +32,7 @@ def slab_dirichlet_series(  # noqa: PLR0917 - positional signature agreed with t
     T_right: float,
     n_terms: int = 200,
 ) -> FloatArray:
-    """Temperature of the slab at positions ``x`` (m) and times ``t`` (s), seed 000 eq. 12-13.
+    """Temperature of the slab at positions ``x`` (m) and times ``t`` (s), [Hassan2019, eq. 12-13].
 
     ``x`` and ``t`` broadcast against each other (e.g. ``x[None, :]`` and ``t[:, None]``
     for a (times, positions) table).  If ``T_right == T_left`` the series is that of the

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -21,6 +20,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
+
+from aromm.files import atomic_write
 
 ENV_VAR = "AROMM_CACHE_DIR"
 
@@ -87,15 +88,8 @@ class NpzCache:
             return None
 
     def save(self, kind: str, key: str, arrays: Mapping[str, npt.ArrayLike]) -> Path:
-        """Write atomically: temporary file in the cache directory, then rename over the target."""
-        self.directory.mkdir(parents=True, exist_ok=True)
+        """Write atomically (:func:`aromm.files.atomic_write`: temporary file in the cache folder, then rename)."""
         target = self.path(kind, key)
-        fd, tmp = tempfile.mkstemp(prefix=f".{kind}-", suffix=".npz.tmp", dir=self.directory)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()})  # type: ignore[arg-type]
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        with atomic_write(target, f"cache entry ({kind})", binary=True) as fh:
+            np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()})  # type: ignore[arg-type]
         return target

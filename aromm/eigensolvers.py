@@ -25,6 +25,7 @@ by ``N x − μ M x = −μ (K x − λ N x)``, so converging the one converges 
 
 from __future__ import annotations
 
+import logging
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -38,6 +39,8 @@ from tqdm import tqdm
 from aromm.block_multigrid import BlockMultigrid
 from aromm.errors import InputError, NumericalError
 from aromm.system import FloatArray
+
+log = logging.getLogger(__name__)
 
 EIGENSOLVERS = ("auto", "arpack", "lobpcg")
 #: ``"auto"`` uses LOBPCG for eigenproblems with more unknowns than this, ARPACK + a sparse factorisation below
@@ -91,7 +94,8 @@ def choose_eigensolver(name: str, n: int) -> str:
 
 
 class PairsBar:
-    """Progress of the eigen-solves as a tqdm bar of converged pairs (all families), plus an optional listener.
+    """Progress of the eigen-solves: a tqdm bar of converged pairs (all families), a log line whenever the
+    count of a family changes (``logging``, for batch runs), and an optional listener of every report.
 
     ``iterations`` holds the LOBPCG iterations reported per family (0 for a direct solve).
     """
@@ -103,6 +107,9 @@ class PairsBar:
         self.iterations: dict[str, int] = {}
 
     def __call__(self, report: EigenProgress) -> None:
+        if self.state.get(report.label, (-1, 0))[0] != report.converged:
+            log.info("%s: %d of %d pairs converged (iteration %d, residual %.1e)", report.label, report.converged,
+                     report.wanted, report.iterations, report.residual)
         self.state[report.label] = (report.converged, report.wanted)
         self.iterations[report.label] = report.iterations
         self.bar.total = sum(w for _, w in self.state.values())
@@ -433,7 +440,7 @@ def column_norms(m: sp.csr_array, v: FloatArray) -> FloatArray:
                                    for lo in range(0, v.shape[1], CHECK_COLUMNS)]))
 
 
-def gram(m: sp.csr_array, v: FloatArray) -> FloatArray:
+def chunked_gram(m: sp.csr_array, v: FloatArray) -> FloatArray:
     """``vᵀ M v`` (temporaries of CHECK_COLUMNS columns)."""
     out = np.empty((v.shape[1], v.shape[1]))
     for lo in range(0, v.shape[1], CHECK_COLUMNS):

@@ -2,7 +2,7 @@
 
 A forward model maps parameter values to face-mean temperatures at given times.  The
 inverse loop only needs :meth:`ForwardModel.simulate_batch`, which evaluates a whole
-swarm of parameter sets in one call (seed 001 section 4: PSO evaluates many candidates).
+swarm of parameter sets in one call [Chavez2020, § 4: PSO evaluates many candidates].
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy.typing as npt
 
-from aromm.system import FloatArray, Observables
+from aromm.observables import Observables
+from aromm.system import FloatArray
 
 
 @runtime_checkable
@@ -43,3 +44,9 @@ class ForwardModel(Protocol):
                        times: npt.ArrayLike | None = None) -> FloatArray:
         """Arrays of equal length m per parameter -> outputs of shape (m, len(times), len(outputs))."""
         ...
+
+
+def one_set(model: ForwardModel, params: Mapping[str, float] | None, t: FloatArray) -> Observables:
+    """:meth:`ForwardModel.simulate` through ``simulate_batch``: one parameter set, outputs at times ``t``."""
+    y = model.simulate_batch({k: [v] for k, v in (params or {}).items()}, t)[0]
+    return Observables(t=t, mean_T={name: y[:, i] for i, name in enumerate(model.outputs)})

@@ -1,4 +1,4 @@
-"""Dirichlet and Steklov eigenbases of a heterogeneous body (seed 001 §3.1, eqs. 6–8).
+"""Dirichlet and Steklov eigenbases of a heterogeneous body [Chavez2020, § 3.1, eqs. 6–8].
 
 With reference properties (k0, c0) per phase, ``K0`` is the conduction operator and ``C0`` the
 capacity operator at those values, and ``B`` the boundary mass ``∫_Γ φ_a φ_b``:
@@ -11,9 +11,9 @@ capacity operator at those values, and ``B`` the boundary mass ``∫_Γ φ_a φ_
 
 Every mode is capacity-normalised, ``vᵀ C0 v = 1``.  Dirichlet modes are C0-orthogonal; Steklov
 modes are ζB- and K0-orthogonal; a Dirichlet and a Steklov mode are K0-orthogonal exactly
-(``v_D`` vanishes on Γ, ``K0 v_S`` vanishes inside), but not C0-orthogonal (method note §3).
+(``v_D`` vanishes on Γ, ``K0 v_S`` vanishes inside), but not C0-orthogonal (docs/notes/aromm_method.md §3).
 
-Solvers (../shared/method/solvers.md): ARPACK shift-invert with a sparse Cholesky factorisation
+Solvers (docs/notes/solver_facts.md): ARPACK shift-invert with a sparse Cholesky factorisation
 passed as ``OPinv`` (never eigsh's own SuperLU/COLAMD), ordered by geometric nested dissection when
 the system has node coordinates (aromm.ordering); Steklov with a small negative shift (K0 and
 B are both singular), then one purification solve ``V ← (K0 − σζB)⁻¹ ζB V`` (the discrete harmonic
@@ -28,7 +28,7 @@ when they fail.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,19 +42,16 @@ from aromm.cache import NpzCache, content_key
 from aromm.eigensolvers import (
     ProgressCallback,
     choose_eigensolver,
+    chunked_gram,
     column_norms,
-    gram,
     relative_residuals,
     report_done,
     smallest_eigenpairs,
 )
 from aromm.errors import InputError, NumericalError
-from aromm.fem import FACES, face_mass
 from aromm.linalg import Factorization, factorize, resolve_method
-from aromm.system import FloatArray, Geometry, ThermalSystem
-
-#: Reference per-phase properties of the bases in seed 001 §3.1 (W/(m K), J/(m³ K)).
-SEED001_BASIS_VALUES: Mapping[str, float] = {"fibre.k": 0.53, "fibre.c": 1.2e6, "gas.k": 0.025, "gas.c": 1.2e3}
+from aromm.shifts import SHIFT
+from aromm.system import FloatArray, ThermalSystem
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
 DENSE_LIMIT = 1500
@@ -65,7 +62,7 @@ ORTHOGONALITY_TOL = 1e-6
 #: Largest condition number of the combined capacity Gram matrix ``Φᵀ C0 Φ`` accepted.
 GRAM_CONDITION_MAX = 1e12
 
-_BASIS_VERSION = 2
+_BASIS_VERSION = 3
 #: Precisions in which a basis may be kept (and cached).
 BASIS_STORAGE = ("float64", "float32")
 #: Default conductivity factors of the correction samples (each conduction parameter in turn); on the
@@ -74,6 +71,9 @@ BASIS_STORAGE = ("float64", "float32")
 CORRECTION_FACTORS = (0.1, 1.0, 3.0)
 #: Directions of the correction vectors with a relative Gram eigenvalue below this are dependent (dropped).
 CORRECTION_RANK_TOL = 1e-12
+#: A component's constant is a zero mode when ``|K0 1|`` stays below this fraction of the largest diagonal
+#: entry of K0 (rows of a conduction matrix sum to zero up to round-off, ~1e-16 of the entries).
+NULL_CONSTANT = 1e-10
 
 
 @dataclass(frozen=True)
@@ -111,6 +111,7 @@ class ModalBasis:
     eigenvalues: FloatArray
     kinds: npt.NDArray[np.str_]
     zeta: float
+    gram: FloatArray  # Φᵀ C0 Φ, the capacity Gram matrix at the reference values (unit diagonal)
     info: Mapping[str, float] = field(default_factory=dict)
     corrections: FloatArray | None = None  # (size, m): correction vectors in this basis, see with_corrections
 
@@ -127,88 +128,32 @@ class ModalBasis:
         return int(np.count_nonzero(self.kinds == kind))
 
 
-def is_exchange(operator: sp.csr_array | FloatArray) -> bool:
-    """True for a conductance term that does not annihilate constants (convection, exchange with
-    the surroundings); False for conduction inside the body (``K 1 = 0``)."""
-    if not sp.issparse(operator):
-        return False
-    a = sp.csr_array(operator)
-    row = np.abs(a @ np.ones(a.shape[0]))
-    scale = float(np.abs(a).sum(axis=1).max()) if a.nnz else 0.0
-    return bool(row.max(initial=0.0) > 1e-10 * scale)
-
-
-def _voxel_grid(geometry: Geometry | None, n: int) -> tuple[tuple[int, int, int], tuple[float, float, float]] | None:
-    """(voxels per axis, voxel size) when the nodes form the regular grid of aromm.fem, else None."""
-    if geometry is None or geometry.cell_type != "hexahedron" or geometry.points.shape[0] != n:
-        return None
-    axes = [np.unique(geometry.points[:, i]) for i in range(3)]
-    if int(np.prod([a.size for a in axes])) != n or any(a.size < 2 for a in axes):
-        return None
-    shape = (axes[0].size - 1, axes[1].size - 1, axes[2].size - 1)
-    size = (float(np.diff(axes[0]).mean()), float(np.diff(axes[1]).mean()), float(np.diff(axes[2]).mean()))
-    return shape, size
-
-
-def boundary_mass(system: ThermalSystem) -> sp.csr_array:
-    """Boundary mass ``B = ∫_Γ φ_a φ_b`` (m²) over the whole outer boundary Γ.
-
-    Voxel systems of aromm.fem: the consistent Q1 face mass of the six faces of the box.  Other
-    systems (DEM bond networks): a lumped boundary weight per DOF, the largest over the system's
-    exchange terms (row sums) and load vectors with unit coefficient, i.e. the exchange area.
-    """
-    grid = _voxel_grid(system.geometry, system.n)
-    if grid is not None:
-        shape, size = grid
-        total = face_mass(shape, size, FACES[0])
-        for face in FACES[1:]:
-            total = total + face_mass(shape, size, face)
-        return sp.csr_array(total)
-    weight = np.zeros(system.n)
-    for t in system.conductance.terms:
-        if is_exchange(t.operator):
-            weight = np.maximum(weight, np.abs(sp.csr_array(t.operator) @ np.ones(system.n)))
-    for t in system.load.terms:
-        if not sp.issparse(t.operator):
-            weight = np.maximum(weight, np.abs(np.asarray(t.operator, dtype=float)))
-    if not np.any(weight > 0):
-        raise InputError("the system has no boundary (no exchange term, no face load): Steklov modes need one")
-    return sp.csr_array(sp.diags_array(weight))
-
-
-def default_basis_values(system: ThermalSystem) -> dict[str, float]:
-    """The system's parameters, with the seed 001 reference properties for phases named fibre/gas."""
-    out = {k: float(v) for k, v in system.parameters.items()}
-    for name, value in SEED001_BASIS_VALUES.items():
-        if name in out:
-            out[name] = value
-    return out
+def boundary_of(system: ThermalSystem) -> sp.csr_array:
+    """The boundary mass ``B = ∫_Γ φ_a φ_b`` (m²) the assembler attached to ``system``."""
+    if system.boundary is None:
+        raise InputError("the system carries no boundary mass (ThermalSystem.boundary): the Steklov modes "
+                         "need the outer boundary; assemble it with aromm.assemble or a DEM network")
+    return system.boundary
 
 
 def reference_operators(system: ThermalSystem, values: Mapping[str, float] | None = None) -> ReferenceOperators:
     """``K0`` = conduction terms (those with ``K 1 = 0``) and ``C0`` = capacity terms at ``values``.
 
-    ``values`` overrides :func:`default_basis_values`; ζ from seed 001 eq. 8.
+    ``values`` (the reference properties k0, c0 of the bases) override the system's own parameters;
+    ζ from [Chavez2020, eq. 8].
     """
     if system.is_steady:
         raise InputError("the modal bases need a transient system (a [time] section and phase capacities c)")
     if system.dirichlet:
         names = ", ".join(d.param for d in system.dirichlet)
-        raise InputError(
-            f"fixed temperatures ({names}) are not supported by the modal reduction: the reduced model "
-            "uses natural boundary conditions only; replace them by convection with a large h (penalty)"
-        )
-    vals: dict[str, float] = default_basis_values(system)
+        raise InputError(f"fixed temperatures ({names}): build the bases on the lifted system of the free "
+                         "unknowns (aromm.lifting.lift; aromm.reduce does it)")
+    vals: dict[str, float] = {k: float(v) for k, v in system.parameters.items()}
     vals.update({k: float(v) for k, v in (values or {}).items()})
+    k0 = sp.csr_array(system.conductance.with_role("conduction").evaluate(vals))
+    c0 = sp.csr_array(system.capacity.evaluate(vals))
+    b = boundary_of(system)
     n = system.n
-    k0 = sp.csr_array((n, n))
-    for t in system.conductance.terms:
-        if not is_exchange(t.operator):
-            k0 = k0 + float(t.coefficient(vals)) * sp.csr_array(t.operator)
-    c0 = sp.csr_array((n, n))
-    for t in system.capacity.terms:
-        c0 = c0 + float(t.coefficient(vals)) * sp.csr_array(t.operator)
-    b = boundary_mass(system)
     area = float(b.sum())
     heat = float(c0.sum())
     if not (heat > 0 and area > 0):
@@ -220,8 +165,13 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
 def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
     """Split Ñ = ``total`` into (n_dirichlet, n_steklov) evenly, moving to one family what the other lacks
     (at most n_interior Dirichlet modes and n_boundary Steklov modes exist)."""
-    on_gamma = int(np.count_nonzero(boundary_mass(system).diagonal() > 0))
-    n_interior = system.n - on_gamma
+    on_gamma = int(np.count_nonzero(boundary_of(system).diagonal() > 0))
+    return split_counts(total, system.n, on_gamma)
+
+
+def split_counts(total: int, n: int, on_gamma: int) -> tuple[int, int]:
+    """:func:`split_modes` for ``n`` unknowns of which ``on_gamma`` lie on the boundary."""
+    n_interior = n - on_gamma
     n_s = min((total + 1) // 2, on_gamma)
     n_d = min(total - n_s, n_interior)
     n_s = min(total - n_d, on_gamma)
@@ -229,14 +179,17 @@ def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
 
 
 def zero_modes(ops: ReferenceOperators) -> FloatArray:
-    """One constant per connected component of the conduction graph, capacity-normalised (columns)."""
+    """One constant per connected component of the conduction graph, capacity-normalised (columns), for the
+    components where it is a null vector of K0 (not those touching a lifted fixed face, aromm.lifting)."""
     graph = sp.csr_array(ops.stiffness != 0)
     count, labels = csgraph.connected_components(graph, directed=False)
-    out = np.zeros((ops.n, count))
+    scale = float(np.abs(ops.stiffness.diagonal()).max(initial=0.0))
+    columns = []
     for j in range(count):
         ind = (labels == j).astype(float)
-        out[:, j] = ind / np.sqrt(ind @ (ops.capacity @ ind))
-    return out
+        if float(np.abs(ops.stiffness @ ind).max(initial=0.0)) <= NULL_CONSTANT * scale:
+            columns.append(ind / np.sqrt(ind @ (ops.capacity @ ind)))
+    return np.column_stack(columns) if columns else np.zeros((ops.n, 0))
 
 
 def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, fac: Factorization, label: str) -> tuple[
@@ -288,7 +241,7 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto", *
             f"Dirichlet eigensolver: relative residual {res.max():.1e} exceeds {RESIDUAL_TOL:.0e} "
             f"(mode {int(res.argmax())} of {count})"
         )
-    dev = float(np.abs(gram(c_ii, vec) - np.eye(count)).max())
+    dev = float(np.abs(chunked_gram(c_ii, vec) - np.eye(count)).max())
     if dev > ORTHOGONALITY_TOL:
         raise NumericalError(f"Dirichlet eigensolver: modes not C0-orthonormal (max |VᵀCV − I| = {dev:.1e})")
     full = np.zeros((ops.n, count))
@@ -358,10 +311,15 @@ def _steklov_shift_invert(ops: ReferenceOperators, b: sp.csr_array, want: int, n
     return lam[n_zero:], vec[:, n_zero:]
 
 
-def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> float:
-    """Condition number of the capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal); refuses a dependent basis."""
-    g = gram(ops.capacity, vectors)
-    ev = np.linalg.eigvalsh((g + g.T) / 2)
+def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> tuple[FloatArray, float]:
+    """The capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal) and its condition number; refuses a dependent basis."""
+    gram = chunked_gram(ops.capacity, vectors)
+    return gram, check_gram(gram)
+
+
+def check_gram(gram: FloatArray) -> float:
+    """Condition number of a capacity Gram matrix ``Φᵀ C0 Φ``; NumericalError beyond GRAM_CONDITION_MAX."""
+    ev = np.linalg.eigvalsh((gram + gram.T) / 2)
     cond = float(ev[-1] / ev[0]) if ev[0] > 0 else np.inf
     if not cond < GRAM_CONDITION_MAX:
         raise NumericalError(
@@ -403,6 +361,7 @@ def compute_basis(
         stored = cache.load("basis", key)
         if stored is not None:
             return ModalBasis(stored["vectors"], stored["eigenvalues"], stored["kinds"], float(stored["zeta"]),
+                              stored["gram"],
                               {"seconds": 0.0, "cached": 1.0, "gram_condition": float(stored["gram_condition"])})
     start = time.perf_counter()
     z = zero_modes(ops)
@@ -412,13 +371,13 @@ def compute_basis(
     vectors = np.column_stack([z, v_s, v_d])
     eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
     kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
-    cond = _check_combined(ops, vectors)
+    gram, cond = _check_combined(ops, vectors)
     vectors = vectors.astype(storage, copy=False)
     seconds = time.perf_counter() - start
     if cache is not None:
         cache.save("basis", key, {"vectors": vectors, "eigenvalues": eigenvalues, "kinds": kinds,
-                                  "zeta": np.float64(ops.zeta), "gram_condition": np.float64(cond)})
-    return ModalBasis(vectors, eigenvalues, kinds, ops.zeta,
+                                  "zeta": np.float64(ops.zeta), "gram": gram, "gram_condition": np.float64(cond)})
+    return ModalBasis(vectors, eigenvalues, kinds, ops.zeta, gram,
                       {"seconds": seconds, "steklov_seconds": t_s, "cached": 0.0, "gram_condition": cond})
 
 
@@ -426,9 +385,9 @@ def correction_samples(system: ThermalSystem, values: Mapping[str, float] | None
                        factors: tuple[float, ...] = CORRECTION_FACTORS) -> list[dict[str, float]]:
     """Parameter sets of the correction modes: the reference values, then each conduction parameter
     (of the terms with ``K 1 = 0``) multiplied in turn by each of ``factors``."""
-    ref = default_basis_values(system)
+    ref = {k: float(v) for k, v in system.parameters.items()}
     ref.update({k: float(v) for k, v in (values or {}).items()})
-    names = sorted({p for t in system.conductance.terms if not is_exchange(t.operator) for p in t.coefficient.params})
+    names = sorted(system.conductance.with_role("conduction").parameters)
     samples = [ref]
     for name in names:
         for f in factors:
@@ -450,7 +409,7 @@ def with_corrections(
 
     For each parameter sample s and load term U_j: the static response ``x = K(s)⁻¹ U_j`` and the
     first time moment ``K(s)⁻¹ C_i x`` for each capacity term (moment matching at zero frequency,
-    the "static correction" / mode-acceleration idea of modal synthesis; an extension of seed 001,
+    the "static correction" / mode-acceleration idea of modal synthesis; an extension of [Chavez2020],
     not in it).  They make the steady state exact at the samples and the slow response accurate,
     which truncated Dirichlet modes capture only slowly when k differs from k0 (measured in
     benchmarks/aromm_accuracy.py).  The detailed basis gains their C0-orthonormalised parts
@@ -470,53 +429,67 @@ def with_corrections(
         extra, coefficients = _correction_vectors(system, basis, ops, samples, method)
         if cache is not None:
             cache.save("corrections", key, {"vectors": extra, "coefficients": coefficients})
+    # the new columns are C0-orthonormal and C0-orthogonal to the basis: the Gram matrix grows by an identity
+    gram = sla.block_diag(basis.gram, np.eye(extra.shape[1]))
     return ModalBasis(np.column_stack([basis.vectors, extra.astype(basis.vectors.dtype)]),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
-                      basis.zeta, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
+                      basis.zeta, gram, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
 
 
 def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: ReferenceOperators,
                         samples: list[dict[str, float]], method: str) -> tuple[FloatArray, FloatArray]:
     """New columns P (C0-orthonormal, C0-orthogonal to the basis) and the coefficients (Ñ + m, m0) of the
     C0-orthonormalised correction vectors S in the enriched basis: S = [Φ, P] coefficients."""
-    exchange = any(is_exchange(t.operator) for t in system.conductance.terms)
+    exchange = bool(system.conductance.with_role("exchange"))
     cols = []
     for sample in samples:
         v = {k: val for k, val in sample.items() if k in system.parameter_names}
         k_mat = sp.csr_array(system.conductance.evaluate(system.values(v)))
         c_terms = [sp.csr_array(t.operator) for t in system.capacity.terms]
-        if not exchange:
-            c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
-            k_mat = sp.csr_array(k_mat + 1e-8 * (k_mat.diagonal().sum() / c_mat.diagonal().sum()) * c_mat)
+        c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
+        shift = float(sample.get(SHIFT, 0.0))  # (K + s C)⁻¹: aromm.shifts
+        if not exchange and shift == 0.0:
+            shift = 1e-8 * k_mat.diagonal().sum() / c_mat.diagonal().sum()
+        if shift:
+            k_mat = sp.csr_array(k_mat + shift * c_mat)
         fac = factorize(k_mat, method, points=ops.points)
         for t in system.load.terms:
             x = fac.solve(np.asarray(t.operator, dtype=float))
             cols.append(x)
             cols.extend(fac.solve(c @ x) for c in c_terms)
         del fac  # one factorisation alive at a time (peak memory)
-    x = np.column_stack(cols)
-    x = x / np.sqrt(np.maximum(np.einsum("ij,ij->j", x, ops.capacity @ x), 1e-300))
+    return enrich(np.column_stack(cols), basis, lambda a, b: a.T @ (ops.capacity @ b))
+
+
+#: ``product(A, B) = Aᵀ C0 B`` for tall A, B (n × a, n × b): the capacity inner product, computed in one
+#: process or summed over MPI ranks that each hold some rows (aromm.engines.petsc).
+CapacityProduct = Callable[[FloatArray, FloatArray], FloatArray]
+
+
+def enrich(x: FloatArray, basis: ModalBasis, product: CapacityProduct) -> tuple[FloatArray, FloatArray]:
+    """New columns P (C0-orthonormal, C0-orthogonal to the basis) spanning the correction vectors ``x``, and
+    the coefficients (Ñ + m, m0) of the C0-orthonormalised corrections S in the enriched basis [Φ, P]."""
+    x = x / np.sqrt(np.maximum(np.diag(product(x, x)), 1e-300))
     z = basis.vectors[:, basis.zero_modes]  # the constants are kept anyway: remove them first
     for _ in range(2):
-        x = x - z @ np.linalg.solve(z.T @ (ops.capacity @ z), z.T @ (ops.capacity @ x))
-    s = _orthonormal(x, ops.capacity, CORRECTION_RANK_TOL)
-    phi = basis.vectors
-    g = gram(ops.capacity, phi)
+        x = x - z @ np.linalg.solve(product(z, z), product(z, x))
+    s = _orthonormal(x, product, CORRECTION_RANK_TOL)
+    phi, gram = basis.vectors, basis.gram
     a = np.zeros((phi.shape[1], s.shape[1]))
     r = s
     for _ in range(2):  # block Gram–Schmidt in the C0 product, twice for accuracy
-        step = np.linalg.solve(g, phi.T @ (ops.capacity @ r))
+        step = np.linalg.solve(gram, product(phi, r))
         a += step
         r = r - phi @ step
-    p = _orthonormal(r, ops.capacity, CORRECTION_RANK_TOL)
-    b = p.T @ (ops.capacity @ r)
+    p = _orthonormal(r, product, CORRECTION_RANK_TOL)
+    b = product(p, r)
     return p, np.vstack([a, b])
 
 
-def _orthonormal(x: FloatArray, capacity: sp.csr_array, tol: float) -> FloatArray:
+def _orthonormal(x: FloatArray, product: CapacityProduct, tol: float) -> FloatArray:
     """C0-orthonormal basis of span(x), directions with Gram eigenvalue below ``tol`` (relative to 1) dropped."""
-    g = x.T @ (capacity @ x)
+    g = product(x, x)
     w, u = np.linalg.eigh((g + g.T) / 2)
     keep = w > tol * max(1.0, float(w.max(initial=0.0)))
     return (x @ u[:, keep]) / np.sqrt(w[keep])

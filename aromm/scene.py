@@ -1,4 +1,4 @@
-"""Scene files (TOML, DESIGN.md "Scene file"): load and validate into frozen objects.
+"""Scene files (TOML, docs/design.md "Scene file"): load and validate into frozen objects.
 
 Every refusal raises :class:`~aromm.errors.InputError` whose message names the file,
 the key and what is allowed; the command line turns it into exit code 2.
@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -19,22 +20,39 @@ import numpy as np
 
 from aromm import microstructure
 from aromm.errors import InputError
-from aromm.fem import FACES, FaceSpec, PhaseSpec, assemble_voxels, parameter_values
+from aromm.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
+from aromm.microstructure.generators import GENERATORS
+from aromm.observables import read_csv
+from aromm.profiles import Profile
 from aromm.system import ThermalSystem, TimeGrid
+from aromm.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values
 
-SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source")
-GENERATORS = ("wood", "sphere_in_cube", "simple_cubic", "laminate")
+SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
 PHASE_KEYS = ("label", "k", "c")
 FACE_KEYS = ("flux", "h", "T_ext", "T")
+REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
+
+
+def physical_memory() -> float:
+    """Bytes of physical memory of this machine (the default budget of :meth:`Scene.refined`)."""
+    return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+@dataclass(frozen=True)
+class ReductionSettings:
+    """``[reduction]``: reference properties of the modal bases (``basis``) and of the reference simulation
+    (``reference``), as overrides of the scene's parameters (e.g. ``{"fibre.k": 0.53}``; [Chavez2020, § 3])."""
+
+    basis: Mapping[str, float] = field(default_factory=dict)
+    reference: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A validated scene: voxel labels (indexed [x, y, z]) or a conforming mesh, phases, face conditions,
-    time grid, outputs and (mesh scenes) interface contact resistances."""
+    """A validated scene: a geometry (voxel image or conforming mesh), phases, face conditions, initial
+    temperature, time grid, outputs, contact resistances (mesh scenes) and reduction settings."""
 
-    labels: np.ndarray
-    voxel_size: tuple[float, float, float]
+    geometry: SceneGeometry
     phases: tuple[PhaseSpec, ...]
     boundary: tuple[FaceSpec, ...] = ()
     initial_T: float = 0.0
@@ -42,8 +60,7 @@ class Scene:
     outputs: tuple[str, ...] = ()
     interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
     path: Path | None = None
-    mesh: meshio.Mesh | None = None
-    mesh_order: int = 1
+    reduction: ReductionSettings = ReductionSettings()
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -58,20 +75,45 @@ class Scene:
     @property
     def size(self) -> tuple[float, float, float]:
         """Edge lengths of the box (m): the voxel image, or the mesh's bounding box."""
-        if self.mesh is not None:
-            extent = np.ptp(np.asarray(self.mesh.points, dtype=float), axis=0)
-            return (float(extent[0]), float(extent[1]), float(extent[2]))
-        nx, ny, nz = self.labels.shape
-        return (nx * self.voxel_size[0], ny * self.voxel_size[1], nz * self.voxel_size[2])
+        return self.geometry.size
 
     def volume_fractions(self) -> dict[str, float]:
-        """Volume fraction of each phase, ``1ᵀ C_p 1 / |Ω|`` from the assembled phase masses (voxels or mesh)."""
-        unit = tuple(replace(ph, c=1.0) for ph in self.phases)
-        system = assemble(replace(self, phases=unit, boundary=(), outputs=(), time=TimeGrid(1.0, 1.0)))
-        ones = np.ones(system.n)
-        volumes = {t.name.removeprefix("C_"): float(ones @ (t.operator @ ones)) for t in system.capacity.terms}
-        total = sum(volumes.values())
-        return {ph.name: volumes.get(ph.name, 0.0) / total for ph in self.phases}
+        """Volume fraction of each phase (voxel counts, or the volumes of the mesh's cells)."""
+        return self.geometry.volume_fractions(self.phases)
+
+    def refined(self, factor: int, bytes_per_voxel: float = REFINE_BYTES_PER_VOXEL,
+                budget: float | None = None) -> Scene:
+        """The same scene with each voxel split into ``factor``³ sub-voxel elements.
+
+        Labels are repeated ``factor`` times along each axis and ``voxel_size`` is divided by ``factor``: the
+        geometry, the phases and the face conditions are unchanged, only the Q1 discretisation is finer
+        (``aromm ... --refine R``).  Refused with :class:`InputError` when ``factor`` is not a positive
+        integer, when the scene is a mesh, or when the refined problem's estimate
+        ``factor³ · n_voxels · bytes_per_voxel`` exceeds ``budget`` (bytes; default: the machine's memory).
+
+        >>> phases = (PhaseSpec("a", 0, 1.0), PhaseSpec("b", 1, 2.0))
+        >>> s = Scene(VoxelGeometry(np.arange(2).reshape(2, 1, 1), (2e-3, 1e-3, 1e-3)), phases)
+        >>> r = s.refined(2)
+        >>> r.geometry.labels[:, 0, 0].tolist(), r.geometry.voxel_size, r.size == s.size
+        ([0, 0, 1, 1], (0.001, 0.0005, 0.0005), True)
+        """
+        if isinstance(factor, bool) or not isinstance(factor, int | np.integer) or factor < 1:
+            raise InputError(f"{self.where}refine: the refinement factor must be a positive integer, got {factor!r}")
+        if factor == 1:
+            return self
+        if not isinstance(self.geometry, VoxelGeometry):
+            raise InputError(f"{self.where}refine: a mesh scene has no voxels to split; refine the mesh instead")
+        labels, size = self.geometry.labels, self.geometry.voxel_size
+        limit = physical_memory() if budget is None else float(budget)
+        need = float(labels.size) * factor**3 * bytes_per_voxel
+        if need > limit:
+            shape = "×".join(str(n * factor) for n in labels.shape)
+            raise InputError(f"{self.where}refine: {factor}× gives {shape} voxels, about {need / 1e9:.3g} GB "
+                             f"at {bytes_per_voxel:g} B/voxel, more than the {limit / 1e9:.3g} GB available")
+        for axis in range(3):
+            labels = np.repeat(labels, factor, axis=axis)
+        voxel = (size[0] / factor, size[1] / factor, size[2] / factor)
+        return replace(self, geometry=VoxelGeometry(labels, voxel))
 
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> Scene:
@@ -82,23 +124,11 @@ class Scene:
 def assemble(scene: Scene) -> ThermalSystem:
     """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for.
 
-    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem).  Mesh scenes: Lagrange simplices with
-    the interface conductance 1/R on split interface nodes (aromm.effective.mesh_fem).
+    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel).  Mesh scenes: Lagrange simplices with
+    the interface conductance 1/R on split interface nodes (aromm.fem.mesh).
     """
-    if scene.mesh is not None:
-        from aromm.effective.mesh_fem import assemble_mesh
-
-        return assemble_mesh(scene.mesh, scene.phases, scene.boundary,
-                             interfaces={f"{a}|{b}": r for (a, b), r in scene.interfaces.items()},
-                             time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs,
-                             order=scene.mesh_order)
-    if scene.interfaces:
-        raise InputError(
-            f"{scene.where}[interfaces]: contact resistance needs a conforming mesh (geometry.mesh); voxel"
-            " images have no interface surface to put it on"
-        )
-    return assemble_voxels(scene.labels, scene.voxel_size, scene.phases, scene.boundary,
-                           time=scene.time, initial_T=scene.initial_T, outputs=scene.outputs)
+    return scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
+                                   initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
 
 
 def _where(path: Path | None) -> str:
@@ -135,7 +165,7 @@ class _Reader:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a TOML scene file (DESIGN.md).
+    """Read and validate a TOML scene file (docs/design.md).
 
     Paths inside the file are relative to the file.  Refused with :class:`InputError`:
     unknown sections, keys or faces; missing or unreadable images; phase labels absent
@@ -143,65 +173,84 @@ def load_scene(path: str | Path) -> Scene:
     a face given two conditions; ``dt <= 0`` or ``end < dt``; non-3-D images; bad voxel_size.
     """
     path = Path(path)
+    return scene_from_dict(read_toml(path), path)
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """The parsed scene file (not yet validated); InputError when missing or not TOML."""
     if not path.is_file():
         raise InputError(f"{path}: scene file not found")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise InputError(f"{path}: not a valid TOML file ({err})") from None
-    return scene_from_dict(data, path)
 
 
-def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
-    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths."""
+def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
+                    image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None) -> Scene:
+    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths.
+
+    ``image`` = (labels, voxel size stored in the file or None) replaces reading ``geometry.image``: an
+    engine that reads the image slab by slab passes a stand-in holding each label present once
+    (aromm.engines.petsc.problem), so that the phases are checked without the whole image in memory.
+    """
     r = _Reader(path)
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
     geo = r.table(data, "geometry", None)
-    if "mesh" in geo:
-        mesh, order = _mesh(r, geo, path)
-        labels, voxel_size = _mesh_labels(mesh), (1.0, 1.0, 1.0)
-    else:
-        mesh, order = None, 1
-        labels, voxel_size = _geometry(r, geo, path)
-    phases = _phases(r, data, labels)
+    geometry: SceneGeometry = MeshGeometry(*_mesh(r, geo, path)) if "mesh" in geo else VoxelGeometry(
+        *_geometry(r, geo, path, image))
+    phases = _phases(r, data, geometry.present())
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
     initial_T = r.number(initial.get("T", 0.0), "initial.T")
     time = _time(r, data)
+    varying = [f.face for f in boundary if f.varies]
+    if varying and time is None:
+        raise r.fail(f"boundary.{varying[0]}", "a history (CSV file) needs a transient scene: add [time] end and dt")
     if time is not None:
         for ph in phases:
             if ph.c is None:
                 raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
     outputs = _outputs(r, data)
     interfaces = _interfaces(r, data, {ph.name for ph in phases})
-    return Scene(labels, voxel_size, phases, boundary, initial_T, time, outputs, interfaces, path, mesh, order)
+    # the reduction may name capacities even in a material-only scene (a time grid is added later)
+    allowed = parameter_values(phases, boundary, initial_T, transient=True)
+    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed))
 
 
-def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.ndarray, tuple[float, float, float]]:
+def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None,
+              image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None,
+              ) -> tuple[np.ndarray, tuple[float, float, float]]:
     if not geo:
         raise r.fail("geometry", "missing: give image = \"file\" or generator = \"name\" with voxel_size")
     if ("image" in geo) == ("generator" in geo):
         raise r.fail("geometry", "give exactly one of image or generator")
     file_voxel: tuple[float, float, float] | None = None
-    if "image" in geo:
-        image = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+    if image is not None:
+        if "image" in geo:  # the keys are checked as below; the file itself is read by the caller
+            _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+        labels, vs = image
+        file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
+    elif "image" in geo:
+        file = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
         shape = geo.get("shape")
-        labels, vs = microstructure.load_image(image, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
+        labels, vs = microstructure.load_image(file, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
         file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
     else:
         name = geo["generator"]
         if name not in GENERATORS:
             raise r.fail("geometry.generator", f"unknown generator {name!r}; allowed: {', '.join(GENERATORS)}")
+        generate = GENERATORS[name]
         options = {k: v for k, v in geo.items() if k not in ("generator", "voxel_size", "seed")}
-        accepted = inspect.signature(getattr(microstructure, name)).parameters
+        accepted = inspect.signature(generate).parameters
         if "voxel_size" in accepted and "voxel_size" in geo:
             options["voxel_size"] = geo["voxel_size"]
         if "rng" in accepted:
             options["rng"] = np.random.default_rng(int(geo.get("seed", 0)))
         try:
-            labels = getattr(microstructure, name)(**options)
+            labels = generate(**options)
         except TypeError as err:
             raise r.fail("geometry", f"bad options for generator {name!r}: {err}") from None
     labels = np.asarray(labels)
@@ -216,7 +265,6 @@ def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.nd
     return labels, voxel
 
 
-MESH_LABEL_KEY = "gmsh:physical"
 
 
 def _input_file(r: _Reader, geo: dict[str, Any], key: str, allowed: tuple[str, ...], path: Path | None) -> Path:
@@ -249,13 +297,6 @@ def _mesh(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Me
     return mesh, int(order)
 
 
-def _mesh_labels(mesh: meshio.Mesh) -> np.ndarray:
-    """Tags of the tetrahedra, as a 3-D array so that the phase checks of voxel scenes apply."""
-    tags = [np.asarray(data) for block, data in zip(mesh.cells, mesh.cell_data[MESH_LABEL_KEY], strict=True)
-            if block.type == "tetra"]
-    return np.concatenate(tags).astype(np.int64).reshape(-1, 1, 1)
-
-
 def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float]:
     values = [value] * 3 if not isinstance(value, list | tuple | np.ndarray) else list(np.ravel(value))
     if len(values) != 3:
@@ -264,13 +305,12 @@ def _voxel_triple(r: _Reader, value: Any, key: str) -> tuple[float, float, float
     return (dx, dy, dz)
 
 
-def _phases(r: _Reader, data: Mapping[str, Any], labels: np.ndarray) -> tuple[PhaseSpec, ...]:
+def _phases(r: _Reader, data: Mapping[str, Any], present: set[int]) -> tuple[PhaseSpec, ...]:
     table = r.table(data, "phases", None)
     if not table:
         raise r.fail("phases", "missing: give at least one [phases.<name>] with label, k (and c)")
     sources = r.table(data, "source", None)
     phases = []
-    present = set(np.unique(labels).tolist())
     for name in table:
         key = f"phases.{name}"
         spec = r.table(table, key, PHASE_KEYS, name)
@@ -320,12 +360,29 @@ def _boundary(r: _Reader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
             raise r.fail(f"{key}.T_ext", "T_ext goes with h")
         faces.append(FaceSpec(
             face,
-            flux=r.number(spec["flux"], f"{key}.flux") if "flux" in spec else None,
+            flux=_load(r, spec["flux"], f"{key}.flux") if "flux" in spec else None,
             h=r.number(spec["h"], f"{key}.h", positive=True) if "h" in spec else None,
-            T_ext=r.number(spec.get("T_ext", 0.0), f"{key}.T_ext"),
-            T=r.number(spec["T"], f"{key}.T") if "T" in spec else None,
+            T_ext=_load(r, spec.get("T_ext", 0.0), f"{key}.T_ext"),
+            T=_load(r, spec["T"], f"{key}.T") if "T" in spec else None,
         ))
     return tuple(faces)
+
+
+def _load(r: _Reader, value: Any, key: str) -> Load:
+    """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file) read
+    as a piecewise-linear history held at its last value (:class:`~aromm.profiles.Profile`)."""
+    if not isinstance(value, str):
+        return r.number(value, key)
+    file = Path(value)
+    if not file.is_absolute() and r.path is not None:
+        file = r.path.parent / file
+    if not file.is_file():
+        raise r.fail(key, f"history file not found: {file} (a number, or a CSV file t,<value> relative to the scene)")
+    table = read_csv(file)
+    if len(table.outputs) != 1:
+        raise r.fail(key, f"{file}: a history has two columns t,<value>, got {', '.join(('t', *table.outputs))}")
+    values = np.asarray(next(iter(table.mean_T.values())), dtype=float)
+    return Profile(tuple(np.asarray(table.t, dtype=float).tolist()), tuple(values.tolist()), source=str(file))
 
 
 def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:
@@ -360,3 +417,17 @@ def _interfaces(r: _Reader, data: Mapping[str, Any], names: set[str]) -> dict[tu
         spec = r.table(table, key, ("R",), pair)
         out[(parts[0], parts[1])] = r.number(spec.get("R"), f"{key}.R", positive=True)
     return out
+
+
+def _reduction(r: _Reader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
+    """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers)."""
+    table = r.table(data, "reduction", ("basis", "reference"))
+    out: dict[str, dict[str, float]] = {}
+    for part in ("basis", "reference"):
+        given = r.table(table, f"reduction.{part}", None, part)
+        unknown = sorted(set(given) - set(parameters))
+        if unknown:
+            raise r.fail(f"reduction.{part}", f"unknown parameter(s) {unknown}; the scene has "
+                                              f"{', '.join(sorted(parameters))}")
+        out[part] = {k: r.number(v, f"reduction.{part}.{k}", positive=True) for k, v in given.items()}
+    return ReductionSettings(out["basis"], out["reference"])

@@ -1,7 +1,7 @@
 """Conforming-mesh FE of the seed-002 cell: mesh size vs error vs seconds, and the convergence rate.
 
 Reference for E_c: Rayleigh's series for the simple-cubic array with the SC lattice coefficients
-(etc_formulas §7; relative error < 2e-6 at phi = 4 pi/81 = 0.155, with or without contact
+(effective_formulas.md §7; relative error < 2e-6 at phi = 4 pi/81 = 0.155, with or without contact
 resistance). E_II and E_1bot have no closed form: their observed order comes from three
 successive meshes. The neutral inclusion (D + C = 1) must give exactly 1 in the continuum; its
 discrete defect is printed too.

@@ -1,4 +1,4 @@
-"""DEM benchmarks (seed 000): packing cost, explicit vs implicit, C_t and E against N.
+"""DEM benchmarks [Hassan2019]: packing cost, explicit vs implicit, C_t and E against N.
 
     python benchmarks/dem.py                       # all tables at the default sizes
     python benchmarks/dem.py --table pack --sizes 10000 150000
@@ -9,7 +9,7 @@ Tables (printed, not asserted):
 
 * ``pack``: wall and CPU seconds and peak resident memory of ``pack_spheres`` per size, each size in
   a fresh process (peak RSS is per process).  Wall time depends on the machine's load; CPU time less so.
-* ``steps``: the slab of seed 000 §3.1 (c = 0.9 J/(kg K)) integrated to 0.05, 0.1, 0.2 s by forward Euler
+* ``steps``: the slab of [Hassan2019, § 3.1] (c = 0.9 J/(kg K)) integrated to 0.05, 0.1, 0.2 s by forward Euler
   (eq. 5, 0.9 x the exact stability limit) and by the implicit solvers of aromm.solve (BDF2 and backward
   Euler, factorised once) with increasing numbers of steps; error = max |T - T_ref| over particles and
   output times, T_ref = BDF2 with 3200 steps (``--reference-steps``).  Each implicit scheme stops at
@@ -34,16 +34,18 @@ from threadpoolctl import threadpool_limits
 
 from aromm.analytic import slab_dirichlet_series
 from aromm.dem.bonds import build_bonds
-from aromm.dem.calibrate import calibrate, inclusion_network, inclusion_ratios
+from aromm.dem.calibration import calibrate, inclusion_network, inclusion_ratios
 from aromm.dem.explicit import simulate_explicit, stability_limit
 from aromm.dem.network import Network
 from aromm.dem.packing import Packing, load_packing, pack_spheres
 from aromm.effective.models import rayleigh_simple_cubic
 from aromm.solve import simulate
 from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec
 
-L = 0.1  # m, seed 000 §3.1
+L = 0.1  # m, [Hassan2019, § 3.1]
 TIMES = np.array([0.05, 0.1, 0.2])
+FIXED = (FaceSpec("y0", T=25.0), FaceSpec("y1", T=100.0))  # [Hassan2019, § 3.1]
 
 
 def _pack_job(args: tuple[int, int, str | None]) -> tuple[int, float, float, float]:
@@ -84,7 +86,7 @@ def slab_system(packing: Packing) -> tuple[Network, dict[str, float]]:
     cal = calibrate(packing, 7.5, bonds=bonds)
     cut = packing.cut(packing.lower, packing.lower + packing.box)
     net = Network(cut, build_bonds(cut, gap=bonds.gap_threshold), cal.c_t, np.zeros(cut.n, dtype=np.int64))
-    values = {"matrix.k": 33.0, "matrix.c": 7800.0 * 0.9, "y0.T": 25.0, "y1.T": 100.0, "initial.T": 25.0}
+    values = {"matrix.k": 33.0, "matrix.c": 7800.0 * 0.9, "initial.T": 25.0}
     return net, values
 
 
@@ -93,14 +95,14 @@ def table_steps(n: int, seed: int, cache: str | None, reference_steps: int = 320
     net, values = slab_system(packing)
 
     def run_implicit(steps: int, scheme: str) -> tuple[np.ndarray, float]:
-        system = net.system(values, fixed=("y0", "y1"), time=TimeGrid(0.2, 0.2 / steps))
+        system = net.system(values, boundary=FIXED, time=TimeGrid(0.2, 0.2 / steps))
         t = time.perf_counter()
         obs = simulate(system, times=TIMES, fields=True, scheme=scheme)  # type: ignore[arg-type]
         assert obs.fields is not None
         return obs.fields, time.perf_counter() - t
 
     ref, t_ref = run_implicit(reference_steps, "bdf2")
-    system = net.system(values, fixed=("y0", "y1"), time=TimeGrid(0.2, 0.01))
+    system = net.system(values, boundary=FIXED, time=TimeGrid(0.2, 0.01))
     limit = stability_limit(system)
     t = time.perf_counter()
     explicit = simulate_explicit(system, times=TIMES, fields=True)

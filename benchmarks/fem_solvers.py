@@ -7,9 +7,9 @@ Prints two tables:
    resident memory of a fresh process doing all of it (N = 20, 46, 80 by default).
    The factorisation is timed with the nested-dissection ordering the solvers use and,
    with --amd, with CHOLMOD's own AMD ordering for comparison.
-2. Sphere of radius L/3 in a cube, contrast 10: k_eff by the flux method (seed 001
+2. Sphere of radius L/3 in a cube, contrast 10: k_eff by the flux method ([Chavez2020]
    eq. 13) against resolution, its error against the exact simple-cubic value
-   1.39573 (../shared/method/solvers.md; Maxwell 1.39503 for comparison), and the seconds.
+   1.39573 (docs/notes/solver_facts.md; Maxwell 1.39503 for comparison), and the seconds.
 
 Usage: python benchmarks/fem_solvers.py [--sizes 20 46 80] [--solver auto|cholmod|splu|amg] [--steps 50]
 """
@@ -27,15 +27,16 @@ from dataclasses import replace
 
 import numpy as np
 
-EXACT_SC = 1.39573  # kappa = 10, phi = 4 pi / 81, simple-cubic array (solvers.md)
+EXACT_SC = 1.39573  # kappa = 10, phi = 4 pi / 81, simple-cubic array (docs/notes/solver_facts.md)
 
 
 def one_size(n: int, solver: str, steps: int, amd: bool) -> dict[str, float]:
-    from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+    from aromm.fem import assemble_voxels
     from aromm.linalg import factorize
     from aromm.microstructure import wood
     from aromm.solve import steady_field, transient
     from aromm.system import Affine, TimeGrid
+    from aromm.vocabulary import FaceSpec, PhaseSpec
 
     labels = wood((n, n, n), 5e-6, np.random.default_rng(0))
     phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
@@ -70,7 +71,7 @@ def one_size(n: int, solver: str, steps: int, amd: bool) -> dict[str, float]:
 
 
 def sphere_convergence(sizes: list[int], solver: str) -> list[tuple[int, float, float, float]]:
-    from aromm.homogenize import homogenize
+    from aromm.homogenization import homogenize
     from aromm.scene import scene_from_dict
 
     rows = []
@@ -78,7 +79,7 @@ def sphere_convergence(sizes: list[int], solver: str) -> list[tuple[int, float, 
         scene = scene_from_dict({"geometry": {"generator": "sphere_in_cube", "n": n, "voxel_size": 1e-3 / n},
                                  "phases": {"m": {"label": 0, "k": 1.0}, "p": {"label": 1, "k": 10.0}}})
         t0 = time.perf_counter()
-        k = homogenize(scene, method=solver)[0, 0]
+        k = homogenize(scene, boundary="flux", method=solver)[0, 0]
         rows.append((n, k, 100 * (k / EXACT_SC - 1), time.perf_counter() - t0))
     return rows
 

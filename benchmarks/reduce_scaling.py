@@ -1,10 +1,10 @@
 """Reduced-model build on wood-like VERs from 24³ to 96³ voxels: seconds, memory, error (issue 12, item 2).
 
-Each size runs in its own process (peak memory per size).  The VER is ``inverse.study.small_wood(n)``: the
-seed's 230 µm box with tracheid walls one voxel thick (so finer images hold more, thinner cells), loaded by
-scenario 1 of seed 001 Table 1 (500 W/m² into z0, h = 20 W/(m² K) on z1, 60 s, dt = 0.1 s).  Per size:
+Each size runs in its own process (peak memory per size).  The VER is ``studies.chavez2020.small_wood(n)``: the
+paper's 230 µm box with tracheid walls one voxel thick (so finer images hold more, thinner cells), loaded by
+scenario 1 of [Chavez2020, Table 1] (500 W/m² into z0, h = 20 W/(m² K) on z1, 60 s, dt = 0.1 s).  Per size:
 
-* ``reduce`` (ñ = 200 from Ñ = 320 modes, correction modes, the seed's reference cases) from an empty cache
+* ``reduce`` (ñ = 200 from Ñ = 320 modes, correction modes, the paper's reference properties) from an empty cache
   with the chosen eigensolver: wall and CPU seconds, seconds of the bases, LOBPCG iterations, peak resident
   memory, bytes per voxel, and the memory floor of the float64 basis (Ñ × 8 bytes per node);
 * the error of the reduced model at (k_F, c_F) = (0.3, 4e6) against the full model at the same dt (BDF2,
@@ -47,15 +47,16 @@ MEMORY_LIMIT_GB = 14.0  # address-space cap of a worker: a MemoryError instead o
 
 def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: bool, half_step: bool) -> dict[
         str, object]:
-    from aromm.reduced import reduce
+    from aromm.reduction import reduce
     from aromm.scene import assemble
     from aromm.solve import steady_field, transient
     from aromm.system import TimeGrid
-    from inverse.study import loading, small_wood
+    from studies.chavez2020 import loading, small_wood
 
     out: dict[str, object] = {"n": n, "eigensolver": eigensolver, "load_start": os.getloadavg()[0]}
     wall, cpu = time.perf_counter(), time.process_time()
-    system = assemble(loading(small_wood(n), "z"))
+    scene = loading(small_wood(n), "z")
+    system = assemble(scene)
     out["nodes"], out["assembly_cpu"] = system.n, time.process_time() - cpu
     log: list[str] = []
 
@@ -67,7 +68,8 @@ def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: boo
 
     with tempfile.TemporaryDirectory() as tmp:
         wall, cpu = time.perf_counter(), time.process_time()
-        rom = reduce(system, order=200, modes=320, eigensolver=eigensolver, cache=tmp, eigen_progress=listen)
+        rom = reduce(system, order=200, modes=320, eigensolver=eigensolver, cache=tmp, eigen_progress=listen,
+                     basis_values=scene.reduction.basis, reference_values=scene.reduction.reference)
         out["offline_wall"], out["offline_cpu"] = time.perf_counter() - wall, time.process_time() - cpu
     out["peak_gb_offline"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     info = rom.info
@@ -95,7 +97,8 @@ def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: boo
     out["steady_face_mean"] = float(np.abs(steady_full).max())
     if float32:  # a second build with the basis rounded to single precision (the eigen-solve again)
         with tempfile.TemporaryDirectory() as tmp:
-            rom32 = reduce(system, order=200, modes=320, eigensolver=eigensolver, basis_storage="float32", cache=tmp)
+            rom32 = reduce(system, order=200, modes=320, eigensolver=eigensolver, basis_storage="float32", cache=tmp,
+                           basis_values=scene.reduction.basis, reference_values=scene.reduction.reference)
         out["float32_change"] = float(np.abs(rom32.simulate(POINT, times).as_array() - reduced).max())
     out["peak_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     out["bytes_per_voxel"] = out["peak_gb"] * 1e9 / n**3  # type: ignore[operator]

@@ -1,4 +1,4 @@
-"""inverse: identification of phase properties from measurements (seed 001 section 4).
+"""inverse: identification of phase properties from measurements [Chavez2020, § 4].
 
     from inverse import identify, load_measurements
     result = identify(model, load_measurements("y.csv", model.outputs),
@@ -6,7 +6,7 @@
     result.estimates, result.uncertainty, result.to_json()
 """
 
-from inverse.identify import Identification, identify
+from inverse.identification import Identification, identify
 from inverse.measurements import (
     Measurements,
     homogeneous_measurements,

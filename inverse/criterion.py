@@ -1,4 +1,4 @@
-"""The least-squares criterion of seed 001 eq. 12, evaluated for a whole swarm at once.
+"""The least-squares criterion of [Chavez2020, eq. 12], evaluated for a whole swarm at once.
 
     J(β) = ½ Σ_i Σ_j (Y_ij − Ŷ_ij(β))²
 
@@ -52,7 +52,7 @@ class LeastSquares:
             for name in (*self.names, *self.fixed):
                 if name not in known:
                     raise InputError(f"{label}unknown parameter {name!r}; the model has {sorted(known)}")
-            sc.measurements.check_faces(sc.model.outputs)
+            sc.measurements.check_outputs(sc.model.outputs)
         self._columns = [np.array([sc.model.outputs.index(f) for f in sc.measurements.faces])
                          for sc in self.scenarios]
         self._data = [sc.measurements.as_array() for sc in self.scenarios]

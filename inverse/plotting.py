@@ -15,7 +15,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from aromm.files import output_path
-from inverse.identify import Identification
+from inverse.identification import Identification
 
 
 def identification_figure(result: Identification) -> Figure:

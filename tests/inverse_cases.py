@@ -7,13 +7,15 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.fem import assemble_voxels
+from aromm.observables import Observables
 from aromm.solve import FullModel
-from aromm.system import FloatArray, Observables, ThermalSystem, TimeGrid
+from aromm.system import FloatArray, ThermalSystem, TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
 PHASES = (PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4.0e6))
-BOX = 231e-6  # m, the VER of seed 001
+BOX = 231e-6  # m, the VER of [Chavez2020]
 
 
 def tracheids(n: int) -> np.ndarray:
@@ -24,7 +26,7 @@ def tracheids(n: int) -> np.ndarray:
 
 def scenario_system(axis: str = "z", n: int = 6, end: float = 40.0, dt: float = 1.0,
                     steady: bool = False) -> ThermalSystem:
-    """Seed 001 Table 1 on a small image: 500 W/m² into face <axis>0, h = 20 W/(m² K) on <axis>1."""
+    """[Chavez2020, Table 1] on a small image: 500 W/m² into face <axis>0, h = 20 W/(m² K) on <axis>1."""
     return assemble_voxels(tracheids(n), (BOX / n,) * 3, PHASES,
                            [FaceSpec(f"{axis}0", flux=500.0), FaceSpec(f"{axis}1", h=20.0)],
                            time=None if steady else TimeGrid(end, dt), outputs=[f"{axis}0", f"{axis}1"])

@@ -1,4 +1,4 @@
-"""Scene text shared by the tests: seed 001 scenario 1 on a fibre (label 1) / gas (label 0) image."""
+"""Scene text shared by the tests: [Chavez2020] scenario 1 on a fibre (label 1) / gas (label 0) image."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The slab series of seed 000 eq. 12-13: boundary values, initial state, heat equation, steady limit."""
+"""The slab series of [Hassan2019, eq. 12-13]: boundary values, initial state, heat equation, steady limit."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Bond networks (seed 000 §2.1): coordination target, minimum degree, connectivity, periodic images."""
+"""Bond networks [Hassan2019, § 2.1]: coordination target, minimum degree, connectivity, periodic images."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ def test_vectors_are_nearest_images(packing: Packing) -> None:
 
 
 def test_gap_table_matches_dem_notes(packing: Packing) -> None:
-    """shared/method/dem.md: true contacts Z ~ 4.8, gap < 0.9 % -> Z ~ 6, gap < 6 % -> Z ~ 7.5."""
+    """docs/notes/dem.md: true contacts Z ~ 4.8, gap < 0.9 % -> Z ~ 6, gap < 6 % -> Z ~ 7.5."""
     z = coordination_table(packing, [0.0, 0.009, 0.06])
     assert np.all(np.diff(z) > 0)
     assert z[1] == pytest.approx(6.0, abs=0.4)

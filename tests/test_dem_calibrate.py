@@ -1,4 +1,4 @@
-"""Calibration of C_t (seed 000 eq. 6-8) and the sphere-inclusion ratio (seed 000 §3.2)."""
+"""Calibration of C_t [Hassan2019, eq. 6-8] and the sphere-inclusion ratio [Hassan2019, § 3.2]."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from aromm.dem.bonds import build_bonds
-from aromm.dem.calibrate import calibrate, inclusion_network, inclusion_ratio, periodic_conductivity
+from aromm.dem.calibration import calibrate, inclusion_network, inclusion_ratio, periodic_conductivity
 from aromm.dem.network import Network, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
 from aromm.errors import InputError
@@ -32,7 +32,7 @@ def test_random_packing_isotropic_and_pair_below_global(packing: Packing) -> Non
     k = glob.k_arbitrary
     assert np.max(np.abs(k - k.T)) < 1e-8 * np.trace(k)  # the Love-Weber tensor of a network is symmetric
     diag = np.diag(k)
-    assert np.ptp(diag) < 0.05 * diag.mean()  # isotropic packing (seed 000 §2.1) within 5 % at n = 2000
+    assert np.ptp(diag) < 0.05 * diag.mean()  # isotropic packing [Hassan2019, § 2.1] within 5 % at n = 2000
     assert np.max(np.abs(k - np.diag(diag))) < 0.03 * diag.mean()
     # bigger particles carry more bonds and <((r_p+r_q)/2)^2> > R^2: pair-mean areas are larger
     assert pair.c_t < glob.c_t
@@ -40,7 +40,7 @@ def test_random_packing_isotropic_and_pair_below_global(packing: Packing) -> Non
 
 
 def test_z_times_c_t_nearly_constant(packing: Packing) -> None:
-    """Seed 000 §2.3: Z x C_t constant for a packing.  Measured: C_t moves by ~40 %, Z C_t by < 8 %."""
+    """[Hassan2019, § 2.3]: Z x C_t constant for a packing.  Measured: C_t moves by ~40 %, Z C_t by < 8 %."""
     zs = [6.0, 7.5, 9.0]
     cts = np.array([calibrate(packing, z, radius="global").c_t for z in zs])
     prod = cts * np.array(zs)

@@ -1,4 +1,4 @@
-"""``aromm dem ...``: JSON shapes of DESIGN.md and exit codes (run on the dem group itself)."""
+"""``aromm dem ...``: JSON shapes of docs/design.md and exit codes (run on the dem group itself)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Explicit integration (seed 000 eq. 5): exact stability limit, refusal above it, accuracy."""
+"""Explicit integration [Hassan2019, eq. 5]: exact stability limit, refusal above it, accuracy."""
 
 from __future__ import annotations
 
@@ -14,8 +14,10 @@ from aromm.dem.network import Network
 from aromm.dem.packing import cubic_lattice, pack_spheres
 from aromm.errors import InputError
 from aromm.system import ThermalSystem, TimeGrid
+from aromm.vocabulary import FaceSpec
 
-VALUES = {"matrix.k": 33.0, "matrix.c": 7800 * 0.9, "y0.T": 25.0, "y1.T": 100.0, "initial.T": 25.0}
+VALUES = {"matrix.k": 33.0, "matrix.c": 7800 * 0.9, "initial.T": 25.0}
+FIXED = (FaceSpec("y0", T=25.0), FaceSpec("y1", T=100.0))
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +26,7 @@ def system() -> ThermalSystem:
     cut = p.cut(p.lower, p.lower + p.box)
     net = Network(cut, build_bonds(cut, gap=build_bonds(p, 7.5).gap_threshold), 0.8,
                   np.zeros(cut.n, dtype=np.int64))
-    return net.system(VALUES, fixed=("y0", "y1"), outputs=("x0",), time=TimeGrid(0.2, 0.01))
+    return net.system(VALUES, boundary=FIXED, outputs=("x0",), time=TimeGrid(0.2, 0.01))
 
 
 def test_limit_is_two_over_largest_eigenvalue(system: ThermalSystem) -> None:
@@ -52,7 +54,7 @@ def test_lattice_chain_matches_analytic_series() -> None:
     lat = cubic_lattice(cells, a)
     lat = lat.cut(lat.lower, lat.lower + np.array([cells * a, cells * a, 2 * a]))
     net = Network(lat, build_bonds(lat, gap=0.1), 4 / np.pi, np.zeros(lat.n, dtype=np.int64))
-    system = net.system(VALUES, fixed=("y0", "y1"), time=TimeGrid(0.2, 0.01))
+    system = net.system(VALUES, boundary=FIXED, time=TimeGrid(0.2, 0.01))
     times = [0.05, 0.1, 0.2]
     out = simulate_explicit(system, times=times, fields=True)
     assert out.fields is not None

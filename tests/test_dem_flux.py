@@ -1,4 +1,4 @@
-"""Flux density (seed 000 eq. 9-10): sign (q = -lambda grad T) and volume (V_p/phi) conventions."""
+"""Flux density [Hassan2019, eq. 9-10]: sign (q = -lambda grad T) and volume (V_p/phi) conventions."""
 
 from __future__ import annotations
 
@@ -7,11 +7,12 @@ import pytest
 import scipy.sparse as sp
 
 from aromm.dem.bonds import build_bonds
-from aromm.dem.calibrate import calibrate, periodic_conductivity, periodic_field
+from aromm.dem.calibration import calibrate, periodic_conductivity, periodic_field
 from aromm.dem.flux import neighbourhood_mean, particle_flux
-from aromm.dem.network import Network, face_heat_flow, transmission_factor
+from aromm.dem.network import Network, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
-from aromm.solve import steady_field
+from aromm.solve import reaction_heat_flow, steady_field
+from aromm.vocabulary import FaceSpec
 
 
 @pytest.fixture(scope="module")
@@ -45,22 +46,22 @@ def test_periodic_mean_flux_is_minus_lambda_gradient(packing: Packing) -> None:
     np.testing.assert_allclose(mean, -k @ g, rtol=1e-8, atol=1e-8 * 33e3)
     assert np.trace(k) / 3 == pytest.approx(33.0, rel=1e-9)  # calibrated: lambda_e = lambda
     assert mean[2] == pytest.approx(-33.0 * 1000.0, rel=0.05)  # isotropy within 5 % at n = 2000
-    # local fluctuations are real (seed 000 §2.4) but the eq. 10 mean over ~3 radii damps them
+    # local fluctuations are real [Hassan2019, § 2.4] but the eq. 10 mean over ~3 radii damps them
     q_avg = neighbourhood_mean(packing, q, 3 * packing.mean_radius)
     assert np.std(q_avg[:, 2]) < 0.5 * np.std(q[:, 2])
 
 
-def test_slab_flux_matches_face_heat_flow(packing: Packing) -> None:
+def test_slab_flux_matches_reaction_heat_flow(packing: Packing) -> None:
     """Steady cut slab: sum_p (V_p/phi) q_p = -Q (x_hot - x_cold), so <q_x> ~ -Q/A (not -Q/(A phi))."""
     cut = packing.cut(packing.lower, packing.lower + packing.box)
     b = build_bonds(cut, gap=build_bonds(packing, 7.5).gap_threshold)
     net = Network(cut, b, 0.8, np.zeros(cut.n, dtype=np.int64))
-    values = {"matrix.k": 33.0, "x0.T": 0.0, "x1.T": 10.0}
-    system = net.system(values, fixed=("x0", "x1"))
+    values = {"matrix.k": 33.0}
+    system = net.system(values, boundary=(FaceSpec("x0", T=0.0), FaceSpec("x1", T=10.0)))
     field = steady_field(system)
     hot, cold = system.dirichlet[1].dofs, system.dirichlet[0].dofs
-    heat = face_heat_flow(system, values, field, hot)  # W entering at x1
-    assert face_heat_flow(system, values, field, cold) == pytest.approx(-heat, rel=1e-8)  # conservation
+    heat = reaction_heat_flow(system, field, hot)  # W entering at x1
+    assert reaction_heat_flow(system, field, cold) == pytest.approx(-heat, rel=1e-8)  # conservation
     q = particle_flux(cut, b, net.conductances(values), field)
     vol = cut.volumes / cut.volume_fraction
     mean_qx = float((vol * q[:, 0]).sum() / cut.domain_volume)

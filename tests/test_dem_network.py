@@ -1,4 +1,4 @@
-"""The bond network as a ThermalSystem (seed 000 eq. 1-6, 14); the shared solvers work on it unchanged."""
+"""The bond network as a ThermalSystem [Hassan2019, eq. 1-6, 14]; the shared solvers work on it unchanged."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
 from aromm.errors import InputError
 from aromm.solve import simulate, steady_field
 from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +44,7 @@ def test_terms_and_harmonic_interface(inclusion_net: Network) -> None:
 
 
 def test_capacity_conserves_mass(inclusion_net: Network) -> None:
-    """Seed 000 eq. 1: rho_d = rho_c/phi, so the particles' heat capacities sum to rho_c c V."""
+    """[Hassan2019, eq. 1]: rho_d = rho_c/phi, so the particles' heat capacities sum to rho_c c V."""
     values = {"matrix.k": 1.0, "inclusion.k": 1.0, "matrix.c": 7.02e6, "inclusion.c": 7.02e6}
     system = inclusion_net.system(values, time=TimeGrid(1.0, 0.1))
     c = sp.csr_array(system.capacity.evaluate(values))
@@ -77,7 +78,7 @@ def test_shared_steady_solver_on_lattice_gives_linear_profile() -> None:
     lat = cubic_lattice(6, 1e-3)
     cut = lat.cut(lat.lower, lat.lower + lat.box)
     net = Network(cut, build_bonds(cut, gap=0.1), 4 / np.pi, np.zeros(cut.n, dtype=np.int64))
-    system = net.system({"matrix.k": 2.0, "x0.T": 10.0, "x1.T": 60.0}, fixed=("x0", "x1"), outputs=("y0",))
+    system = net.system({"matrix.k": 2.0}, boundary=(FaceSpec("x0", T=10.0), FaceSpec("x1", T=60.0)), outputs=("y0",))
     field = steady_field(system)
     x = cut.centers[:, 0]
     expected = 10.0 + 50.0 * (x - 0.5e-3) / 5e-3  # fixed layers at the first and last centres
@@ -90,8 +91,8 @@ def test_shared_transient_solver_matches_explicit(inclusion_net: Network) -> Non
     from aromm.dem.explicit import simulate_explicit
 
     values = {"matrix.k": 33.0, "inclusion.k": 165.0, "matrix.c": 7.0e3, "inclusion.c": 7.0e3,
-              "x0.T": 0.0, "x1.T": 1.0, "initial.T": 0.0}
-    system = inclusion_net.system(values, fixed=("x0", "x1"), outputs=("y0", "z1"),
+              "initial.T": 0.0}
+    system = inclusion_net.system(values, boundary=(FaceSpec("x0", T=0.0), FaceSpec("x1", T=1.0)), outputs=("y0", "z1"),
                                   time=TimeGrid(0.004, 2e-6))
     implicit = simulate(system, times=[0.002, 0.004])
     explicit = simulate_explicit(system, times=[0.002, 0.004])
@@ -100,15 +101,15 @@ def test_shared_transient_solver_matches_explicit(inclusion_net: Network) -> Non
 
 
 def test_aromm_reducer_on_network() -> None:
-    """aromm.reduced.reduce works unchanged on a DEM network (flux on z0, convection on z1)."""
-    from aromm.reduced import reduce
+    """aromm.reduce works unchanged on a DEM network (flux on z0, convection on z1)."""
+    from aromm.reduction import reduce
 
     p = pack_spheres(600, np.random.default_rng(3), box=0.01)
     cut = p.cut(p.lower, p.lower + p.box)
     net = Network(cut, build_bonds(cut, gap=build_bonds(p, 7.5).gap_threshold), 0.8,
                   np.zeros(cut.n, dtype=np.int64))
-    values = {"matrix.k": 1.0, "matrix.c": 1e6, "z0.flux": 500.0, "z1.h": 20.0, "z1.T_ext": 0.0}
-    system = net.system(values, flux=("z0",), convection=("z1",), outputs=("z0", "z1"),
+    values = {"matrix.k": 1.0, "matrix.c": 1e6}
+    system = net.system(values, boundary=(FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)), outputs=("z0", "z1"),
                         time=TimeGrid(100.0, 1.0))
     assert system.conductance.names == ("K_matrix", "H_z1")
     rom = reduce(system, order=20, cache=False)

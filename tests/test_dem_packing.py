@@ -1,4 +1,4 @@
-"""Packings (seed 000 §2.1): reproducible, dense, non-overlapping, Gaussian radii; cut, tile, save/load."""
+"""Packings [Hassan2019, § 2.1]: reproducible, dense, non-overlapping, Gaussian radii; cut, tile, save/load."""
 
 from __future__ import annotations
 

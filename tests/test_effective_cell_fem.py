@@ -8,12 +8,12 @@ import pytest
 
 from aromm.effective.cell_fem import CellModel, cell_mesh, conductance_from_reaction
 from aromm.effective.domain import cell_phi
-from aromm.effective.mesh_fem import assemble_mesh, split_dofs
 from aromm.effective.models import hasselman_johnson, rayleigh_simple_cubic
 from aromm.errors import InputError
-from aromm.fem import FaceSpec, PhaseSpec
+from aromm.fem.mesh import assemble_mesh, split_dofs
 from aromm.solve import simulate
 from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 
 def kuhn_box(n: int, labels_of_z) -> meshio.Mesh:  # type: ignore[no-untyped-def]

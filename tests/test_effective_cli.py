@@ -1,4 +1,4 @@
-"""``aromm bounds``: JSON contract of DESIGN.md, exit codes, consistency with the library."""
+"""``aromm bounds``: JSON contract of docs/design.md, exit codes, consistency with the library."""
 
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ def test_explicit_b_and_xi_are_used(capsys: pytest.CaptureFixture[str]) -> None:
     values = run_json(capsys, "--phi", "0.2", "--ratio", "5", "--contact", "0.3", "--B", "0.0", "--xi", "0.0")
     assert values["wall_1a"] is None and values["wall_1b"] is None  # touching spheres: no cell mesh
     assert values["wall_inf_b"] == pytest.approx(float(wall_inf_b(0.0, 0.3, 0.2)), rel=1e-12)
-    # xi = 0 turns the upper third-order bound into Hasselman-Johnson (etc_formulas §9)
+    # xi = 0 turns the upper third-order bound into Hasselman-Johnson (effective_formulas.md §9)
     assert values["torquato_rintoul_upper"] == pytest.approx(values["hasselman_johnson"], rel=1e-12)
 
 

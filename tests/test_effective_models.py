@@ -1,4 +1,4 @@
-"""Closed-form models of seed 002: limits, reductions and orderings that theory fixes, over the whole domain."""
+"""Closed-form models of [GarnierDanes]: limits, reductions and orderings that theory fixes, over the whole domain."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ WITH_CONTACT = (m.hasselman_johnson, m.torquato_rintoul_lower, m.torquato_rintou
 
 
 def beran_milton(phi: float, kappa: float, zeta2: float) -> tuple[float, float]:
-    """Third-order bounds written independently from etc_formulas §8 (matrix = phase 1)."""
+    """Third-order bounds written independently from effective_formulas.md §8 (matrix = phase 1)."""
     mean = 1 - phi + phi * kappa
     mean_t = phi + (1 - phi) * kappa
     z1 = 1 - zeta2
@@ -74,7 +74,7 @@ def test_third_order_bounds_reduce_to_beran_milton_at_zero_contact(phi: float, k
 @settings(max_examples=200, deadline=None)
 @given(PHI, KAPPA, CONTACT)
 def test_upper_third_order_bound_with_xi_zero_is_hasselman_johnson(phi: float, kappa: float, c: float) -> None:
-    """etc_formulas §9 check 2 (verified symbolically there)."""
+    """effective_formulas.md §9 check 2 (verified symbolically there)."""
     assert m.torquato_rintoul_upper(phi, kappa, c, 0.0) == pytest.approx(
         m.hasselman_johnson(phi, kappa, c), rel=1e-10)
 
@@ -102,7 +102,7 @@ def test_hashin_shtrikman_matrix_bound_is_maxwell(phi: float, kappa: float) -> N
     me = m.maxwell_eucken(phi, kappa)
     matrix_bound = m.hashin_shtrikman_lower(phi, kappa) if kappa >= 1 else m.hashin_shtrikman_upper(phi, kappa)
     assert matrix_bound == me
-    # closed form of etc_formulas §3, written out
+    # closed form of effective_formulas.md §3, written out
     assert me == pytest.approx((kappa + 2 + 2 * phi * (kappa - 1)) / (kappa + 2 - phi * (kappa - 1)), rel=1e-12)
 
 
@@ -111,7 +111,7 @@ def test_hashin_shtrikman_matrix_bound_is_maxwell(phi: float, kappa: float) -> N
 def test_hasselman_johnson_is_maxwell_with_dipole_conductivity(phi: float, kappa: float, c: float) -> None:
     kappa1 = 1.0 / (1.0 / kappa + c)
     assert m.hasselman_johnson(phi, kappa, c) == pytest.approx(m.maxwell_eucken(phi, kappa1), rel=1e-12)
-    # the published form (etc_formulas §4) with lambda_p/(a h_c) = kappa C
+    # the published form (effective_formulas.md §4) with lambda_p/(a h_c) = kappa C
     r = kappa * c
     published = ((2 * phi * (kappa - r - 1) + kappa + 2 * r + 2) / (phi * (1 - kappa + r) + kappa + 2 * r + 2))
     assert m.hasselman_johnson(phi, kappa, c) == pytest.approx(published, rel=1e-9)
@@ -121,7 +121,7 @@ def test_hasselman_johnson_is_maxwell_with_dipole_conductivity(phi: float, kappa
 @settings(max_examples=200, deadline=None)
 @given(PHI, st.integers(105, 2**20))
 def test_neutral_inclusion_gives_one(phi: float, j: int) -> None:
-    """D + C = 1: a uniform field excites no multipole, E = 1 exactly (etc_formulas §4).
+    """D + C = 1: a uniform field excites no multipole, E = 1 exactly (effective_formulas.md §4).
 
     D = j / 2^20 and C = 1 − D are exact binary fractions (κ = 1/D from 1 to 9986), so the inputs are
     neutral to the last bit (C = 1 − 1/κ rounded would add up to κ × 2.2e-16 to E − 1 by itself).  V3U
@@ -144,7 +144,7 @@ def test_models_with_contact_decrease_with_resistance(phi: float, kappa: float, 
 
 
 def test_rayleigh_matches_the_exact_simple_cubic_value_with_contact() -> None:
-    """etc_formulas §7: phi = 0.3, kappa = 10, C = 0.1, exact multipole value 1.6247400."""
+    """effective_formulas.md §7: phi = 0.3, kappa = 10, C = 0.1, exact multipole value 1.6247400."""
     assert m.rayleigh_simple_cubic(0.3, 10.0, 0.1) == pytest.approx(1.6247400, abs=5e-6)
 
 

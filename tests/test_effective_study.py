@@ -1,11 +1,11 @@
-"""Table 1 machinery and the preference map of seed 002."""
+"""Table 1 machinery and the preference map of [GarnierDanes]."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from aromm.effective.study import (
+from studies.garnier_danes import (
     LOWER,
     SEED_PREFERENCE,
     UPPER,
@@ -19,7 +19,7 @@ from aromm.effective.study import (
 
 
 def test_touching_limit_of_the_preference_map_reproduces_the_seed_thresholds() -> None:
-    """Seed 002: W_inf_a beats V3L only for C < 0.1081 and D < 0.0496; with the seed's formulas and
+    """[GarnierDanes]: W_inf_a beats V3L only for C < 0.1081 and D < 0.0496; with the seed's formulas and
     xi = zeta2(SC) these are the edges of that region for touching spheres (B -> 0)."""
     edge = preference_boundary(0.0)
     assert edge.d_star == pytest.approx(SEED_PREFERENCE["D"], rel=2e-3)

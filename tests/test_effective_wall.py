@@ -1,4 +1,4 @@
-"""Wall-insertion bounds of seed 002: closed form W_inf_a and the singular BVP W_inf_b against independent truths."""
+"""Wall-insertion bounds of [GarnierDanes]: W_inf_a (closed form) and W_inf_b (singular BVP) vs independent truths."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ D_ANY = st.one_of(st.just(0.0), st.floats(-4.0, 4.0).map(lambda e: 10.0**e))
 
 
 def wall_inf_a_quadrature(b: float, c: float, d: float) -> float:
-    """etc_formulas §10: E = 1 - pi/(4 b^2) + pi/(2 b) int_0^1 h dh/(b - K h), b in units of a, K = 1 - C - D."""
+    """effective_formulas.md §10: E = 1 - pi/(4 b^2) + pi/(2 b) int_0^1 h dh/(b - K h), b in a, K = 1 - C - D."""
     bb = 1.0 + b
     k = 1.0 - c - d
     integral, _ = quad(lambda h: h / (bb - k * h), 0.0, 1.0, epsabs=0.0, epsrel=1e-13)

@@ -10,7 +10,7 @@ import pytest
 from inverse_cases import TRUTH, scenario_model
 
 from aromm.errors import InputError
-from inverse.identify import Progress, identify
+from inverse.identification import Progress, identify
 from inverse.measurements import simulate_measurements
 
 UNKNOWNS = {"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}
@@ -21,7 +21,7 @@ def _rel(result_estimates: dict[str, float], truth: dict[str, float]) -> dict[st
 
 
 def test_twin_measurements_of_the_heterogeneous_model_are_recovered() -> None:
-    """Data from the full model itself, no noise: k_F and c_F back to 0.1 % (seed 001 eq. 12 minimum is 0)."""
+    """Data from the full model itself, no noise: k_F and c_F back to 0.1 % [Chavez2020, eq. 12 minimum is 0]."""
     model = scenario_model("z")
     y = simulate_measurements(model, TRUTH)
     res = identify(model, y, UNKNOWNS, seed=0, particles=10, iterations=10)

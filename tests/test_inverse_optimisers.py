@@ -138,3 +138,41 @@ def test_a_run_leaves_no_file_no_logging_change_and_no_global_rng_change(tmp_pat
     assert report == {"files": [], "logging_same": True, "handlers": [], "global_rng_untouched": True,
                       "env_same": True, "reproducible": True}
     assert "report.log" not in out.stderr and "INFO" not in out.stderr
+
+
+def test_differential_evolution_then_refinement_is_a_drop_in_chain() -> None:
+    """Another global search in the identification chain (inverse.optimisers is pluggable): the Rosenbrock
+    minimum (1, 1) is found by differential evolution + least squares, reproducibly from one seed."""
+    from inverse.optimisers import DifferentialEvolution, LeastSquaresRefinement, Problem
+
+    lo, span = np.array([-2.0, -1.0]), 4.0
+
+    def residuals(u: np.ndarray) -> np.ndarray:
+        x, y = (lo + span * np.atleast_2d(u)).T
+        return np.column_stack([1.0 - x, 10.0 * (y - x**2)])
+
+    problem = Problem(2, residuals)
+    runs = []
+    for _ in range(2):
+        rng = np.random.default_rng(5)
+        coarse = DifferentialEvolution(population=15, generations=40).run(problem, None, rng)
+        runs.append(LeastSquaresRefinement().run(problem, coarse.u, rng))
+    np.testing.assert_allclose(lo + span * runs[0].u, [1.0, 1.0], atol=1e-8)
+    np.testing.assert_array_equal(runs[0].u, runs[1].u)
+
+
+def test_identify_accepts_an_optimiser_chain_and_refuses_what_is_not_one() -> None:
+    from inverse_cases import LinearModel
+
+    from inverse import Measurements, identify
+    from inverse.optimisers import DifferentialEvolution, LeastSquaresRefinement
+
+    t = np.arange(1.0, 9.0)
+    model = LinearModel(np.column_stack([np.ones_like(t), t]), ("a", "b"))  # y = a + b t
+    data = Measurements(model.default_times, {"a": 2.0 - t})
+    result = identify(model, data, {"a": (-10.0, 10.0), "b": (-5.0, 5.0)},
+                      optimisers=[DifferentialEvolution(generations=20), LeastSquaresRefinement()])
+    assert result.estimates == pytest.approx({"a": 2.0, "b": -1.0}, abs=1e-8)
+    assert set(result.history.stage) == {"differential-evolution", "refine"}
+    with pytest.raises(InputError, match="not an optimiser"):
+        identify(model, data, {"a": (-10.0, 10.0)}, optimisers=["pso"])  # type: ignore[list-item]

@@ -7,7 +7,7 @@ import pytest
 import scipy.stats as st
 from inverse_cases import LinearModel, scenario_model
 
-from inverse.identify import identify
+from inverse.identification import identify
 from inverse.measurements import Measurements, simulate_measurements
 from inverse.uncertainty import IdentifiabilityWarning, linearised
 

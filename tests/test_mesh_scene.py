@@ -11,7 +11,7 @@ import pytest
 from aromm.cli import main
 from aromm.effective.cell_fem import cell_mesh
 from aromm.errors import InputError
-from aromm.homogenize import mean_capacity
+from aromm.homogenization import mean_capacity
 from aromm.scene import assemble, load_scene
 from aromm.solve import transient
 

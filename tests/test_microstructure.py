@@ -1,7 +1,7 @@
 """Tests of aromm.microstructure: loaders, generators, export, and the shipped wood VER and scenes.
 
 Truths checked are independent of the code under test: exact layer fractions, the sphere volume
-4πr³/3, symmetry, hand-built byte layouts, meshio's own reader, seed 001's published values.
+4πr³/3, symmetry, hand-built byte layouts, meshio's own reader, [Chavez2020]'s published values.
 """
 
 from __future__ import annotations
@@ -415,7 +415,7 @@ def test_export_refuses_bad_input(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------- shipped data and scenes
 
-SEED_001_K = np.array([0.087, 0.099, 0.123])  # W/(m K), seed 001 section 4.2
+SEED_001_K = np.array([0.087, 0.099, 0.123])  # W/(m K), [Chavez2020, § 4.2]
 SEED_001_C = 1.558e6  # J/(m^3 K)
 K_F, K_G, C_F, C_G = 0.3, 0.025, 4.0e6, 1.2e3
 
@@ -438,7 +438,7 @@ def test_wood_ver_is_reproduced_by_its_generator_call() -> None:
     np.testing.assert_array_equal(script.make(script.SEED, script.PARAMS), labels)
 
 
-SCENARIOS = {"wood_s1": "z", "wood_s2": "x", "wood_s3": "y"}  # seed 001 Table 1 via DESIGN.md
+SCENARIOS = {"wood_s1": "z", "wood_s2": "x", "wood_s3": "y"}  # [Chavez2020, Table 1] via docs/design.md
 
 
 @pytest.mark.parametrize(("name", "axis"), sorted(SCENARIOS.items()))
@@ -457,7 +457,7 @@ def test_wood_scenes_follow_table_1(name: str, axis: str) -> None:
 def test_scenes_load(name: str) -> None:
     scene_module = pytest.importorskip("aromm.scene")
     scene = scene_module.load_scene(DATA / "scenes" / f"{name}.toml")
-    assert scene.labels.ndim == 3
+    assert scene.geometry.labels.ndim == 3
 
 
 def test_sphere_scene_is_the_seed_000_cell() -> None:
@@ -473,18 +473,18 @@ def test_wood_ver_is_reproduced_by_a_generator_scene() -> None:
                 "size_jitter": 0.147, "tracheid_length": 134e-6, "grain_angle": 0.150}
     phases = {"fibre": {"label": 1, "k": K_F}, "gas": {"label": 0, "k": K_G}}
     scene = scene_module.scene_from_dict({"geometry": geometry, "phases": phases})
-    np.testing.assert_array_equal(scene.labels, load_image(DATA / "wood_ver.npz")[0])
+    np.testing.assert_array_equal(scene.geometry.labels, load_image(DATA / "wood_ver.npz")[0])
 
 
 @pytest.mark.slow
 def test_wood_ver_homogenised_conductivity_matches_seed_001() -> None:
-    """Eq. 13 on the shipped VER against seed 001 § 4.2 (a few seconds idle, minutes on a loaded machine):
+    """Eq. 13 on the shipped VER against [Chavez2020, § 4.2] (a few seconds idle, minutes on a loaded machine):
     under the three scenarios' own faces, as the seed does and as the VER was tuned, within 1.5 %;
     with an isothermal S2 (`aromm.homogenize`) within issue 2's 5 %."""
     homogenize = pytest.importorskip("aromm.homogenize")
     load_scene = pytest.importorskip("aromm.scene").load_scene
     scene = load_scene(DATA / "scenes" / "wood_homogenize.toml")
-    k = homogenize.homogenize(scene, method="amg")
+    k = homogenize.homogenize(scene, boundary="flux", method="amg")
     np.testing.assert_allclose(np.diag(k), SEED_001_K, rtol=0.05)
     scenarios = [load_scene(DATA / "scenes" / f"wood_s{i}.toml") for i in (2, 3, 1)]  # loaded along x, y, z
     k_scenario = [homogenize.fluxmetric(sc, method="amg").k for sc in scenarios]

@@ -9,9 +9,10 @@ import scipy.sparse as sp
 from aromm import modes
 from aromm.cache import NpzCache, default_cache_dir
 from aromm.errors import InputError, NumericalError
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.fem import assemble_voxels
 from aromm.modes import compute_basis, dirichlet_modes, reference_operators, steklov_modes, zero_modes
 from aromm.system import Affine, Coefficient, Term, ThermalSystem, TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 K, C = 2.0, 3.0e6  # W/(m K), J/(m3 K): a "solid" phase (not named fibre/gas: no seed override)
 
@@ -38,7 +39,7 @@ def exact_dirichlet(i: int, j: int, k: int) -> float:
 
 
 def test_dirichlet_box_matches_analytic_with_second_order_convergence() -> None:
-    # Seed 001 eq. 6 on a homogeneous box: λ = π² k (i²/Lx² + j²/Ly² + k²/Lz²) / c.
+    # [Chavez2020, eq. 6] on a homogeneous box: λ = π² k (i²/Lx² + j²/Ly² + k²/Lz²) / c.
     wanted = sorted([exact_dirichlet(1, 1, 1), exact_dirichlet(1, 1, 2), exact_dirichlet(1, 2, 1)])
     errors = []
     for scale in (1, 2):
@@ -106,7 +107,7 @@ def test_basis_orthogonality_and_zero_mode() -> None:
     assert np.abs(d[ops.boundary.diagonal() > 0]).max() == 0.0
     gs = s.T @ (ops.boundary @ s)
     assert np.abs(gs - np.diag(np.diag(gs))).max() < 1e-8 * np.abs(np.diag(gs)).max()
-    # Dirichlet and Steklov modes are K0-orthogonal exactly (method note §3)
+    # Dirichlet and Steklov modes are K0-orthogonal exactly (docs/notes/aromm_method.md §3)
     cross = d.T @ (ops.stiffness @ s)
     scale = np.sqrt(np.outer(np.diag(d.T @ ops.stiffness @ d), np.diag(s.T @ ops.stiffness @ s)))
     assert np.abs(cross / scale).max() < 1e-8
@@ -124,10 +125,11 @@ def test_zero_modes_one_per_component_on_a_bond_network() -> None:
     block = sp.csr_array(sp.block_diag([lap, lap]))
     load = np.zeros(n)
     load[[0, 4]] = 1.0
-    system = ThermalSystem(n, conductance=Affine((Term("K", Coefficient(("p.k",)), block),)),
-                           capacity=Affine((Term("C", Coefficient(("p.c",)), sp.csr_array(sp.eye(n))),)),
-                           load=Affine((Term("U", Coefficient(("q",)), load),)),
-                           parameters={"p.k": 1.0, "p.c": 2.0, "q": 1.0}, time=TimeGrid(1.0, 0.1))
+    system = ThermalSystem(n, conductance=Affine((Term("K", Coefficient(("p.k",)), block, "conduction"),)),
+                           capacity=Affine((Term("C", Coefficient(("p.c",)), sp.csr_array(sp.eye(n)), "capacity"),)),
+                           load=Affine((Term("U", Coefficient(("q",)), load, "load"),)),
+                           parameters={"p.k": 1.0, "p.c": 2.0, "q": 1.0}, time=TimeGrid(1.0, 0.1),
+                           boundary=sp.csr_array(sp.diags_array(load)))  # the loaded ends are the boundary
     ops = reference_operators(system)
     z = zero_modes(ops)
     assert z.shape == (n, 2)

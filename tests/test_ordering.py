@@ -7,9 +7,10 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.fem import assemble_voxels
 from aromm.linalg import factorize
 from aromm.ordering import nested_dissection
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 
 def _voxel_system(n: int):  # type: ignore[no-untyped-def]

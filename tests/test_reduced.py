@@ -1,4 +1,4 @@
-"""AROMM reduced model (aromm.reduced, aromm.amalgam, aromm.pod) against exact solutions and conservation laws.
+"""The reduced model (aromm.reduction, aromm.rom, aromm.amalgam, aromm.pod) against exact solutions and conservation.
 
 The reference ("truth") is the exact solution of the full semi-discrete system ``C dT/dt + K T = F`` computed
 here independently with a dense generalised eigendecomposition of the full matrices (small images).
@@ -15,11 +15,13 @@ from scene_text import scenario_1
 
 from aromm.amalgam import amalgam
 from aromm.errors import InputError
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.fem import assemble_voxels
 from aromm.model import ForwardModel
-from aromm.reduced import ReducedModel, reduce
+from aromm.reduction import reduce
+from aromm.rom import ReducedModel
 from aromm.solve import steady_field
 from aromm.system import ThermalSystem, TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 H = 5e-6  # voxel size, m
 PHASES = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
@@ -111,8 +113,8 @@ def test_second_reduce_is_loaded_from_cache(tmp_path) -> None:
 def energy(rom: ReducedModel, values: dict[str, float], t: np.ndarray) -> np.ndarray:
     """Stored heat 1ᵀ C T̃ (J) of the reduced solution: Σ_j c_j (Ψᵀ C_j 1)ᵀ X."""
     x = rom.states(values, t)
-    v, _ = rom._values({k: [val] for k, val in values.items()})
-    weights = sum(float(term.coefficient(v)[0]) * term.operator for term in rom.initial)
+    v, _ = rom.projected.batch_values({**{k: [val] for k, val in values.items()}, "initial.T": [1.0]})
+    weights = sum(float(term.coefficient(v)[0]) * term.operator for term in rom.initial.terms)
     return x @ weights
 
 
@@ -205,7 +207,7 @@ def test_pod_baseline_same_order_reproduces_its_snapshots(tmp_path) -> None:
     pod = reduce(system, order=10, modes=system.n, method="pod", cache=tmp_path)
     assert pod.order == 10 and pod.info["method"] == "pod"
     t = system.time.times
-    exact = exact_outputs(system, {"fibre.k": 0.1, "fibre.c": 1.2e6}, t)  # a snapshot case (seed 001 §3.2)
+    exact = exact_outputs(system, {"fibre.k": 0.1, "fibre.c": 1.2e6}, t)  # a snapshot case [Chavez2020, § 3.2]
     assert np.abs(pod.simulate({"fibre.k": 0.1, "fibre.c": 1.2e6}, t).as_array() - exact).max() < (
         1e-3 * np.abs(exact).max())
 
@@ -229,10 +231,15 @@ def test_amalgam_recovers_exact_groups() -> None:
     np.testing.assert_allclose(a @ y, states, atol=1e-12)
 
 
-def test_dirichlet_scene_refused(tmp_path) -> None:
+def test_fixed_temperatures_are_lifted_not_projected(tmp_path) -> None:
+    """A fixed face is lifted by reduce (tests/test_lifting.py checks the accuracy); projecting the system
+    itself is refused.  The mean of the fixed face is its temperature exactly, at any order."""
     system = system_of(random_labels(3), [FaceSpec("z0", flux=1.0), FaceSpec("z1", T=20.0)])
-    with pytest.raises(InputError, match="fixed temperatures"):
-        reduce(system, order=5, cache=tmp_path)
+    with pytest.raises(InputError, match="lifted"):
+        ReducedModel.from_system(system, np.eye(system.n))
+    rom = reduce(system, order=5, cache=tmp_path)
+    assert rom.info["lifted_faces"] == 1
+    np.testing.assert_allclose(rom.simulate({"z1.T": 7.0}).mean_T["z1"], 7.0, rtol=1e-14)
 
 
 def test_correction_modes_make_the_steady_state_exact_at_their_samples(tmp_path) -> None:
@@ -242,10 +249,11 @@ def test_correction_modes_make_the_steady_state_exact_at_their_samples(tmp_path)
     _, e = system.observation_matrix()
     sample = {"fibre.k": 0.53 * 0.1, "fibre.c": 4e6}
     full = e @ steady_field(system, sample)
-    rom = reduce(system, order=30, modes=60, cache=tmp_path)
+    basis = {"fibre.k": 0.53}  # the correction samples are the basis values and 0.1×, 3× each conductivity
+    rom = reduce(system, order=30, modes=60, basis_values=basis, cache=tmp_path)
     assert int(rom.info["n_corrections"]) > 0
     np.testing.assert_allclose(rom.steady(sample)[0], full, rtol=1e-9)
-    seed_only = reduce(system, order=30, modes=60, corrections=False, cache=tmp_path)
+    seed_only = reduce(system, order=30, modes=60, basis_values=basis, corrections=False, cache=tmp_path)
     assert np.abs(seed_only.steady(sample)[0] - full).max() > 1e3 * np.abs(rom.steady(sample)[0] - full).max()
 
 
@@ -264,3 +272,29 @@ def test_cli_reduce_json_and_cache(tmp_path, capsys: pytest.CaptureFixture[str])
     assert main(args) == 0
     assert json.loads(capsys.readouterr().out)["cached"] == 1
     assert main(["reduce", str(tmp_path / "missing.toml"), "--order", "5"]) == 2
+
+
+class SlowestModes:
+    """A reductor written outside aromm (modal truncation): the constants and the slowest other modes."""
+
+    name = "slowest"
+
+    def coefficients(self, detailed, order: int) -> np.ndarray:
+        zero = detailed.basis.zero_modes
+        rates = np.where(np.isnan(detailed.basis.eigenvalues), np.inf, detailed.basis.eigenvalues)
+        others = [i for i in np.argsort(rates, kind="stable") if i not in set(zero)]
+        keep = [*zero, *others[: order - zero.size]]
+        return np.eye(detailed.size)[:, keep]
+
+
+def test_a_reductor_from_outside_plugs_in_and_conserves_energy(tmp_path) -> None:
+    # Any reductor that keeps the constant mode conserves the stored heat of an adiabatic body heated by q:
+    # 1ᵀ C T̃ = q A t exactly, whatever else it drops.
+    n, q = 5, 500.0
+    system = system_of(random_labels(n, seed=5), [FaceSpec("z0", flux=q)], end=4.0)
+    rom = reduce(system, order=6, modes=40, method=SlowestModes(), cache=tmp_path)
+    assert rom.order == 6 and rom.info["method"] == "slowest"
+    t = np.linspace(0.0, 4.0, 9)
+    np.testing.assert_allclose(energy(rom, {}, t), q * (n * H) ** 2 * t, rtol=1e-9, atol=1e-18)
+    with pytest.raises(InputError, match="Reductor"):
+        reduce(system, order=6, modes=40, method=object(), cache=tmp_path)  # type: ignore[arg-type]

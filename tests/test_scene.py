@@ -32,8 +32,8 @@ def _write(folder: Path, text: str) -> Path:
 
 def test_good_scene_loads_with_named_parameters(scene_dir: Path) -> None:
     scene = load_scene(_write(scene_dir, GOOD))
-    assert scene.labels.shape == (4, 4, 4)
-    assert scene.voxel_size == (1e-4, 1e-4, 1e-4)
+    assert scene.geometry.shape == (4, 4, 4)
+    assert scene.geometry.voxel_size == (1e-4, 1e-4, 1e-4)
     assert scene.parameters["fibre.k"] == 0.3 and scene.parameters["z1.h"] == 20.0
     assert scene.time is not None and len(scene.time.times) == 10
 
@@ -96,7 +96,7 @@ def test_cli_singular_problem_exits_1(scene_dir: Path, capsys: pytest.CaptureFix
 
 def test_cli_measure_uses_the_scenario_fluxmetric_k_by_default(scene_dir: Path,
                                                                capsys: pytest.CaptureFixture[str]) -> None:
-    """Seed 001 § 4.2: k̄ from the scenario itself, so the twin ends at the sample's steady face means;
+    """[Chavez2020, § 4.2]: k̄ from the scenario itself, so the twin ends at the sample's steady face means;
     eq. 13 with an isothermal S2 (--conductivity flux) gives a larger k̄ along the layers, a smaller drop."""
     labels = np.zeros((4, 4, 4), dtype=np.uint8)
     labels[::2] = 1  # layers normal to x, loaded along z

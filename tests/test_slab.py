@@ -1,15 +1,16 @@
-"""Homogeneous slab between two fixed temperatures against the analytic series (seed 000 eq. 12–13)."""
+"""Homogeneous slab between two fixed temperatures against the analytic series [Hassan2019, eq. 12–13]."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from aromm.analytic import slab_dirichlet_series
-from aromm.fem import FaceSpec, PhaseSpec, assemble_voxels
+from aromm.fem import assemble_voxels
 from aromm.solve import transient
 from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
-L, K, C = 0.1, 33.0, 7800.0 * 900.0  # seed 000's steel slab: 0.1 m, 33 W/(m K), rho c = 7.02e6 J/(m3 K)
+L, K, C = 0.1, 33.0, 7800.0 * 900.0  # [Hassan2019]'s steel slab: 0.1 m, 33 W/(m K), rho c = 7.02e6 J/(m3 K)
 ALPHA = K / C
 TAU = L**2 / ALPHA
 

@@ -1,6 +1,6 @@
 """The ``aromm`` command line: JSON on stdout with ``--json``, tables otherwise, progress on stderr.
 
-Exit codes (DESIGN.md): 0 success, 2 bad input (message on stderr), 1 numerical failure.
+Exit codes (docs/design.md): 0 success, 2 bad input (message on stderr), 1 numerical failure.
 Each group of subcommands lives in its own module and is registered below.
 """
 

@@ -1,4 +1,4 @@
-"""``aromm bounds``: every effective-conductivity model and bound of seed 002 for one material."""
+"""``aromm bounds``: every effective-conductivity model and bound of [GarnierDanes] for one material."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ from aromm.effective.summary import MODEL_KEYS, ROLE, every_model, material
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout: one key per model, E = lambda_eff/lambda_m.")
 def bounds(*, phi: float, ratio: float, contact: float, cell_b: float | None, xi: float | None, mesh_size: float,
            as_json: bool) -> None:
-    """Every analytical model and bound of seed 002, E = lambda_eff/lambda_m.
+    """Every analytical model and bound of [GarnierDanes], E = lambda_eff/lambda_m.
 
     Classical models use phi and the ratio; the wall-insertion bounds use the simple-cubic cell
     (B, C, D = 1/ratio); wall_1a and wall_1b solve two small finite-element problems with gmsh

@@ -1,4 +1,4 @@
-"""DEM commands (seed 000): ``aromm dem pack|calibrate|simulate|homogenize``.
+"""DEM commands [Hassan2019]: ``aromm dem pack|calibrate|simulate|homogenize``.
 
 JSON shapes: calibrate -> ``{"C_t": ..., "Z": ...}`` (plus details), homogenize ->
 ``{"E": ...}`` (E = k_eff / k_matrix of the sphere inclusion of radius L/3), simulate ->
@@ -17,14 +17,15 @@ from tqdm import tqdm
 
 from aromm.cli.common import echo_json
 from aromm.dem.bonds import build_bonds
-from aromm.dem.calibrate import calibrate as calibrate_ct
-from aromm.dem.calibrate import inclusion_network, inclusion_ratio
+from aromm.dem.calibration import calibrate as calibrate_ct
+from aromm.dem.calibration import inclusion_network, inclusion_ratio
 from aromm.dem.explicit import simulate_explicit
 from aromm.dem.network import Network
 from aromm.dem.packing import Packing, load_packing, pack_spheres
 from aromm.errors import InputError
 from aromm.solve import simulate as simulate_implicit
 from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec
 
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 PARTICLES = click.option("--particles", type=click.IntRange(min=50), default=10000, show_default=True,
@@ -33,7 +34,7 @@ SEED = click.option("--seed", type=int, default=0, show_default=True, help="Rand
 PACKING = click.option("--packing", "packing_path", type=click.Path(path_type=Path), default=None,
                        help="Use a packing saved by 'aromm dem pack' instead of making one.")
 Z = click.option("--z", "z", type=click.FloatRange(min=1.0), default=7.5, show_default=True,
-                 help="Mean coordination number of the bond network (seed 000: 7.5).")
+                 help="Mean coordination number of the bond network ([Hassan2019]: 7.5).")
 RADIUS = click.option("--radius", type=click.Choice(["pair", "global"]), default="pair", show_default=True,
                       help="R_moy of S = C_t pi R_moy^2: the pair's mean radius or the packing's mean radius.")
 QUIET = click.option("--quiet", is_flag=True, help="No progress bar.")
@@ -67,7 +68,7 @@ def _packing(path: Path | None, particles: int, seed: int, box: float, quiet: bo
 
 @click.group("dem")
 def dem() -> None:
-    """Discrete-element equivalent continuum (seed 000): packings, calibration, simulation, homogenisation."""
+    """Discrete-element equivalent continuum [Hassan2019]: packings, calibration, simulation, homogenisation."""
 
 
 @dem.command("pack")
@@ -109,7 +110,7 @@ def pack(*, particles: int, seed: int, phi: float, cv: float, box: float, out: P
 @QUIET
 def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, boundary: str,
               as_json: bool, quiet: bool) -> None:
-    """C_t such that the network conducts like the continuum (seed 000 eq. 7-8)."""
+    """C_t such that the network conducts like the continuum [Hassan2019, eq. 7-8]."""
     packing = _packing(packing_path, particles, seed, 0.1, quiet)
     cal = calibrate_ct(packing, z, radius=radius, boundary=boundary)  # type: ignore[arg-type]
     if as_json:
@@ -136,7 +137,7 @@ def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float,
 @QUIET
 def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, ratio: float,
                axes: str, boundary: str, as_json: bool, quiet: bool) -> None:
-    """E = k_eff / k_matrix of a sphere inclusion of radius L/3 centred in the cube (seed 000 §3.2)."""
+    """E = k_eff / k_matrix of a sphere inclusion of radius L/3 centred in the cube [Hassan2019, § 3.2]."""
     packing = _packing(packing_path, particles, seed, 0.1, quiet)
     net = inclusion_network(packing, z, radius=radius, boundary=boundary)  # type: ignore[arg-type]
     res = inclusion_ratio(net, ratio, axes)
@@ -166,7 +167,7 @@ def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float
 @click.option("--rho", type=click.FloatRange(min=0, min_open=True), default=7800.0, show_default=True,
               help="Density rho_c, kg/m^3.")
 @click.option("--cp", type=click.FloatRange(min=0, min_open=True), default=0.9, show_default=True,
-              help="Specific heat, J/(kg K) (seed 000 Table 1 prints 0.9).")
+              help="Specific heat, J/(kg K) [Hassan2019, Table 1 prints 0.9].")
 @click.option("--times", default="0.05,0.1,0.2", show_default=True, help="Output times (s), comma-separated.")
 @click.option("--scheme", type=click.Choice(["explicit", "implicit"]), default="explicit", show_default=True)
 @click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -178,7 +179,7 @@ def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float
 def simulate(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, c_t: float | None,
              length: float, k: float, rho: float, cp: float, times: str, scheme: str, dt: float | None,
              bins: int, as_json: bool, quiet: bool) -> None:
-    """Slab transient of seed 000 §3.1: T(y=0) = 25 °C, T(y=L) = 100 °C, T0 = 25 °C, sides adiabatic."""
+    """Slab transient of [Hassan2019, § 3.1]: T(y=0) = 25 °C, T(y=L) = 100 °C, T0 = 25 °C, sides adiabatic."""
     try:
         t_out = np.array([float(s) for s in times.split(",") if s.strip()])
     except ValueError:
@@ -191,9 +192,10 @@ def simulate(*, particles: int, seed: int, packing_path: Path | None, z: float, 
     cut_bonds = build_bonds(cut, gap=bonds.gap_threshold)
     net = Network(cut, cut_bonds, c_t, np.zeros(cut.n, dtype=np.int64), ("matrix",), radius)  # type: ignore[arg-type]
     end = float(t_out.max()) if t_out.size else 0.0
-    values = {"matrix.k": k, "matrix.c": rho * cp, "y0.T": 25.0, "y1.T": 100.0, "initial.T": 25.0}
+    values = {"matrix.k": k, "matrix.c": rho * cp, "initial.T": 25.0}
     grid = TimeGrid(end, dt if (dt is not None and scheme == "implicit") else end / 400 if end > 0 else 1.0)
-    system = net.system(values, fixed=("y0", "y1"), profile=("y", bins), time=grid)
+    system = net.system(values, boundary=(FaceSpec("y0", T=25.0), FaceSpec("y1", T=100.0)), profile=("y", bins),
+                        time=grid)
     start = time.perf_counter()
     if scheme == "explicit":
         bar = tqdm(desc="explicit steps", file=sys.stderr, disable=quiet or not sys.stderr.isatty(), leave=False)

@@ -9,19 +9,25 @@ import click
 import meshio
 import numpy as np
 
-from aromm.cli.common import echo_json
+from aromm.cell_problems import CellResult, effective_conductivity
+from aromm.cli import engine as engine_cli
+from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json
+from aromm.engines import is_root
 from aromm.errors import InputError
-from aromm.homogenize import BOUNDARIES, fluxmetric, homogenize, mean_capacity
-from aromm.linalg import METHODS
-from aromm.scene import assemble, load_scene
+from aromm.geometry import VoxelGeometry
+from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
+from aromm.linalg import DEFAULT_RTOL, METHODS
+from aromm.observables import Observables, write_csv
+from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from aromm.solve import simulate as simulate_full
-from aromm.system import Observables, ThermalSystem
-from inverse.measurements import Measurements, homogeneous_measurements, save_measurements
+from aromm.system import ThermalSystem
+from inverse.measurements import homogeneous_measurements, save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
-                      help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG).")
+                      help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG; "
+                           "mg: geometric multigrid + CG).")
 
 
 def _table(obs: Observables, rows: int = 10) -> str:
@@ -33,14 +39,14 @@ def _table(obs: Observables, rows: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
+def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Path]:
     """observables.csv always; field.vtu (last time, or steady) when fields were kept."""
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "observables.csv"]
     if not obs.mean_T:
         raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
-    save_measurements(Measurements(obs.t, obs.mean_T, "simulate"), written[0])
-    if obs.fields is not None and system.geometry is not None:
+    write_csv(obs, written[0], "observables file")
+    if obs.fields is not None and system is not None and system.geometry is not None:
         geo = system.geometry
         mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
                            point_data={"T": obs.fields[-1]},
@@ -56,22 +62,30 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
-              help="Folder for observables.csv and field.vtu (final field, full model).")
+              help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
-@SOLVER
+@engine_cli.SOLVER
+@engine_cli.ENGINE
+@REFINE
 @JSON
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str,
-                 as_json: bool) -> None:
+def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str, engine: str,
+                 refine: int, as_json: bool) -> None:
     """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
-    sc = load_scene(scene)
-    system = assemble(sc)
+    solver = engine_cli.resolve(engine, solver)
+    sc = engine_cli.load(scene, engine, refine)
+    system = assemble(sc) if engine == "scipy" else None
+    progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
-        from aromm.reduced import reduce
+        from aromm.reduction import reduce
 
-        obs = reduce(system, order=order, progress=sys.stderr.isatty()).simulate()
+        obs = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
+                     reference_values=sc.reduction.reference, progress=progress, engine=engine,
+                     solver=solver).simulate()
     else:
-        obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
-                            progress=sys.stderr.isatty())
+        obs = simulate_full(system if system is not None else sc, fields=out is not None and system is not None,
+                            method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
+    if not is_root(engine):
+        return
     written = _save(obs, system, out) if out is not None else []
     if as_json:
         echo_json(obs.to_json())
@@ -83,18 +97,53 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
 
 @click.command("homogenize")
 @SCENE
-@click.option("--boundary", type=click.Choice(BOUNDARIES), default="flux", show_default=True,
-              help="flux: seed 001 eq. 13 (flux in, fixed T out); temperature: fixed T on both faces.")
-@SOLVER
+@click.option("--boundary", type=click.Choice(BOUNDARIES), default=None,
+              help="periodic (default for images): full tensor, converges to the effective property; flux: "
+                   "[Chavez2020, eq. 13] (flux in, fixed T out; lower-bound type; default for mesh scenes and the "
+                   "petsc engine); temperature: fixed T on both faces (mixed, exact on laminates).")
+@engine_cli.SOLVER
+@click.option("--rtol", type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
+              show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach (scipy engine).")
+@engine_cli.ENGINE
+@REFINE
 @JSON
-def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> None:
-    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
-    sc = load_scene(scene)
-    k = homogenize(sc, boundary=boundary, method=solver)
-    c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
-    if as_json:
-        echo_json({"k": k, "c": c})
+def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, engine: str, refine: int,
+                   as_json: bool) -> None:
+    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material.
+
+    Solvers: mg (geometric multigrid CG, matrix-free, ~200 B/voxel; the default above 20³ voxels), cholmod and
+    splu (direct), amg (pyamg + CG); with the petsc engine gamg or mumps.
+    """
+    solver = engine_cli.resolve(engine, solver)
+    direct = solver in ("cholmod", "splu")
+    sc = engine_cli.load(scene, engine, refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
+    capacities = all(ph.c is not None for ph in sc.phases)
+    image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
+    if engine == "petsc":
+        from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
+
+        boundary = boundary or "flux"
+        result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
+        c = mean_capacity_petsc(sc) if capacities else None
+    elif image is None:
+        boundary = boundary or "flux"
+        result = CellResult(homogenize(sc, boundary=boundary, method=solver), boundary, solver)
+        c = mean_capacity(sc) if capacities else None
+    else:
+        boundary = boundary or "periodic"
+        result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
+        c = mean_capacity(sc) if capacities else None
+    if not is_root(engine):
         return
+    k = result.k
+    shape = list(image.shape) if image is not None else None
+    if as_json:
+        echo_json({"k": k, "c": c, "boundary": boundary, "solver": result.method, "iterations": result.iterations,
+                   "cpu_seconds": result.cpu_seconds, "shape": shape})
+        return
+    click.echo(f"{boundary} boundary, solver {result.method}"
+               + (f", {'×'.join(map(str, shape))} voxels" if shape else ", mesh")
+               + (f", CG iterations {result.iterations}" if result.method == "mg" else ""))
     click.echo("k̄ (W/(m K)):")
     for row in k:
         click.echo("  " + "  ".join(f"{v:12.6g}" for v in row))
@@ -104,15 +153,15 @@ def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> No
 @click.command("measure")
 @SCENE
 @click.option("--homogeneous", is_flag=True, required=True,
-              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as seed 001 does.")
+              help="Use the homogeneous orthotropic model (k̄ by eq. 13, c̄ by eq. 14), as [Chavez2020] does.")
 @click.option("--conductivity", type=click.Choice(("scenario", *BOUNDARIES)), default="scenario", show_default=True,
-              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces (seed 001 § 4.2; the twin then "
-                   "has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
+              help="How k̄ is obtained. scenario: eq. 13 under SCENE's own faces [Chavez2020, § 4.2; the twin then "
+                   "has the sample's steady face means]; flux, temperature: as `aromm homogenize --boundary`.")
 @click.option("--noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--perturb", type=float, default=0.0, show_default=True,
-              help="Relative change of every homogeneous property (seed 001's +2 % study: 0.02).")
+              help="Relative change of every homogeneous property ([Chavez2020]'s +2 % study: 0.02).")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @SOLVER
 @JSON

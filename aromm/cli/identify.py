@@ -1,4 +1,4 @@
-"""``aromm identify``: phase properties from measured face-mean temperatures (seed 001 § 4)."""
+"""``aromm identify``: phase properties from measured face-mean temperatures [Chavez2020, § 4]."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from aromm.cli.common import echo_json
 from aromm.model import ForwardModel
 from aromm.scene import assemble, load_scene
 from aromm.solve import FullModel
-from inverse.identify import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
+from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.measurements import load_measurements
 from inverse.plotting import save_identification_plot
 from inverse.uncertainty import IdentifiabilityWarning
@@ -37,12 +37,14 @@ def parse_unknown(text: str) -> tuple[str, tuple[float, float]]:
 
 
 def _model(scene: Path, kind: str, order: int, tty: bool) -> tuple[ForwardModel, dict[str, object]]:
-    system = assemble(load_scene(scene))
+    sc = load_scene(scene)
+    system = assemble(sc)
     if kind == "full":
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
-    from aromm.reduced import reduce
+    from aromm.reduction import reduce
 
-    rom = reduce(system, order=order, progress=tty)
+    rom = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
+                 progress=tty)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene)}
     info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
     return rom, info
@@ -88,7 +90,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
                  resume: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean temperatures.
 
-    The criterion is seed 001 eq. 12; the model is evaluated at the measurement times.
+    The criterion is [Chavez2020, eq. 12]; the model is evaluated at the measurement times.
     """
     if resume and checkpoint is None:
         raise click.UsageError("--resume needs --checkpoint FILE")

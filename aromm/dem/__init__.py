@@ -1,8 +1,8 @@
-"""Discrete-element equivalent continuum for heat conduction (seed 000).
+"""Discrete-element equivalent continuum for heat conduction [Hassan2019].
 
 packing: dense random sphere packings; bonds: near-neighbour bond lists; network: the
-bond network as a ThermalSystem; explicit: forward-Euler integration (seed 000 eq. 5);
-calibrate: C_t (eq. 7-8) and effective conductivities; flux: flux densities (eq. 9-10).
+bond network as a ThermalSystem; explicit: forward-Euler integration [Hassan2019, eq. 5];
+calibration: C_t (eq. 7-8) and effective conductivities; flux: flux densities (eq. 9-10).
 
 Typical use::
 
@@ -11,14 +11,14 @@ Typical use::
     c_t = calibrate(packing, 7.5, bonds=bonds).c_t
     cut = packing.cut(packing.lower, packing.lower + packing.box)
     net = Network(cut, build_bonds(cut, gap=bonds.gap_threshold), c_t, np.zeros(cut.n, dtype=int))
-    values = {"matrix.k": 33.0, "matrix.c": 7.02e3, "y0.T": 25.0, "y1.T": 100.0, "initial.T": 25.0}
-    system = net.system(values,
-                        fixed=("y0", "y1"), profile=("y", 20), time=TimeGrid(0.2, 1e-3))
+    values = {"matrix.k": 33.0, "matrix.c": 7.02e3, "initial.T": 25.0}
+    system = net.system(values, boundary=(FaceSpec("y0", T=25.0), FaceSpec("y1", T=100.0)),
+                        profile=("y", 20), time=TimeGrid(0.2, 1e-3))
     obs = simulate_explicit(system)            # or aromm.simulate(system): implicit
 """
 
 from aromm.dem.bonds import Bonds, build_bonds, coordination_table, gap_for_coordination
-from aromm.dem.calibrate import (
+from aromm.dem.calibration import (
     Calibration,
     InclusionResult,
     calibrate,
@@ -33,7 +33,6 @@ from aromm.dem.explicit import simulate_explicit, stability_bound, stability_lim
 from aromm.dem.flux import neighbourhood_mean, particle_flux
 from aromm.dem.network import (
     Network,
-    face_heat_flow,
     face_particles,
     representative_volumes,
     sphere_inclusion,
@@ -51,7 +50,6 @@ __all__ = [
     "calibrate",
     "coordination_table",
     "cubic_lattice",
-    "face_heat_flow",
     "face_particles",
     "gap_for_coordination",
     "inclusion_network",

@@ -1,6 +1,6 @@
-"""Near-neighbour bonds of a sphere packing (seed 000 §2.1: mean coordination Z = 7.5).
+"""Near-neighbour bonds of a sphere packing [Hassan2019, § 2.1: mean coordination Z = 7.5].
 
-At phi = 0.64 and cv = 0.3 true contacts give Z ~ 4.8 (shared/method/dem.md), so a bond
+At phi = 0.64 and cv = 0.3 true contacts give Z ~ 4.8 (docs/notes/dem.md), so a bond
 joins two spheres whose *relative gap*
 
     g_pq = d_pq / (r_p + r_q) - 1
@@ -59,7 +59,7 @@ class Bonds:
 
     @property
     def unit_vectors(self) -> FloatArray:
-        """e_pq = (x_q - x_p) / d_pq (seed 000 eq. 9)."""
+        """e_pq = (x_q - x_p) / d_pq [Hassan2019, eq. 9]."""
         return self.vectors / self.lengths[:, None]
 
     def degree(self, n: int) -> IntArray:
@@ -142,8 +142,8 @@ def build_bonds(packing: Packing, z: float | None = 7.5, *, gap: float | None = 
     """Near-neighbour bonds: gap below the threshold giving coordination ``z`` (or the given ``gap``).
 
     Then every particle gets at least ``min_degree`` bonds (to its smallest-gap neighbours
-    among the 16 nearest centres) and the graph is made connected (seed 000 §2.1;
-    shared/method/dem.md).  Raises NumericalError if that is impossible.
+    among the 16 nearest centres) and the graph is made connected [Hassan2019, § 2.1;
+    docs/notes/dem.md].  Raises NumericalError if that is impossible.
     """
     if min_degree < 1:
         raise InputError(f"min_degree must be >= 1, got {min_degree}")

@@ -1,6 +1,6 @@
-"""Explicit (forward-Euler) integration of a ThermalSystem, as in DEM codes (seed 000 eq. 4-5).
+"""Explicit (forward-Euler) integration of a ThermalSystem, as in DEM codes [Hassan2019, eq. 4-5].
 
-Seed 000 eq. 5 for particle p:
+[Hassan2019, eq. 5] for particle p:
 
     T_p(t + dt) = T_p(t) + dt / C_p [ Q_p + sum_q H_pq (T_q - T_p) ],   C_p = rho_c c V_p / phi,
 
@@ -25,7 +25,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from aromm.errors import InputError, NumericalError
-from aromm.system import FloatArray, Observables, ThermalSystem
+from aromm.observables import Observables
+from aromm.system import FloatArray, ThermalSystem
 
 SAFETY = 0.9  # default step = SAFETY * exact stability limit
 
@@ -46,6 +47,9 @@ class _Explicit:
 def _prepare(system: ThermalSystem, values: Mapping[str, float] | None) -> _Explicit:
     if system.is_steady:
         raise InputError("explicit integration needs a transient system (with a capacity term)")
+    if system.load.timed or any(d.time is not None for d in system.dirichlet) or system.initial:
+        raise InputError("explicit integration takes constant loads and fixed temperatures only "
+                         "(use aromm.solve.transient for histories)")
     v = system.values(values)
     n = system.n
     fixed_values = np.full(n, np.nan)
@@ -108,7 +112,7 @@ def simulate_explicit(
     fields: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> Observables:
-    """Forward Euler (seed 000 eq. 5) from the uniform ``initial.T``; outputs at ``times`` (s).
+    """Forward Euler [Hassan2019, eq. 5] from the uniform ``initial.T``; outputs at ``times`` (s).
 
     ``dt`` defaults to 0.9 x the exact stability limit; a larger requested ``dt`` than the
     limit is refused.  Each output interval is split into equal steps not above ``dt``, so

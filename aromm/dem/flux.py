@@ -1,13 +1,13 @@
-"""Heat-flux density of a bond network, per particle and over a neighbourhood (seed 000 eq. 9-10).
+"""Heat-flux density of a bond network, per particle and over a neighbourhood [Hassan2019, eq. 9-10].
 
 Conventions (stated here and tested in tests/test_dem_flux.py):
 
-* **Sign.**  Seed 000 eq. 9 sums ``phi_pq e_pq = lambda S^t (T_q - T_p) e_pq``, which points
+* **Sign.**  [Hassan2019, eq. 9] sums ``phi_pq e_pq = lambda S^t (T_q - T_p) e_pq``, which points
   along +grad T.  We return the *heat flux* density ``q = -lambda grad T`` (W/m^2), i.e. the
   negative of the seed's sum, so that a uniform gradient G gives ``q = -lambda G``.
 * **Volume.**  The seed divides by the particle volume V_p; summed over the particles that
   overestimates the flux by 1/phi.  We divide by the particle's representative volume
-  ``V_p / phi`` (the volumes of seed 000 §2.2, which add up to the domain):
+  ``V_p / phi`` (the volumes of [Hassan2019, § 2.2], which add up to the domain):
 
       q_p = -1 / (2 V_p/phi) * sum_q H_pq (T_q - T_p) (x_q - x_p)          (eq. 9)
 
@@ -49,7 +49,7 @@ def bond_flux_moments(bonds: Bonds, conductances: FloatArray, temperatures: Floa
 
 def particle_flux(packing: Packing, bonds: Bonds, conductances: FloatArray, temperatures: FloatArray,
                   gradient: FloatArray | None = None) -> FloatArray:
-    """Heat-flux density per particle (W/m^2), shape (n, 3) (seed 000 eq. 9, conventions above)."""
+    """Heat-flux density per particle (W/m^2), shape (n, 3) [Hassan2019, eq. 9, conventions above]."""
     if conductances.shape != (bonds.m,) or temperatures.shape != (packing.n,):
         raise InputError("particle_flux: one conductance per bond and one temperature per particle")
     moments = bond_flux_moments(bonds, conductances, temperatures, gradient)

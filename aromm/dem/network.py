@@ -1,33 +1,34 @@
-"""The DEM bond network as a :class:`~aromm.system.ThermalSystem` (seed 000 eq. 1-6, 14).
+"""The DEM bond network as a :class:`~aromm.system.ThermalSystem` [Hassan2019, eq. 1-6, 14].
 
-Each bond (p, q) carries the conductance (seed 000 eq. 3, 6)
+Each bond (p, q) carries the conductance [Hassan2019, eq. 3, 6]
 
     H_pq = lambda_pq S^t_pq / d_pq,      S^t_pq = C_t pi R_moy^2,
 
 with ``R_moy`` the **pair mean radius** (r_p + r_q) / 2 by default (the seed's "rayon
 moyen des particules en contact"); ``radius="global"`` uses the packing's mean radius
-instead.  C_t must be calibrated for the choice made (aromm.dem.calibrate): with the same
+instead.  C_t must be calibrated for the choice made (aromm.dem.calibration): with the same
 packing the two choices give different C_t, not different physics.
 
 ``lambda_pq`` is the phase conductivity for a same-phase bond and the harmonic mean
-``2 l_a l_b / (l_a + l_b)`` across two phases (seed 000 eq. 14), so
+``2 l_a l_b / (l_a + l_b)`` across two phases [Hassan2019, eq. 14], so
 
     K = sum_a  k_a * L(g, bonds in phase a)  +  sum_{a<b} hm(k_a, k_b) * L(g, bonds a|b),
 
 with ``g = C_t pi R_moy^2 / d`` (m) and ``L`` the weighted graph Laplacian: every term is
 affine in the parameters ``"<phase>.k"`` (W/(m K)).
 
-Capacity (seed 000 eq. 1, 5): the particle's density is ``rho_d = rho_c / phi`` with
+Capacity [Hassan2019, eq. 1, 5]: the particle's density is ``rho_d = rho_c / phi`` with
 ``phi = sum V_p / V_domain``, so particle p holds ``rho_c c V_p / phi`` (J/K) and the
 capacities add up to ``rho_c c V_domain``.  The parameter ``"<phase>.c"`` is the
-continuum's *volumetric* heat capacity ``rho_c c`` in J/(m^3 K) (DESIGN.md), and the
+continuum's *volumetric* heat capacity ``rho_c c`` in J/(m^3 K) (docs/design.md), and the
 capacity operator is ``diag(V_p / phi)`` (m^3) over that phase's particles.
 
 Faces: the particles of face ``x0`` are those whose sphere cuts the plane x = x_min
-(``x_p - r_p <= x_min``), likewise for the other faces.  A fixed temperature on a face is a
+(``x_p - r_p <= x_min``), likewise for the other faces.  Face conditions are stated in the scene
+vocabulary (:class:`aromm.vocabulary.FaceSpec`): a fixed temperature is a
 :class:`~aromm.system.Dirichlet` on those particles with parameter ``"<face>.T"``; an
-imposed entering flux ``"<face>.flux"`` (W/m^2) is shared between them in proportion to
-their cross-sections ``pi r_p^2``.  Observations are V-weighted means of T over a face's
+imposed entering flux ``"<face>.flux"`` (W/m^2) or an exchange ``"<face>.h"`` is shared between them
+in proportion to their cross-sections ``pi r_p^2``.  Observations are V-weighted means of T over a face's
 particles, or over slabs of a profile (names ``"<axis>_slab<k>"``).
 """
 
@@ -44,17 +45,8 @@ import scipy.sparse as sp
 from aromm.dem.bonds import Bonds, IntArray
 from aromm.dem.packing import Packing
 from aromm.errors import InputError
-from aromm.fem import FACES
-from aromm.system import (
-    Affine,
-    Coefficient,
-    Dirichlet,
-    FloatArray,
-    Geometry,
-    Term,
-    ThermalSystem,
-    TimeGrid,
-)
+from aromm.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
+from aromm.vocabulary import FACES, FaceSpec, face_terms, parameter_values
 
 AXES = "xyz"
 Radius = Literal["pair", "global"]
@@ -96,7 +88,7 @@ def laplacian(n: int, pairs: IntArray, weights: FloatArray) -> sp.csr_array:
 
 
 def representative_volumes(packing: Packing) -> FloatArray:
-    """``V_p / phi`` (m^3): the particle's share of the domain (seed 000 eq. 1, §2.2), summing to V."""
+    """``V_p / phi`` (m^3): the particle's share of the domain [Hassan2019, eq. 1, §2.2], summing to V."""
     return packing.volumes / packing.volume_fraction
 
 
@@ -104,7 +96,7 @@ def sphere_inclusion(packing: Packing, radius_fraction: float = 1.0 / 3.0,
                      center: npt.ArrayLike | None = None) -> IntArray:
     """Phase index per particle: 1 if its centre is inside the sphere of radius ``fraction * L``, else 0.
 
-    The default is seed 000 §3.2: radius L/3 centred in the cube (inclusion fraction 15.51 %).
+    The default is [Hassan2019, § 3.2]: radius L/3 centred in the cube (inclusion fraction 15.51 %).
     """
     if radius_fraction <= 0:
         raise InputError(f"inclusion radius fraction must be positive, got {radius_fraction}")
@@ -147,7 +139,7 @@ class Network:
         return self.factor * 2.0 * ka * kb / (ka + kb)
 
     def conductance(self) -> Affine:
-        """``K`` as an affine sum: one Laplacian per phase and per phase pair (seed 000 eq. 14)."""
+        """``K`` as an affine sum: one Laplacian per phase and per phase pair [Hassan2019, eq. 14]."""
         g = self.factor
         a = self.phases[self.bonds.pairs[:, 0]]
         b = self.phases[self.bonds.pairs[:, 1]]
@@ -160,21 +152,22 @@ class Network:
                     continue
                 op = laplacian(self.n, self.bonds.pairs[sel], g[sel])
                 if i == j:
-                    terms.append(Term(f"K_{name}", Coefficient((f"{name}.k",)), op))
+                    terms.append(Term(f"K_{name}", Coefficient((f"{name}.k",)), op, "conduction"))
                 else:
                     other = self.phase_names[j]
                     coef = Coefficient((f"{name}.k", f"{other}.k"), kind="harmonic")
-                    terms.append(Term(f"K_{name}|{other}", coef, op))
+                    terms.append(Term(f"K_{name}|{other}", coef, op, "conduction"))
         return Affine(tuple(terms))
 
     def capacity(self) -> Affine:
-        """``C = sum_a (rho c)_a diag(V_p / phi)`` over each phase's particles (seed 000 eq. 1, 5)."""
+        """``C = sum_a (rho c)_a diag(V_p / phi)`` over each phase's particles [Hassan2019, eq. 1, 5]."""
         vol = representative_volumes(self.packing)
         terms = []
         for i, name in enumerate(self.phase_names):
             sel = self.phases == i
             if sel.any():
-                terms.append(Term(f"C_{name}", Coefficient((f"{name}.c",)), sp.csr_array(sp.diags(vol * sel))))
+                terms.append(Term(f"C_{name}", Coefficient((f"{name}.c",)), sp.csr_array(sp.diags_array(vol * sel)),
+                                  "capacity"))
         return Affine(tuple(terms))
 
     def face_weights(self, face: str) -> FloatArray:
@@ -212,36 +205,33 @@ class Network:
             rows[f"{axis}_slab{k}"] = w / w.sum()
         return rows
 
+    # ------------------------------------------------------------ aromm.vocabulary.Discretisation (faces)
+    def face_mass(self, face: str) -> sp.csr_array:
+        """Lumped face "mass": the face's area shared between its particles, ``diag(area_p)`` (m²)."""
+        return sp.csr_array(sp.diags_array(self.face_areas(face)))
+
+    def face_dofs(self, face: str) -> IntArray:
+        return face_particles(self.packing, face)
+
     def system(
         self,
         parameters: Mapping[str, float],
         *,
-        fixed: Sequence[str] = (),
-        flux: Sequence[str] = (),
-        convection: Sequence[str] = (),
+        boundary: Sequence[FaceSpec] = (),
         outputs: Sequence[str] = (),
         profile: tuple[str, int] | None = None,
         time: TimeGrid | None = None,
     ) -> ThermalSystem:
-        """The ThermalSystem of this network.
+        """The ThermalSystem of this network under the face conditions ``boundary`` (aromm.vocabulary).
 
-        ``fixed`` faces get a Dirichlet condition ``"<face>.T"``; ``flux`` faces an entering
-        flux ``"<face>.flux"`` (W/m^2) over the face area; ``convection`` faces an exchange
-        ``"<face>.h"`` (W/(m^2 K)) with ``"<face>.T_ext"`` (terms ``H_<face>``, ``U_<face>`` as in
-        aromm.fem); the other faces are adiabatic.  Face loads and exchanges are shared between
-        the face's particles in proportion to ``pi r_p^2``.
-        A capacity is included only for a transient (``time`` given).  ``parameters``
-        holds the default values (``"<phase>.k"``, ``"<phase>.c"``, ``"<face>.T"``, ...).
+        A fixed ``T`` is a Dirichlet condition on the face's particles; an entering flux (W/m²) and a
+        convective exchange h (W/(m² K)) with T_ext are shared between them in proportion to ``pi r_p^2``
+        (terms ``U_<face>``, ``H_<face>``, ``UH_<face>`` as for every discretisation); unlisted faces are
+        adiabatic.  A capacity is included only for a transient (``time`` given).  ``parameters`` holds
+        the phase values (``"<phase>.k"``, ``"<phase>.c"``); face values come from ``boundary``.
+        Observations are V-weighted means over a face's particles, and over the slabs of ``profile``.
         """
-        dirichlet = tuple(
-            Dirichlet(face, face_particles(self.packing, face), f"{face}.T") for face in fixed
-        )
-        load_terms = [Term(f"U_{face}", Coefficient((f"{face}.flux",)), self.face_areas(face)) for face in flux]
-        exchange_terms = []
-        for face in convection:
-            area = self.face_areas(face)
-            exchange_terms.append(Term(f"H_{face}", Coefficient((f"{face}.h",)), sp.csr_array(sp.diags(area))))
-            load_terms.append(Term(f"U_{face}", Coefficient((f"{face}.h", f"{face}.T_ext")), area))
+        faces, dirichlet = face_terms(self, boundary)
         observation = {face: self.face_weights(face) for face in outputs}
         if profile is not None:
             observation.update(self.slab_weights(*profile))
@@ -249,21 +239,17 @@ class Network:
             points=self.packing.centers, cells=np.arange(self.n, dtype=np.int64)[:, None], cell_type="vertex",
             cell_data={"radius": self.packing.radii, "phase": self.phases},
         )
+        shell = sum((self.face_areas(face) for face in FACES), start=np.zeros(self.n))
         return ThermalSystem(
             n=self.n,
-            conductance=Affine(self.conductance().terms + tuple(exchange_terms)),
+            conductance=Affine(self.conductance().terms + tuple(t for t in faces if t.role == "exchange")),
             capacity=self.capacity() if time is not None else Affine(),
-            load=Affine(tuple(load_terms)),
-            dirichlet=dirichlet,
+            load=Affine(tuple(t for t in faces if t.role == "load")),
+            dirichlet=tuple(dirichlet),
             observation=observation,
-            parameters=dict(parameters),
+            parameters={**parameter_values((), boundary, float(parameters.get("initial.T", 0.0)), False),
+                        **parameters},
             time=time,
             geometry=geometry,
+            boundary=sp.csr_array(sp.diags_array(shell)),
         )
-
-
-def face_heat_flow(system: ThermalSystem, values: Mapping[str, float], field: FloatArray,
-                   dofs: IntArray) -> float:
-    """Heat (W) entering the network through the fixed particles ``dofs``: ``sum_{p in dofs} (K T)_p``."""
-    k = sp.csr_array(system.conductance.evaluate(system.values(values)))
-    return float(np.sum((k @ field)[dofs]))

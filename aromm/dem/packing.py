@@ -1,9 +1,9 @@
-"""Dense random packings of polydisperse spheres for the DEM equivalent continuum (seed 000 §2.1).
+"""Dense random packings of polydisperse spheres for the DEM equivalent continuum [Hassan2019, § 2.1].
 
-Seed 000 §2.1 asks for a random, isotropic packing of slightly polydisperse spheres
+[Hassan2019, § 2.1] asks for a random, isotropic packing of slightly polydisperse spheres
 (Gaussian radii, coefficient of variation 0.3) at a volume fraction phi close to 0.64.
 Random sequential addition stops near phi = 0.38 and rigid walls keep the outer layer
-loose, so (shared/method/dem.md) the packing is made in a **periodic** cube:
+loose, so (docs/notes/dem.md) the packing is made in a **periodic** cube:
 
 1. radii ~ N(1, cv^2) (in units of the mean radius), truncated to ``1 +- 2.5 cv`` by
    redrawing, then the cube side chosen so that ``sum 4/3 pi r^3 = phi L^3``;
@@ -65,7 +65,7 @@ class Packing:
 
     @property
     def volume_fraction(self) -> float:
-        """phi = sum V_p / V_box (seed 000 eq. 1); for a cut packing, spheres sticking out count whole."""
+        """phi = sum V_p / V_box [Hassan2019, eq. 1]; for a cut packing, spheres sticking out count whole."""
         return float(self.volumes.sum() / self.domain_volume)
 
     @property
@@ -244,7 +244,7 @@ def pack_spheres(
 ) -> Packing:
     """Periodic random packing of ``n`` spheres at volume fraction ``phi`` in a cube of side ``box`` (m).
 
-    Radii are Gaussian with coefficient of variation ``cv`` (seed 000 §2.1), truncated at
+    Radii are Gaussian with coefficient of variation ``cv`` [Hassan2019, § 2.1], truncated at
     +-2.5 sd.  FIRE stops when the largest overlap is below ``tol`` times the contact
     distance ``r_i + r_j``.  ``progress(iteration, max_overlap)`` is called every 50
     iterations.  Reproducible: the same ``rng`` state gives the same packing.

@@ -1,22 +1,21 @@
-"""Effective conductivity of sphere composites with contact resistance: models and bounds of seed 002.
+"""Effective conductivity of sphere composites with contact resistance: models and bounds of [GarnierDanes].
 
 * :mod:`aromm.effective.models`: closed-form models (Wiener, Hashin-Shtrikman, Maxwell-Eucken,
   Hasselman-Johnson, Hatta-Taya, Lewis-Nielsen, Rayleigh for the simple-cubic array) and the
   Torquato-Rintoul third-order bounds;
 * :mod:`aromm.effective.wall`: the Danes-Garnier wall-insertion bounds W1a, W_inf_a, W1b, W_inf_b;
-* :mod:`aromm.effective.mesh_fem`: a ThermalSystem from any conforming simplex mesh (meshio),
+* :mod:`aromm.fem.mesh`: a ThermalSystem from any conforming simplex mesh (meshio),
   phases from cell sets, contact resistance on split interface nodes;
 * :mod:`aromm.effective.cell_fem`: gmsh meshes of the seed-002 cell and its FE values
   (E_c, E_II, E_1bot);
 * :mod:`aromm.effective.summary`: every model at once (``aromm bounds``);
-* :mod:`aromm.effective.study`: Table 1 and the preference map of seed 002.
+* :mod:`studies.garnier_danes`: Table 1 and the preference map of [GarnierDanes].
 
 Every value is ``E = lambda_eff / lambda_m``.
 """
 
 from aromm.effective.cell_fem import CellModel, cell_mesh, cell_values
 from aromm.effective.domain import cell_B, cell_phi
-from aromm.effective.mesh_fem import assemble_mesh
 from aromm.effective.models import (
     hashin_shtrikman_lower,
     hashin_shtrikman_upper,
@@ -33,6 +32,7 @@ from aromm.effective.models import (
 )
 from aromm.effective.summary import MODEL_KEYS, every_model, material
 from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
+from aromm.fem.mesh import assemble_mesh
 
 __all__ = [
     "MODEL_KEYS",

@@ -2,7 +2,7 @@
 
 Three octant sub-problems (sphere of radius ``a`` at the origin, ``b = a (1 + B)``), all with
 T = 0 on the mid-plane z = 0, T = 1 on the top face and every other face adiabatic (the
-symmetry planes x = 0, y = 0 of the full cell and its adiabatic sides, seed 002):
+symmetry planes x = 0, y = 0 of the full cell and its adiabatic sides, [GarnierDanes]):
 
 * ``"cell"``: the box ``[0, b]^3`` -> ``E_c``, the exact cell value (flux method);
 * ``"cylinder"``: the quarter cylinder ``r <= a``, ``0 <= z <= b`` with an adiabatic wall at
@@ -16,7 +16,7 @@ domain (``pi a^2/4`` for the cylinder).
 
 Meshes come from gmsh (OpenCASCADE booleans, headless), are handed over as meshio meshes with
 ``gmsh:physical`` tags 1 (filler) and 2 (matrix), and are assembled by
-:func:`aromm.effective.mesh_fem.assemble_mesh` with the contact resistance on split interface
+:func:`aromm.fem.mesh.assemble_mesh` with the contact resistance on split interface
 unknowns.  ``h`` is the target element size in units of ``a``; the mesh is graded down to
 ``h/4`` near the sphere so that curvature and the thin gaps are resolved.
 
@@ -39,11 +39,11 @@ import meshio
 import numpy as np
 
 from aromm.effective.domain import check_B, check_contact, checked
-from aromm.effective.mesh_fem import assemble_mesh
 from aromm.errors import InputError
-from aromm.fem import FaceSpec, PhaseSpec
-from aromm.solve import steady_field
+from aromm.fem.mesh import assemble_mesh
+from aromm.solve import reaction_heat_flow, steady_field
 from aromm.system import ThermalSystem
+from aromm.vocabulary import FaceSpec, PhaseSpec
 
 Kind = Literal["cell", "cylinder", "slab"]
 KINDS: tuple[Kind, ...] = ("cell", "cylinder", "slab")
@@ -232,10 +232,8 @@ def conductance_from_reaction(system: ThermalSystem, values: dict[str, float]) -
     The reaction ``sum_{i in z1} (K T)_i`` with ``T`` from :func:`aromm.solve.steady_field`
     equals the discrete energy ``T^T K T`` (variational).
     """
-    v = system.values(values)
-    field = steady_field(system, values)
     top = next(d.dofs for d in system.dirichlet if d.name == "T_z1")
-    return float(np.sum((system.conductance.evaluate(v) @ field)[top]))
+    return reaction_heat_flow(system, steady_field(system, values), top, values)
 
 
 CELL_VALUES: tuple[tuple[str, Kind], ...] = (("E_c", "cell"), ("E_II", "cylinder"), ("E_1bot", "slab"))

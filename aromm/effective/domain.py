@@ -1,6 +1,6 @@
-"""Parameters of the simple-cubic (SC) cell of seed 002 and input checks shared by the models.
+"""Parameters of the simple-cubic (SC) cell of [GarnierDanes] and input checks shared by the models.
 
-Seed 002 ("Main features of the adopted models"): a sphere of radius ``a`` centred in a
+[GarnierDanes] ("Main features of the adopted models"): a sphere of radius ``a`` centred in a
 ``2b x 2b x 2b`` cell, with the dimensionless groups
 
     B = b/a - 1,        C = R_c lambda_m / a,        D = lambda_m / lambda_f,
@@ -63,7 +63,7 @@ def check_D(D: npt.ArrayLike) -> FloatArray:
 
 
 def cell_phi(B: npt.ArrayLike) -> FloatArray:
-    """Volume fraction of the SC cell, phi = pi / (6 (1 + B)^3) (seed 002)."""
+    """Volume fraction of the SC cell, phi = pi / (6 (1 + B)^3) [GarnierDanes]."""
     b = check_B(B)
     return np.asarray(np.pi / (6.0 * (1.0 + b) ** 3))
 

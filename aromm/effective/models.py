@@ -1,7 +1,7 @@
-"""Closed-form effective-conductivity models and bounds (seed 002, method note etc_formulas.md).
+"""Closed-form effective-conductivity models and bounds [GarnierDanes] (checked: docs/notes/effective_formulas.md).
 
 Every function is a plain vectorised numpy function returning ``E = lambda_eff / lambda_m``
-(broadcasting its arguments).  Notation of seed 002: ``kappa = lambda_f / lambda_m = 1/D``,
+(broadcasting its arguments).  Notation of [GarnierDanes]: ``kappa = lambda_f / lambda_m = 1/D``,
 ``phi`` the filler volume fraction, ``C = R_c lambda_m / a`` the dimensionless contact
 (Kapitza) resistance of spheres of radius ``a``.
 
@@ -44,7 +44,7 @@ ArrayLike = npt.ArrayLike
 
 
 def wiener_parallel(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
-    """Wiener (1912) parallel (arithmetic) bound, ``E = 1 - phi + phi kappa`` (etc_formulas §1).
+    """Wiener (1912) parallel (arithmetic) bound, ``E = 1 - phi + phi kappa`` (effective_formulas.md §1).
 
     Upper bound of any isotropic or anisotropic two-phase medium with perfect contact.
     """
@@ -53,7 +53,7 @@ def wiener_parallel(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
 
 
 def wiener_series(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
-    """Wiener (1912) series (harmonic) bound, ``E = 1 / (1 - phi + phi / kappa)`` (etc_formulas §1)."""
+    """Wiener (1912) series (harmonic) bound, ``E = 1 / (1 - phi + phi / kappa)`` (effective_formulas.md §1)."""
     p, k = check_phi(phi), check_kappa(kappa)
     return np.asarray(1.0 / (1.0 + p * (1.0 / k - 1.0)))
 
@@ -66,14 +66,14 @@ def _maxwell_from_beta(p: FloatArray, beta: FloatArray) -> FloatArray:
 def _beta(order: int, s: FloatArray) -> FloatArray:
     """Multipole polarisability ``beta_l = (kappa_l - 1)/(kappa_l + (l+1)/l)`` with ``kappa_l = 1/s``.
 
-    Written in ``s = D + l C`` (etc_formulas §4, §7) so that perfectly conducting spheres
+    Written in ``s = D + l C`` (effective_formulas.md §4, §7) so that perfectly conducting spheres
     (``s = 0``) and the neutral inclusion (``s = 1``) are regular: ``beta_l = (1 - s)/(1 + s (l+1)/l)``.
     """
     return np.asarray((1.0 - s) / (1.0 + s * (order + 1.0) / order))
 
 
 def maxwell_eucken(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
-    """Maxwell (1873) / Eucken (1932) model for dilute spheres (etc_formulas §3).
+    """Maxwell (1873) / Eucken (1932) model for dilute spheres (effective_formulas.md §3).
 
     ``E = (kappa + 2 + 2 phi (kappa - 1)) / (kappa + 2 - phi (kappa - 1)) = 1 + 3 phi beta / (1 - phi beta)``
     with ``beta = (kappa - 1)/(kappa + 2)``; identical to the Hashin-Shtrikman matrix bound.
@@ -83,7 +83,7 @@ def maxwell_eucken(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
 
 
 def _hs_particle(p: FloatArray, k: FloatArray) -> FloatArray:
-    """Hashin-Shtrikman bound with the filler as reference (etc_formulas §2).
+    """Hashin-Shtrikman bound with the filler as reference (effective_formulas.md §2).
 
     ``kappa + (1-phi) / (1/(1-kappa) + phi/(3 kappa))`` rewritten without the pole at kappa = 1:
     ``(3 + 2 phi (kappa - 1)) / (3 - phi (1 - 1/kappa))``.
@@ -92,7 +92,7 @@ def _hs_particle(p: FloatArray, k: FloatArray) -> FloatArray:
 
 
 def hashin_shtrikman_lower(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
-    """Hashin & Shtrikman (1962) lower bound for isotropic two-phase media (etc_formulas §2).
+    """Hashin & Shtrikman (1962) lower bound for isotropic two-phase media (effective_formulas.md §2).
 
     The matrix-reference bound (= Maxwell-Eucken) when ``kappa >= 1``, the filler-reference
     bound when ``kappa < 1``.
@@ -103,14 +103,14 @@ def hashin_shtrikman_lower(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
 
 
 def hashin_shtrikman_upper(phi: ArrayLike, kappa: ArrayLike) -> FloatArray:
-    """Hashin & Shtrikman (1962) upper bound (etc_formulas §2): filler reference when ``kappa >= 1``."""
+    """Hashin & Shtrikman (1962) upper bound (effective_formulas.md §2): filler reference when ``kappa >= 1``."""
     p, k = check_phi(phi), check_kappa(kappa)
     matrix_ref = _maxwell_from_beta(p, _beta(1, 1.0 / k))
     return np.asarray(np.where(k >= 1.0, _hs_particle(p, k), matrix_ref))
 
 
 def hasselman_johnson(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike = 0.0) -> FloatArray:
-    """Hasselman & Johnson (1987): dilute spheres with interfacial resistance (etc_formulas §4).
+    """Hasselman & Johnson (1987): dilute spheres with interfacial resistance (effective_formulas.md §4).
 
     Maxwell's formula with the dipole-equivalent filler conductivity ``kappa_1 = 1/(D + C)``,
     ``D = 1/kappa``, ``C = R_c lambda_m / a``.  ``C = 0`` gives Maxwell-Eucken; ``D + C = 1``
@@ -129,7 +129,7 @@ _SERIES_RADIUS = 0.02  # |p - 1| below which the series (error < 1e-15) replaces
 
 
 def depolarization_factors(aspect: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """Depolarisation factors ``(S11, S33)`` of a spheroid with axis ratio ``p = c/a`` (etc_formulas §5).
+    """Depolarisation factors ``(S11, S33)`` of a spheroid with axis ratio ``p = c/a`` (effective_formulas.md §5).
 
     Prolate (``p > 1``): ``S11 = p/(2 (p^2-1)^{3/2}) [p sqrt(p^2-1) - acosh p]``; oblate
     (``p < 1``): ``S11 = p/(2 (1-p^2)^{3/2}) [acos p - p sqrt(1-p^2)]``; ``S33 = 1 - 2 S11``.
@@ -152,7 +152,7 @@ def depolarization_factors(aspect: ArrayLike) -> tuple[FloatArray, FloatArray]:
 
 def hatta_taya(phi: ArrayLike, kappa: ArrayLike, aspect: ArrayLike = 1.0,
                orientation: Literal["random", "axial", "transverse"] = "random") -> FloatArray:
-    """Hatta & Taya (1985, 1986) equivalent-inclusion (Mori-Tanaka) model for spheroids (etc_formulas §5).
+    """Hatta & Taya (1985, 1986) equivalent-inclusion (Mori-Tanaka) model for spheroids (effective_formulas.md §5).
 
     ``orientation="random"`` (3-D random orientation)::
 
@@ -182,11 +182,11 @@ def hatta_taya(phi: ArrayLike, kappa: ArrayLike, aspect: ArrayLike = 1.0,
 
 def lewis_nielsen(phi: ArrayLike, kappa: ArrayLike, shape_factor: ArrayLike = 1.5,
                   phi_max: ArrayLike = PHI_MAX_SC) -> FloatArray:
-    """Lewis & Nielsen (1970) / Nielsen (1974) semi-empirical model (etc_formulas §6).
+    """Lewis & Nielsen (1970) / Nielsen (1974) semi-empirical model (effective_formulas.md §6).
 
     ``E = (1 + A beta phi) / (1 - beta psi phi)``, ``beta = (kappa-1)/(kappa+A)``,
     ``psi = 1 + phi (1 - phi_m)/phi_m^2``.  Defaults: spheres (``A = 1.5``) and the maximum
-    packing of the simple-cubic cell of seed 002, ``phi_m = pi/6``.  ``A = 2, phi_m = 1``
+    packing of the simple-cubic cell of [GarnierDanes], ``phi_m = pi/6``.  ``A = 2, phi_m = 1``
     gives Maxwell-Eucken.
     """
     k = check_kappa(kappa)
@@ -203,14 +203,14 @@ def lewis_nielsen(phi: ArrayLike, kappa: ArrayLike, shape_factor: ArrayLike = 1.
 # ---------------------------------------------------------------------------------------------
 # Simple-cubic array: Rayleigh's formula and the three-point parameter zeta_2
 
-# etc_formulas §7: lattice-sum coefficients computed by Ewald summation (this work), cf. Sangani &
+# effective_formulas.md §7: lattice-sum coefficients computed by Ewald summation (this work), cf. Sangani &
 # Acrivos (1983); c1 replaces Rayleigh's 1.65 by 1.3047.
 _RAYLEIGH = {"c1": 1.3047180, "c3": 0.4054096, "c4": 0.0723171, "c5": 0.1525602, "c6": 0.0104482,
              "a2": 0.2350}
 
 
 def rayleigh_simple_cubic(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike = 0.0) -> FloatArray:
-    """Rayleigh (1892) formula for the simple-cubic sphere array with higher-order terms (etc_formulas §7).
+    """Rayleigh (1892) formula for the simple-cubic sphere array with higher-order terms (effective_formulas.md §7).
 
     ::
 
@@ -233,7 +233,7 @@ def rayleigh_simple_cubic(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike =
     return np.asarray(1.0 + 3.0 * p * b1 / (1.0 - b1 * tail))
 
 
-# etc_formulas §8: zeta_2 of the simple-cubic array (weak-contrast expansion of the multipole solution).
+# effective_formulas.md §8: zeta_2 of the simple-cubic array (weak-contrast expansion of the multipole solution).
 _ZETA2_PHI = np.array([0.05, 0.10, 4.0 * np.pi / 81.0, 0.20, 0.30, 0.40, 0.45, 0.50, 0.52])
 _ZETA2_VAL = np.array([4.0703e-5, 4.3387e-4, 2.0034e-3, 4.9474e-3, 0.022026, 0.067808, 0.110309,
                        0.173764, 0.206994])
@@ -250,7 +250,7 @@ _ZETA2_RATIO = PchipInterpolator(np.concatenate([[0.0], _ZETA2_PHI]),
 
 
 def zeta2_simple_cubic(phi: ArrayLike) -> FloatArray:
-    """Milton's three-point parameter zeta_2 of the simple-cubic sphere array (etc_formulas §8 table).
+    """Milton's three-point parameter zeta_2 of the simple-cubic sphere array (effective_formulas.md §8 table).
 
     Interpolated as ``zeta2 = r(phi) * (9 c1/14) phi^{10/3}/(1 - phi)``: the ratio ``r`` to the
     exact small-phi asymptote is smooth (1 at phi = 0, 1.048 at 0.52) and is interpolated
@@ -280,9 +280,9 @@ def _tr_inputs(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike,
 
 def torquato_rintoul_lower(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike = 0.0,
                            xi: ArrayLike | None = None) -> FloatArray:
-    """Torquato & Rintoul (1995) third-order lower bound V3L with interfacial resistance (seed 002).
+    """Torquato & Rintoul (1995) third-order lower bound V3L with interfacial resistance [GarnierDanes].
 
-    Seed 002 transcription (etc_formulas §9), ``K = 1 - D - C``::
+    [GarnierDanes] transcription (effective_formulas.md §9), ``K = 1 - D - C``::
 
         E = 1 / (1 - phi + phi (D + 3C)
                  - 2 phi {(1-phi) K (1 - D - 3C) + 3C}^2 / ((1-phi) K^2 [3 - (1-D)(2 - 2 phi + xi)] + 3 C Phi)),
@@ -291,7 +291,7 @@ def torquato_rintoul_lower(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike 
     ``xi`` defaults to zeta_2 of the simple-cubic array (:func:`zeta2_simple_cubic`); at ``C = 0``
     the bound is Beran-Milton's with ``zeta_2 = xi``.  The bracket ``8/27 + phi(5+phi)/2`` is
     the seed's hard-wired interfacial three-point parameter, of unconfirmed provenance (flagged
-    in etc_formulas §9).  The denominator is a sum of non-negative terms (``3 - (1-D)(2-2 phi+xi) >=
+    in effective_formulas.md §9).  The denominator is a sum of non-negative terms (``3 - (1-D)(2-2 phi+xi) >=
     1 + 2 phi - xi > 0``) that vanishes only at ``D = 1, C = 0`` together with the numerator.
     """
     p, d, c, x = _tr_inputs(phi, kappa, contact, xi)
@@ -304,9 +304,9 @@ def torquato_rintoul_lower(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike 
 
 def torquato_rintoul_upper(phi: ArrayLike, kappa: ArrayLike, contact: ArrayLike = 0.0,
                            xi: ArrayLike | None = None) -> FloatArray:
-    """Torquato & Rintoul (1995) third-order upper bound V3U with interfacial resistance (seed 002).
+    """Torquato & Rintoul (1995) third-order upper bound V3U with interfacial resistance [GarnierDanes].
 
-    Seed 002 transcription (etc_formulas §9), ``K = 1 - D - C``::
+    [GarnierDanes] transcription (effective_formulas.md §9), ``K = 1 - D - C``::
 
         E = 1 - phi + phi/D - phi [(1-phi)(1-D) K + 3C]^2
                               / (3 (1-phi) D^2 K (1-D+C) + 9 D^2 C (1+C) + D (1-D) Xi),

@@ -1,4 +1,4 @@
-"""Every model and bound of seed 002 for one material, keyed as in DESIGN.md (``aromm bounds``).
+"""Every model and bound of [GarnierDanes] for one material, keyed as in docs/design.md (``aromm bounds``).
 
 W1a and W1b need finite-element values of two sub-cells (E_II, E_1bot), computed on demand on a
 coarse conforming mesh (:mod:`aromm.effective.cell_fem`, a few seconds).  On-demand rather than

@@ -1,4 +1,4 @@
-"""Danes-Garnier wall-insertion bounds of seed 002 for the simple-cubic (SC) cell.
+"""Danes-Garnier wall-insertion bounds of [GarnierDanes] for the simple-cubic (SC) cell.
 
 A sphere of radius ``a`` in a ``2b x 2b x 2b`` cell, flux along z, contact resistance R_c
 on the sphere; ``B = b/a - 1``, ``C = R_c lambda_m / a``, ``D = lambda_m / lambda_f``.
@@ -14,7 +14,7 @@ on the sphere; ``B = b/a - 1``, ``C = R_c lambda_m / a``, ``D = lambda_m / lambd
 
 W1a and W1b need finite-element values of a sub-cell (``E_II``, ``E_1bot``): see
 :mod:`aromm.effective.cell_fem`.  The derivation of the W_inf_b system, and where the seed's
-transcription of it is inconsistent, are in ``notes/wall_inf_b.md``.
+transcription of it is inconsistent, are in ``docs/notes/wall_inf_b.md``.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ ArrayLike = npt.ArrayLike
 
 
 def wall_1a(B: ArrayLike, E_II: ArrayLike) -> FloatArray:
-    """W1a lower bound from the cylinder value: ``E = 1 + (pi/4) (E_II - 1)/(1 + B)^2`` (seed 002).
+    """W1a lower bound from the cylinder value: ``E = 1 + (pi/4) (E_II - 1)/(1 + B)^2`` [GarnierDanes].
 
     Parallel sum of the cylinder ``r < a`` (area ``pi a^2``, normalised conductance ``E_II``,
     adiabatic wall at r = a) and the pure matrix around it.
@@ -47,7 +47,7 @@ def wall_1a(B: ArrayLike, E_II: ArrayLike) -> FloatArray:
 
 
 def wall_1b(B: ArrayLike, E_1bot: ArrayLike) -> FloatArray:
-    """W1b upper bound from the slab value: ``E = (B + 1)/(B + 1/E_1bot)`` (seed 002).
+    """W1b upper bound from the slab value: ``E = (B + 1)/(B + 1/E_1bot)`` [GarnierDanes].
 
     Series sum of the slab ``|z| < a`` holding the sphere (cell ``2b x 2b x 2a``, isothermal
     faces tangent to the sphere, normalised conductance ``E_1bot``) and two matrix slabs.
@@ -82,14 +82,14 @@ def _wall_bracket(eps: FloatArray) -> FloatArray:
 
 
 def wall_inf_a(B: ArrayLike, C: ArrayLike, D: ArrayLike) -> FloatArray:
-    """W_inf_a lower bound: infinitely many adiabatic walls parallel to the flux (seed 002).
+    """W_inf_a lower bound: infinitely many adiabatic walls parallel to the flux [GarnierDanes].
 
     ::
 
         E = 1 - pi/(2 (B+1)^2) [1/2 + 1/(1-G) + ln G/(1-G)^2],      G = (B + C + D)/(B + 1)
           = 1 + pi/(2 (B+1)^2) sum_{k>=1} (1-G)^k/(k+2)
 
-    (etc_formulas §10: parallel sum of series slices, the interface crossed obliquely).
+    (effective_formulas.md §10: parallel sum of series slices, the interface crossed obliquely).
     Depends on C and D only through C + D; ``G = 1`` (neutral inclusion C + D = 1) gives
     exactly 1 and is evaluated by the series without 0/0; ``G = 0`` (B = C = D = 0) is +inf.
     """
@@ -163,7 +163,7 @@ class WallProfile:
 
 
 def _solve_profile(b: float, c: float, d: float, tol: float) -> WallProfile:
-    """solve_bvp on x = 1 - Z with the singular term at x = 0 (Shampine 2003); see notes/wall_inf_b.md.
+    """solve_bvp on x = 1 - Z with the singular term at x = 0 (Shampine 2003); see docs/notes/wall_inf_b.md.
 
     Unknowns ``y = (T, J, R, Q)``: matrix temperature, exchange flux ``J = (T - S)/C``, flux
     mismatch ``R = P - D Q`` and filler flux ``Q`` (``P = dT/dZ`` matrix flux).  This choice
@@ -222,10 +222,10 @@ def wall_inf_b_profile(B: float, C: float, D: float, tol: float = 1e-8) -> WallP
 
 
 def wall_inf_b(B: ArrayLike, C: ArrayLike, D: ArrayLike, tol: float = 1e-8) -> FloatArray:
-    """W_inf_b upper bound: isothermal planes z = const in each phase, exchange through R_c (seed 002).
+    """W_inf_b upper bound: isothermal planes z = const in each phase, exchange through R_c [GarnierDanes].
 
     The Euler-Lagrange equations of Dirichlet's principle restricted to fields ``tau(z)`` in the
-    matrix and ``sigma(z)`` in the filler, made dimensionless (notes/wall_inf_b.md)::
+    matrix and ``sigma(z)`` in the filler, made dimensionless (docs/notes/wall_inf_b.md)::
 
         dT/dZ = P,   dS/dZ = D Q,
         A_m(Z) dP/dZ = -Z P + (T - S)/C,        A_m = 2 (1+B)^2/pi - (1 - Z^2)/2,

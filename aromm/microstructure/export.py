@@ -2,7 +2,7 @@
 
 The mesh is one hexahedron per voxel.  Nodes are numbered x fastest,
 ``node(i, j, k) = i + (nx+1) (j + (ny+1) k)`` with coordinates ``(i dx, j dy, k dz)`` in metres,
-the node order of the finite-element assembly (aromm/fem.py); voxels likewise
+the node order of the finite-element assembly (aromm.fem.voxel); voxels likewise
 ``cell(i, j, k) = i + nx (j + ny k)``.  Cell data ``labels`` holds the phase labels.
 
 Formats by file name: ``.vtu`` (VTK XML unstructured grid, zlib-compressed binary) and
@@ -25,29 +25,25 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError
+from aromm.fem.voxel import VTK_HEX, connectivity, node_points
 from aromm.microstructure.io import as_labels, as_voxel_size
 
 FORMATS = {".vtu": "vtu", ".xdmf": "xdmf", ".xmf": "xdmf"}
-# VTK hexahedron: bottom face (z = 0) counter-clockwise, then the top face
-_HEX_CORNERS = ((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1))
 
 
 def voxel_mesh(shape: Sequence[int], voxel_size: float | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    """Node coordinates ``(n_nodes, 3)`` (m) and hexahedra ``(n_voxels, 8)`` (VTK corner order).
+    """Node coordinates ``(n_nodes, 3)`` (m) and hexahedra ``(n_voxels, 8)`` (VTK corner order), voxels x fastest.
+
+    The nodes and corners of the finite-element assembly (:mod:`aromm.fem.voxel`).
 
     >>> points, hexes = voxel_mesh((2, 1, 1), 1.0)
     >>> points.shape, hexes.tolist()
     ((12, 3), [[0, 1, 4, 3, 6, 7, 10, 9], [1, 2, 5, 4, 7, 8, 11, 10]])
     """
-    nx, ny, nz = (int(n) for n in shape)
-    dx, dy, dz = as_voxel_size(voxel_size)
-    grid = np.meshgrid(np.arange(nx + 1) * dx, np.arange(ny + 1) * dy, np.arange(nz + 1) * dz, indexing="ij")
-    points = np.column_stack([g.ravel(order="F") for g in grid])
-    i, j, k = (a.ravel(order="F") for a in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"))
-    hexes = np.column_stack(
-        [(i + a) + (nx + 1) * ((j + b) + (ny + 1) * (k + c)) for a, b, c in _HEX_CORNERS]
-    ).astype(np.int64)
-    return points, hexes
+    grid = (int(shape[0]), int(shape[1]), int(shape[2]))
+    size = as_voxel_size(voxel_size)
+    x_fastest = np.ravel_multi_index(np.unravel_index(np.arange(int(np.prod(grid))), grid, order="F"), grid)
+    return node_points(grid, size), connectivity(grid, x_fastest)[:, VTK_HEX]
 
 
 def _split_fields(

@@ -1,10 +1,10 @@
 """Synthetic voxel microstructures (label images indexed ``[x, y, z]``, PoreSpy style).
 
 * :func:`wood` — spruce-like tracheids along z: walls = fibre (label 1), lumens = gas (label 0);
-* :func:`sphere_in_cube` — one centred sphere (label 1) in a cube (label 0), the cell of seed 000
+* :func:`sphere_in_cube` — one centred sphere (label 1) in a cube (label 0), the cell of [Hassan2019]
   (inclusion of radius L/3, volume fraction 4π/81 ≈ 15.51 %);
-* :func:`simple_cubic` — a simple-cubic array of equal spheres at volume fraction φ (seed 002);
-* :func:`laminate` — flat layers across one axis (Wiener bounds, seed 002).
+* :func:`simple_cubic` — a simple-cubic array of equal spheres at volume fraction φ [GarnierDanes];
+* :func:`laminate` — flat layers across one axis (Wiener bounds, [GarnierDanes]).
 
 Voxel ``(i, j, k)`` covers ``[i, i+1) × [j, j+1) × [k, k+1)`` voxel lengths; a voxel belongs to a
 shape when its centre does.  Random generators take an explicit ``rng: np.random.Generator``.
@@ -13,7 +13,7 @@ shape when its centre does.  Random generators take an explicit ``rng: np.random
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +22,15 @@ from aromm.errors import InputError
 from aromm.microstructure.io import LabelImage, as_voxel_size
 
 AXES = {"x": 0, "y": 1, "z": 2}
+Generator = Callable[..., LabelImage]
+#: Generators by the name a scene file uses (``[geometry] generator = "wood"``); :func:`generator` registers one.
+GENERATORS: dict[str, Generator] = {}
+
+
+def generator(function: Generator) -> Generator:
+    """Register ``function`` under its own name for scene files (its keyword options become scene keys)."""
+    GENERATORS[function.__name__] = function
+    return function
 
 
 def _positive_int(value: object, name: str) -> int:
@@ -51,10 +60,11 @@ def _ball(n: int, radius: float) -> npt.NDArray[np.bool_]:
     return c[:, None, None] + c[None, :, None] + c[None, None, :] <= radius**2
 
 
+@generator
 def sphere_in_cube(n: int, radius_fraction: float = 1.0 / 3.0) -> LabelImage:
     """One sphere of radius ``radius_fraction · n`` voxels centred in an ``n³`` cube.
 
-    Sphere = label 1, matrix = label 0.  The default radius L/3 is the inclusion of seed 000
+    Sphere = label 1, matrix = label 0.  The default radius L/3 is the inclusion of [Hassan2019]
     (§ "milieu hétérogène"), of volume fraction 4π/81 ≈ 0.1551, reached as ``n`` grows.
     ``radius_fraction`` must lie in (0, 1/2] (the sphere stays inside the cube).
 
@@ -68,6 +78,7 @@ def sphere_in_cube(n: int, radius_fraction: float = 1.0 / 3.0) -> LabelImage:
     return _ball(n, radius_fraction * n).astype(np.int32)
 
 
+@generator
 def simple_cubic(n_cells: int, cell_voxels: int, phi: float) -> LabelImage:
     """A simple-cubic array of ``n_cells³`` equal spheres (label 1) in a matrix (label 0).
 
@@ -89,6 +100,7 @@ def simple_cubic(n_cells: int, cell_voxels: int, phi: float) -> LabelImage:
     return np.tile(cell, (n_cells, n_cells, n_cells))
 
 
+@generator
 def laminate(
     shape: Sequence[int],
     axis: int | str,
@@ -155,6 +167,7 @@ def _wall_mask(centres: np.ndarray, step: float, positions: np.ndarray, thicknes
     return distance <= max(thickness, step) / 2.0
 
 
+@generator
 def wood(
     shape: Sequence[int],
     voxel_size: float | Sequence[float],
@@ -187,7 +200,7 @@ def wood(
     at height z being the base section shifted by z·tan(angle) along y.  Walls then leave the
     image through its y faces, which lowers k_zz (and raises k_yy slightly).
 
-    Unequal radial and tangential cell sizes make k_xx ≠ k_yy (seed 001 § 4.2 reports
+    Unequal radial and tangential cell sizes make k_xx ≠ k_yy ([Chavez2020, § 4.2] reports
     k̄_xx = 0.087, k̄_yy = 0.099, k̄_zz = 0.123 W/(m K)); the wall volume fraction sets c̄ (eq. 14).
 
     >>> labels = wood((46, 46, 46), 5e-6, np.random.default_rng(0))

@@ -1,7 +1,7 @@
 """Read and write voxel label images.
 
 A label image is a 3-D integer array indexed ``[x, y, z]``; each integer names a phase
-(the scene maps labels to phases, e.g. 1 = fibre, 0 = gas for the wood of seed 001).
+(the scene maps labels to phases, e.g. 1 = fibre, 0 = gas for the wood of [Chavez2020]).
 The voxel size is in metres, one float (cubic voxels) or ``(dx, dy, dz)``.
 
 Formats read by :func:`load_image` (chosen by the file name):

@@ -1,0 +1,27 @@
+"""Finite-element assemblers: a scene's geometry and vocabulary (aromm.vocabulary) → ThermalSystem.
+
+* :mod:`aromm.fem.voxel`: one trilinear (Q1) hexahedron per voxel of a label image;
+* :mod:`aromm.fem.mesh`: Lagrange simplices (P1/P2) on a conforming mesh, with contact resistance.
+"""
+
+from aromm.fem.mesh import assemble_mesh
+from aromm.fem.voxel import (
+    VoxelGrid,
+    assemble_voxels,
+    connectivity,
+    element_matrices,
+    face_mass,
+    node_points,
+    scatter,
+)
+
+__all__ = [
+    "VoxelGrid",
+    "assemble_mesh",
+    "assemble_voxels",
+    "connectivity",
+    "element_matrices",
+    "face_mass",
+    "node_points",
+    "scatter",
+]

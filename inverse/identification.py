@@ -1,0 +1,288 @@
+"""Identification of phase properties from face-mean temperatures [Chavez2020, § 4].
+
+    β̂ = argmin_β J(β),   J = ½ Σ_i Σ_j (Y_ij − Ŷ_ij(β))²       (eq. 12)
+
+searched by particle swarm inside the given bounds, then refined by trust-region least
+squares from the swarm's best (:mod:`inverse.optimisers`); the linearised uncertainty of the
+estimates is computed at the optimum (:mod:`inverse.uncertainty`).  Several scenarios (e.g.
+the three loading directions of [Chavez2020, Table 1]) can be fitted jointly: their criteria add.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from aromm.errors import InputError
+from aromm.model import ForwardModel
+from aromm.offset import TIME_OFFSET, TimeShifted
+from aromm.system import FloatArray
+from inverse import checkpoint as ckpt
+from inverse import optimisers as opt
+from inverse.criterion import LeastSquares, Scenario
+from inverse.measurements import Measurements
+from inverse.uncertainty import Uncertainty, linearised
+
+DEFAULT_PARTICLES = 20
+CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
+DEFAULT_ITERATIONS = 30
+AT_BOUND = 1e-6  # normalised distance to a bound below which an estimate is reported as on it
+
+
+@dataclasses.dataclass(frozen=True)
+class Progress:
+    """Reported after each swarm iteration (``stage="pso"``) and each refinement evaluation (``"refine"``)."""
+
+    stage: str
+    step: int
+    total: int
+    evaluations: int
+    criterion: float
+
+
+@dataclasses.dataclass(frozen=True)
+class History:
+    """Best criterion so far after each record: swarm iterations, then refinement evaluations."""
+
+    stage: tuple[str, ...]
+    evaluations: npt.NDArray[np.int64]
+    criterion: FloatArray
+
+
+@dataclasses.dataclass(frozen=True)
+class Fit:
+    """Measured and fitted face-mean temperatures (n_times, n_faces) of one scenario."""
+
+    name: str
+    t: FloatArray
+    faces: tuple[str, ...]
+    measured: FloatArray
+    fitted: FloatArray
+
+
+@dataclasses.dataclass(frozen=True)
+class Identification:
+    """Result of :func:`identify`; :meth:`to_json` gives the docs/design.md shape."""
+
+    estimates: Mapping[str, float]
+    criterion: float
+    evaluations: int
+    seconds: float
+    uncertainty: Uncertainty
+    history: History
+    model: Mapping[str, object]
+    bounds: Mapping[str, tuple[float, float]]
+    fits: tuple[Fit, ...]
+
+    def to_json(self) -> dict[str, object]:
+        return {
+            "estimates": {k: float(v) for k, v in self.estimates.items()},
+            "criterion": float(self.criterion),
+            "evaluations": int(self.evaluations),
+            "seconds": float(self.seconds),
+            "model": dict(self.model),
+            "uncertainty": self.uncertainty.to_json(),
+        }
+
+
+ModelInput = ForwardModel | Sequence[tuple[ForwardModel, Measurements]]
+
+
+def _scenarios(model: ModelInput, measurements: Measurements | None) -> list[Scenario]:
+    if measurements is not None:
+        if not isinstance(model, ForwardModel):
+            raise InputError(f"model must be a forward model (FullModel, ReducedModel), got {type(model).__name__}")
+        return [Scenario(model, measurements)]
+    if isinstance(model, ForwardModel) or not isinstance(model, Sequence) or not model:
+        raise InputError("give measurements, or a non-empty list of (model, measurements) pairs for a joint fit")
+    out = []
+    for i, pair in enumerate(model, start=1):
+        if not (isinstance(pair, tuple) and len(pair) == 2 and isinstance(pair[0], ForwardModel)
+                and isinstance(pair[1], Measurements)):
+            raise InputError(f"scenario {i}: expected a (model, measurements) pair, got {type(pair).__name__}")
+        out.append(Scenario(pair[0], pair[1], str(i)))
+    return out
+
+
+def _describe(scenarios: Sequence[Scenario], description: Mapping[str, object] | None) -> dict[str, object]:
+    out: dict[str, object] = {"type": sorted({type(s.model).__name__ for s in scenarios}),
+                              "scenarios": len(scenarios),
+                              "outputs": [list(s.measurements.faces) for s in scenarios],
+                              "times": [len(s.measurements.t) for s in scenarios]}
+    out.update(description or {})
+    return out
+
+
+class _Recorder:
+    """History, progress reports and checkpoints of one run (state carried over from a resume)."""
+
+    def __init__(self, criterion: LeastSquares, previous: Mapping[str, np.ndarray] | None,
+                 progress: Callable[[Progress], None] | None) -> None:
+        self.criterion = criterion
+        self.progress = progress
+        prev = previous or {}
+        self.stage: list[str] = [str(s) for s in prev.get("history_stage", [])]
+        self.evals: list[int] = [int(e) for e in prev.get("history_evaluations", [])]
+        self.best: list[float] = [float(c) for c in prev.get("history_criterion", [])]
+        self.evaluations_before = int(prev.get("evaluations", 0))
+        self.seconds_before = float(prev.get("seconds", 0.0))
+        self.start = time.perf_counter()
+
+    @property
+    def evaluations(self) -> int:
+        return self.evaluations_before + self.criterion.evaluations
+
+    @property
+    def seconds(self) -> float:
+        return self.seconds_before + time.perf_counter() - self.start
+
+    def record(self, stage: str, step: int, total: int, value: float) -> None:
+        best = min(value, self.best[-1]) if self.best else value
+        self.stage.append(stage)
+        self.evals.append(self.evaluations)
+        self.best.append(best)
+        if self.progress is not None:
+            self.progress(Progress(stage, step, total, self.evaluations, best))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {"history_stage": np.array(self.stage, dtype=str), "history_evaluations": np.array(self.evals),
+                "history_criterion": np.array(self.best), "evaluations": np.asarray(self.evaluations),
+                "seconds": np.asarray(self.seconds)}
+
+    def history(self) -> History:
+        return History(tuple(self.stage), np.array(self.evals, dtype=np.int64), np.array(self.best, dtype=float))
+
+
+#: Budget fields an optimiser may be given more of when a checkpoint is resumed.
+BUDGETS = ("iterations", "generations", "max_iterations")
+
+
+def _signature(optimiser: opt.Optimiser) -> object:
+    """What identifies an optimiser in a checkpoint: its settings, except the budget (resumable with more)."""
+    if dataclasses.is_dataclass(optimiser):
+        return {k: v for k, v in dataclasses.asdict(optimiser).items() if k not in BUDGETS}
+    return optimiser.name
+
+
+def relative_scales(box: opt.Box, estimates: FloatArray) -> FloatArray:
+    """Magnitudes of the relative sensitivities: |β̂| for a parameter searched in a positive (or negative)
+    interval, the half-width of its bounds for one whose bounds reach zero (a clock offset, a temperature
+    in °C: no relative scale, and the estimate may be zero)."""
+    estimates = np.abs(np.asarray(estimates, dtype=float))
+    straddle = (box.lower <= 0.0) & (box.upper >= 0.0) | (estimates == 0.0)
+    return np.where(straddle, 0.5 * (box.upper - box.lower), estimates)
+
+
+def default_optimisers(particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS,
+                       refine: bool = True) -> tuple[opt.Optimiser, ...]:
+    """The chain of [Chavez2020, § 4.1]: a particle swarm, then a least-squares refinement from its best."""
+    chain: list[opt.Optimiser] = [opt.ParticleSwarm(particles=particles, iterations=iterations)]
+    if refine:
+        chain.append(opt.LeastSquaresRefinement())
+    return tuple(chain)
+
+
+def identify(
+    model: ModelInput,
+    measurements: Measurements | None = None,
+    unknowns: Mapping[str, tuple[float, float]] | None = None,
+    *,
+    seed: int = 0,
+    optimisers: Sequence[opt.Optimiser] | None = None,
+    particles: int = DEFAULT_PARTICLES,
+    iterations: int = DEFAULT_ITERATIONS,
+    fixed: Mapping[str, float] | None = None,
+    refine: bool = True,
+    checkpoint: str | os.PathLike[str] | None = None,
+    resume: bool = False,
+    progress: Callable[[Progress], None] | None = None,
+    description: Mapping[str, object] | None = None,
+) -> Identification:
+    """Estimate ``unknowns`` (name → (lower, upper) bounds, SI units) from ``measurements``.
+
+    ``model`` is a forward model (FullModel, ReducedModel) evaluated at the measurement times,
+    or, with ``measurements=None``, a list of ``(model, measurements)`` pairs fitted jointly.
+    ``fixed`` overrides other model parameters.  ``optimisers`` is the chain of searches, each started
+    from the best point of the previous one (:mod:`inverse.optimisers`); by default a particle swarm of
+    ``particles`` particles and ``iterations`` iterations then, with ``refine``, a least-squares
+    refinement.  Random draws come from ``np.random.default_rng(seed)``.
+    ``checkpoint`` names an ``.npz`` file rewritten after every step that carries a resumable state;
+    with ``resume`` an existing one for the same problem is continued (and may be given more iterations).
+    ``description`` adds entries to the result's ``model`` (e.g. ``{"kind": "reduced", "order": 200}``).
+    """
+    if unknowns is None:
+        raise InputError("unknowns are required, e.g. {'fibre.k': (0.05, 1.0), 'fibre.c': (1e5, 1e7)}")
+    chain = tuple(optimisers) if optimisers is not None else default_optimisers(particles, iterations, refine)
+    for o in chain:
+        if not isinstance(o, opt.Optimiser):
+            raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
+    scenarios = _scenarios(model, measurements)
+    if TIME_OFFSET in {*unknowns, *(fixed or {})}:  # one clock offset shared by every scenario
+        scenarios = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(
+            sc.model)) for sc in scenarios]
+    box = opt.Box.from_bounds(unknowns)
+    criterion = LeastSquares(scenarios, box.names, fixed)
+    info = _describe(scenarios, description)
+    problem_key = ckpt.problem_key({"format": CHECKPOINT_FORMAT, "unknowns": box.as_dict(),
+                                    "fixed": dict(fixed or {}), "seed": seed,
+                                    "optimisers": [_signature(o) for o in chain], "model": _describe(scenarios, None),
+                                    "measurements": ckpt.measurements_digest([s.measurements for s in scenarios])})
+    previous = ckpt.load(checkpoint, problem_key) if (checkpoint is not None and resume
+                                                      and Path(checkpoint).exists()) else None
+    rec = _Recorder(criterion, previous, progress)
+    problem = opt.Problem(box.dim, lambda u: criterion.residuals(box.to_physical(u)))
+    rng = np.random.default_rng(seed)
+    first = int(previous["stage"]) if previous is not None else 0
+    best_u: FloatArray | None = None
+    best_cost = np.inf
+    if previous is not None and "best_u" in previous:
+        best_u, best_cost = np.asarray(previous["best_u"]), float(previous["best_cost"])
+    for index, optimiser in enumerate(chain):
+        stage_rng = rng.spawn(1)[0]  # one generator per link, the same whatever the resume point
+        if index < first:
+            continue
+        state = {k.split("/", 1)[1]: v for k, v in (previous or {}).items()
+                 if index == first and k.startswith("state/")}
+
+        # the best point so far, as it stands when this link starts (saved with the link's own state)
+        before = {"stage": np.asarray(index), "best_cost": np.asarray(best_cost),
+                  **({"best_u": best_u} if best_u is not None else {})}
+
+        def on_step(step: opt.Step, name: str = optimiser.name, before: dict[str, np.ndarray] = before) -> None:
+            rec.record(name, step.step, step.total, step.cost)
+            if checkpoint is not None and step.state is not None:
+                ckpt.save(checkpoint, problem_key,
+                          {**before, **{f"state/{k}": v for k, v in step.state.items()}, **rec.arrays()})
+
+        outcome = optimiser.run(problem, best_u, stage_rng, state=state or None, callback=on_step)
+        if outcome.cost <= best_cost:
+            best_u, best_cost = np.asarray(outcome.u, dtype=float), float(outcome.cost)
+    assert best_u is not None, "an empty chain of optimisers"
+    u_best = best_u
+
+    theta = box.to_physical(u_best[None])[0]
+    fits = tuple(Fit(sc.name, np.asarray(sc.measurements.t, dtype=float), sc.measurements.faces,
+                     sc.measurements.as_array(), y[0])
+                 for sc, y in zip(scenarios, criterion.predictions(theta[None]), strict=True))
+    r = np.concatenate([(f.measured - f.fitted).ravel() for f in fits])
+    sensitivity = -opt.jacobian(problem.residuals, u_best) / box.dtheta_du(u_best)[None, :]
+    notes = [f"{name} = {value:.6g} is at its {'lower' if u < 0.5 else 'upper'} bound: widen the bounds"
+             for name, value, u in zip(box.names, theta, u_best, strict=True) if min(u, 1.0 - u) < AT_BOUND]
+    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, scales=relative_scales(box, theta))
+    return Identification(
+        estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
+        criterion=0.5 * float(r @ r),
+        evaluations=rec.evaluations,
+        seconds=rec.seconds,
+        uncertainty=uncertainty,
+        history=rec.history(),
+        model=info,
+        bounds=box.as_dict(),
+        fits=fits,
+    )
