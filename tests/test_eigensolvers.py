@@ -191,3 +191,20 @@ def test_long_warm_start_does_not_collapse_and_runs_are_reproducible(monkeypatch
     np.testing.assert_array_equal(first.eigenvalues, again.eigenvalues)  # no hidden global random state
     reference, _ = dirichlet_modes(ops, 20, eigensolver="arpack")
     np.testing.assert_allclose(first.eigenvalues, reference, rtol=1e-8)
+
+
+def test_float32_basis_storage_changes_face_means_below_the_rounding_of_the_modes(tmp_path) -> None:
+    # Rounding the modes to single precision (relative 6e-8) perturbs the Galerkin subspace by as much; the
+    # face means of the reduced model move by far less than that relative to their size.
+    scene = loading(small_wood(8), "z", end=6.0, dt=0.3)
+    system = assemble(scene)
+    point = {"fibre.k": 0.3, "fibre.c": 4e6}
+    y = {}
+    for storage in ("float64", "float32"):
+        rom = reduce(system, order=20, modes=30, basis_storage=storage, cache=tmp_path,
+                     basis_values=scene.reduction.basis, reference_values=scene.reduction.reference)
+        y[storage] = rom.simulate(point).as_array()
+    scale = np.abs(y["float64"]).max()
+    assert np.abs(y["float32"] - y["float64"]).max() < np.finfo(np.float32).eps * scale
+    with pytest.raises(InputError, match="float32"):
+        reduce(system, order=20, modes=30, basis_storage="float16", cache=False)
