@@ -18,7 +18,9 @@ passed as ``OPinv`` (never eigsh's own SuperLU/COLAMD), ordered by geometric nes
 the system has node coordinates (aromm.ordering); Steklov with a small negative shift (K0 and
 B are both singular), then one purification solve ``V ← (K0 − σζB)⁻¹ ζB V`` (the discrete harmonic
 extension, which removes the interior garbage shift-invert leaves with a singular B), then a
-Rayleigh–Ritz step.  Small systems use dense ``eigh`` (every mode).  Residuals and orthogonality
+Rayleigh–Ritz step.  Above a measured size both families are solved instead by the chunked LOBPCG of
+aromm.eigensolvers (memory: the basis plus a multigrid preconditioner; ``eigensolver="lobpcg"``, no
+purification needed).  Small systems use dense ``eigh`` (every mode).  Residuals and orthogonality
 are checked against stated tolerances and a :class:`~aromm.errors.NumericalError` names the solver
 when they fail.
 """
@@ -37,8 +39,17 @@ import scipy.sparse.linalg as spla
 from scipy.sparse import csgraph
 
 from aromm.cache import NpzCache, content_key
+from aromm.eigensolvers import (
+    ProgressCallback,
+    choose_eigensolver,
+    chunked_gram,
+    column_norms,
+    relative_residuals,
+    report_done,
+    smallest_eigenpairs,
+)
 from aromm.errors import InputError, NumericalError
-from aromm.linalg import Factorization, factorize
+from aromm.linalg import Factorization, factorize, resolve_method
 from aromm.shifts import SHIFT
 from aromm.system import FloatArray, ThermalSystem
 
@@ -52,6 +63,8 @@ ORTHOGONALITY_TOL = 1e-6
 GRAM_CONDITION_MAX = 1e12
 
 _BASIS_VERSION = 3
+#: Precisions in which a basis may be kept (and cached).
+BASIS_STORAGE = ("float64", "float32")
 #: Default conductivity factors of the correction samples (each conduction parameter in turn); on the
 #: generated 10³ wood image (0.1, 1, 3) was as accurate as (0.1, 0.3, 1, 3) with two fewer factorisations
 #: per parameter, and (1,) alone 100× less accurate at k_F = 0.05.
@@ -179,14 +192,6 @@ def zero_modes(ops: ReferenceOperators) -> FloatArray:
     return np.column_stack(columns) if columns else np.zeros((ops.n, 0))
 
 
-def _relative_residuals(k: sp.csr_array, m: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
-    kv = k @ v
-    mv = m @ v
-    num = np.linalg.norm(kv - mv * lam, axis=0)
-    den = np.linalg.norm(kv, axis=0) + np.abs(lam) * np.linalg.norm(mv, axis=0)
-    return num / np.maximum(den, 1e-300)
-
-
 def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, fac: Factorization, label: str) -> tuple[
         FloatArray, FloatArray]:
     """ARPACK shift-invert with our own factorisation ``fac`` of ``A − σM`` as OPinv."""
@@ -203,8 +208,13 @@ def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, fac: F
     return lam[order], vec[:, order]
 
 
-def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> tuple[FloatArray, FloatArray]:
-    """The ``count`` slowest Dirichlet modes (eq. 6): eigenvalues (s⁻¹) and C0-normalised vectors (n, count)."""
+def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto", *, eigensolver: str = "auto",
+                    progress: ProgressCallback | None = None) -> tuple[FloatArray, FloatArray]:
+    """The ``count`` slowest Dirichlet modes (eq. 6): eigenvalues (s⁻¹) and C0-normalised vectors (n, count).
+
+    ``eigensolver``: ``"arpack"`` (shift-invert, sparse factorisation ``method``), ``"lobpcg"``
+    (aromm.eigensolvers) or ``"auto"`` (by size, :func:`aromm.eigensolvers.choose_eigensolver`).
+    """
     interior = ops.interior
     n_i = interior.size
     count = min(count, n_i)
@@ -212,19 +222,26 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto") -
         return np.zeros(0), np.zeros((ops.n, 0))
     k_ii = sp.csr_array(ops.stiffness[interior][:, interior])
     c_ii = sp.csr_array(ops.capacity[interior][:, interior])
-    if n_i <= DENSE_LIMIT:
-        lam, vec = sla.eigh(k_ii.toarray(), c_ii.toarray(), subset_by_index=(0, count - 1))
+    if choose_eigensolver(eigensolver, n_i) == "lobpcg":
+        found = smallest_eigenpairs(k_ii, c_ii, count, rng=np.random.default_rng(0), label="Dirichlet modes",
+                                    progress=progress)
+        lam, vec = found.eigenvalues, found.vectors
+        vec /= column_norms(c_ii, vec)
     else:
-        pts = ops.points[interior] if ops.points is not None else None
-        lam, vec = _eigsh(k_ii, c_ii, count, 0.0, fac=factorize(k_ii, method, points=pts), label="Dirichlet modes")
-    res = _relative_residuals(k_ii, c_ii, lam, vec)
+        if n_i <= DENSE_LIMIT:
+            lam, vec = sla.eigh(k_ii.toarray(), c_ii.toarray(), subset_by_index=(0, count - 1))
+        else:
+            pts = ops.points[interior] if ops.points is not None else None
+            lam, vec = _eigsh(k_ii, c_ii, count, 0.0, fac=factorize(k_ii, method, points=pts),
+                              label="Dirichlet modes")
+        report_done(progress, "Dirichlet modes", count)
+    res = relative_residuals(k_ii, c_ii, lam, vec)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(
             f"Dirichlet eigensolver: relative residual {res.max():.1e} exceeds {RESIDUAL_TOL:.0e} "
             f"(mode {int(res.argmax())} of {count})"
         )
-    gram = vec.T @ (c_ii @ vec)
-    dev = float(np.abs(gram - np.eye(count)).max())
+    dev = float(np.abs(chunked_gram(c_ii, vec) - np.eye(count)).max())
     if dev > ORTHOGONALITY_TOL:
         raise NumericalError(f"Dirichlet eigensolver: modes not C0-orthonormal (max |VᵀCV − I| = {dev:.1e})")
     full = np.zeros((ops.n, count))
@@ -232,10 +249,12 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto") -
     return lam, full
 
 
-def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> tuple[FloatArray, FloatArray]:
+def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto", *, eigensolver: str = "auto",
+                  progress: ProgressCallback | None = None) -> tuple[FloatArray, FloatArray]:
     """The ``count`` lowest non-zero Steklov modes (eqs. 7–8): eigenvalues (s⁻¹) and C0-normalised vectors.
 
-    The constants (eigenvalue 0) are returned by :func:`zero_modes`, not here.
+    The constants (eigenvalue 0) are returned by :func:`zero_modes`, not here; ``eigensolver`` as in
+    :func:`dirichlet_modes` (LOBPCG keeps the iterates M-orthogonal to the constants).
     """
     b = sp.csr_array(ops.zeta * ops.boundary)
     on_gamma = np.flatnonzero(ops.boundary.diagonal() > 0)
@@ -247,6 +266,29 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> 
     top = float(np.max(ops.stiffness.diagonal()[on_gamma] / b.diagonal()[on_gamma]))
     sigma = -1e-6 * top
     want = count + n_zero
+    if choose_eigensolver(eigensolver, ops.n) == "lobpcg":
+        found = smallest_eigenpairs(ops.stiffness, b, count, shift=sigma, constraints=zero_modes(ops),
+                                    rng=np.random.default_rng(0), label="Steklov modes", progress=progress)
+        lam, vec = found.eigenvalues, found.vectors
+        label = "LOBPCG"
+    else:
+        lam, vec = _steklov_shift_invert(ops, b, want, n_zero, sigma=sigma, method=method)
+        label = f"shift-invert, {resolve_method(method)}"
+        report_done(progress, "Steklov modes", count)
+    res = relative_residuals(ops.stiffness, b, lam, vec)
+    if res.max(initial=0.0) > RESIDUAL_TOL:
+        raise NumericalError(
+            f"Steklov eigensolver ({label}, shift {sigma:.2e} s⁻¹): relative residual {res.max():.1e} "
+            f"exceeds {RESIDUAL_TOL:.0e} (mode {int(res.argmax())} of {count})"
+        )
+    if lam[0] <= 1e-8 * lam[-1]:
+        raise NumericalError("Steklov eigensolver: a zero eigenvalue beyond the constants (disconnected body?)")
+    return lam, vec / column_norms(ops.capacity, vec)
+
+
+def _steklov_shift_invert(ops: ReferenceOperators, b: sp.csr_array, want: int, n_zero: int, *, sigma: float,
+                          method: str) -> tuple[FloatArray, FloatArray]:
+    """ARPACK (or dense) shift-invert, purification and Rayleigh–Ritz; the constants removed."""
     if ops.n <= DENSE_LIMIT:
         shifted = (ops.stiffness - sigma * b).toarray()
         # eigenvalues ν of (K0 − σζB)⁻¹ ζB are 1/(λ − σ); the largest give the smallest λ.
@@ -266,22 +308,12 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> 
     except np.linalg.LinAlgError as err:
         raise NumericalError(f"Steklov Rayleigh–Ritz: traces of the computed modes are dependent ({err})") from None
     vec = vec @ q
-    lam, vec = lam[n_zero:], vec[:, n_zero:]
-    res = _relative_residuals(ops.stiffness, b, lam, vec)
-    if res.max(initial=0.0) > RESIDUAL_TOL:
-        raise NumericalError(
-            f"Steklov eigensolver (shift {sigma:.2e} s⁻¹, {fac.method}): relative residual {res.max():.1e} "
-            f"exceeds {RESIDUAL_TOL:.0e} (mode {int(res.argmax())} of {count})"
-        )
-    if lam[0] <= 1e-8 * lam[-1]:
-        raise NumericalError("Steklov eigensolver: a zero eigenvalue beyond the constants (disconnected body?)")
-    norms = np.sqrt(np.einsum("ij,ij->j", vec, ops.capacity @ vec))
-    return lam, vec / norms
+    return lam[n_zero:], vec[:, n_zero:]
 
 
 def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> tuple[FloatArray, float]:
     """The capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal) and its condition number; refuses a dependent basis."""
-    gram = vectors.T @ (ops.capacity @ vectors)
+    gram = chunked_gram(ops.capacity, vectors)
     return gram, check_gram(gram)
 
 
@@ -304,17 +336,27 @@ def compute_basis(
     values: Mapping[str, float] | None = None,
     *,
     method: str = "auto",
+    eigensolver: str = "auto",
     cache: NpzCache | None = None,
+    progress: ProgressCallback | None = None,
+    storage: str = "float64",
 ) -> ModalBasis:
     """Constants + ``n_steklov`` Steklov + ``n_dirichlet`` Dirichlet modes of ``system`` at reference ``values``.
 
     ``n_steklov`` counts the constants.  Cached in ``cache`` (key: K0, C0, B and the options), so
-    scenes that differ only in their loads and exchanges share one basis.
+    scenes that differ only in their loads and exchanges share one basis.  ``eigensolver`` and
+    ``progress`` (converged pairs of each family) as in :func:`dirichlet_modes`.  ``storage``
+    ``"float32"`` rounds the vectors to single precision (half the bytes in memory and in the cache;
+    the effect on face means is measured in benchmarks/reduce_scaling.py --float32).
     """
     if n_dirichlet < 0 or n_steklov < 1:
         raise InputError(f"mode counts must be n_dirichlet >= 0 and n_steklov >= 1, got {n_dirichlet}, {n_steklov}")
+    if storage not in BASIS_STORAGE:
+        raise InputError(f"unknown basis storage {storage!r}; allowed: {', '.join(BASIS_STORAGE)}")
     ops = reference_operators(system, values)
-    key = content_key(_BASIS_VERSION, ops.key(), n_dirichlet, n_steklov, method)
+    solver = choose_eigensolver(eigensolver, ops.n)
+    key = content_key(_BASIS_VERSION, ops.key(), n_dirichlet, n_steklov, method,
+                      *([solver] if solver != "arpack" else []), *([storage] if storage != "float64" else []))
     if cache is not None:
         stored = cache.load("basis", key)
         if stored is not None:
@@ -323,13 +365,14 @@ def compute_basis(
                               {"seconds": 0.0, "cached": 1.0, "gram_condition": float(stored["gram_condition"])})
     start = time.perf_counter()
     z = zero_modes(ops)
-    lam_s, v_s = steklov_modes(ops, n_steklov - z.shape[1], method)
+    lam_s, v_s = steklov_modes(ops, n_steklov - z.shape[1], method, eigensolver=solver, progress=progress)
     t_s = time.perf_counter() - start
-    lam_d, v_d = dirichlet_modes(ops, n_dirichlet, method)
+    lam_d, v_d = dirichlet_modes(ops, n_dirichlet, method, eigensolver=solver, progress=progress)
     vectors = np.column_stack([z, v_s, v_d])
     eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
     kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
     gram, cond = _check_combined(ops, vectors)
+    vectors = vectors.astype(storage, copy=False)
     seconds = time.perf_counter() - start
     if cache is not None:
         cache.save("basis", key, {"vectors": vectors, "eigenvalues": eigenvalues, "kinds": kinds,
@@ -388,7 +431,7 @@ def with_corrections(
             cache.save("corrections", key, {"vectors": extra, "coefficients": coefficients})
     # the new columns are C0-orthonormal and C0-orthogonal to the basis: the Gram matrix grows by an identity
     gram = sla.block_diag(basis.gram, np.eye(extra.shape[1]))
-    return ModalBasis(np.column_stack([basis.vectors, extra]),
+    return ModalBasis(np.column_stack([basis.vectors, extra.astype(basis.vectors.dtype)]),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
                       basis.zeta, gram, {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)

@@ -27,6 +27,7 @@ from tqdm import tqdm
 
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
+from aromm.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
 from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.greedy import PodGreedy
@@ -142,8 +143,11 @@ def reduce(
     corrections: bool | Sequence[Mapping[str, float]] = True,
     method: str | Reductor = "aromm",
     solver: str = "auto",
+    eigensolver: str = "auto",
+    basis_storage: str = "float64",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
+    eigen_progress: ProgressCallback | None = None,
     engine: str = "scipy",
 ) -> ReducedModel:
     """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3].
@@ -168,12 +172,21 @@ def reduce(
       (its ``cache_key``, when it has one, keys the cache; else its ``name``).
     * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
       stored by content hash; a second call with the same inputs loads the result.
+    * ``eigensolver``: ``"arpack"`` (shift-invert on a sparse factorisation ``solver``), ``"lobpcg"``
+      (:mod:`aromm.eigensolvers`: memory the basis plus a multigrid preconditioner; the correction vectors
+      then use multigrid-preconditioned CG unless ``solver`` names a factorisation) or ``"auto"`` (by
+      size).  Every :class:`~aromm.eigensolvers.EigenProgress` report (converged pairs, iterations) goes
+      to ``eigen_progress``, to the log, and with ``progress`` to a bar.  ``basis_storage``: ``"float32"``
+      keeps and caches the modes in single precision.
     * ``engine``: ``"scipy"`` (one process) or ``"petsc"`` (PETSc/SLEPc under ``mpiexec``, collective:
       aromm.engines.petsc.reduction; ``system`` may then be a voxel Scene, assembled by z-slabs, and
       ``solver`` is ``gamg`` or ``mumps``).
     """
     if check_engine(engine) == "petsc":
         from aromm.engines.petsc.reduction import reduce as reduce_petsc
+
+        if eigensolver != "auto" or basis_storage != "float64":
+            raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
 
         return reduce_petsc(system, order, modes=modes, n_dirichlet=n_dirichlet, n_steklov=n_steklov,
                             basis_values=basis_values, reference_values=reference_values, references=references,
@@ -200,9 +213,12 @@ def reduce(
         samples = correction_samples(system, basis_values)
     else:
         samples = [dict(s) for s in corrections] if corrections is not False else []
+    eig = choose_eigensolver(eigensolver, system.n)
+    linear = "amg" if eig == "lobpcg" and solver == "auto" else solver
     key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values,
                       getattr(reductor, "cache_key", reductor.name), solver,
-                      relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
+                      relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases],
+                      *([eig] if eig != "arpack" else []), *([basis_storage] if basis_storage != "float64" else []))
     if store is not None:
         stored = store.load("rom", key)
         if stored is not None:
@@ -213,10 +229,13 @@ def reduce(
     start = time.perf_counter()
     stages = _Stages(progress)
     stages.next(f"modes (Ñ = {n_d} Dirichlet + {n_s} Steklov)")
-    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, cache=store)
+    pairs = PairsBar(enabled=progress, listener=eigen_progress)
+    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, eigensolver=eig, cache=store,
+                          progress=pairs, storage=basis_storage)
+    pairs.close()
     if samples:
         stages.next(f"correction vectors ({len(samples)} parameter samples)")
-        basis = with_corrections(system, basis, samples, values=basis_values, method=solver, cache=store)
+        basis = with_corrections(system, basis, samples, values=basis_values, method=linear, cache=store)
     stages.next("projection and reference cases")
     memo: dict[int, FloatArray] = {}
     model = ReducedModel.from_system(system, basis.vectors, memo)
@@ -228,7 +247,7 @@ def reduce(
     rom, err = reduce_detailed(model, projected, basis, int(order), reductor, check_values=cases[0].values)
     stages.close()
     info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
-            "lifted_faces": fixed}
+            "lifted_faces": fixed, "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values())}
     rom = replace(rom, info=info)
     log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
              rom.order, basis.size, info["offline_seconds"], err)

@@ -11,6 +11,7 @@ from aromm.cache import NpzCache
 from aromm.cli import checks
 from aromm.cli import engine as engine_cli
 from aromm.cli.common import REFINE, echo_json
+from aromm.eigensolvers import EIGENSOLVERS
 from aromm.engines import is_root
 from aromm.reduction import METHODS as REDUCTIONS
 from aromm.reduction import reduce
@@ -28,6 +29,9 @@ from aromm.scene import assemble
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
               help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
 @engine_cli.SOLVER
+@click.option("--eigensolver", type=click.Choice(EIGENSOLVERS), default="auto", show_default=True,
+              help="Modal bases by ARPACK shift-invert on a factorisation, or by LOBPCG with a multigrid "
+                   "preconditioner (memory: the basis plus the preconditioner); auto picks by size.")
 @engine_cli.ENGINE
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
               help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")
@@ -35,7 +39,8 @@ from aromm.scene import assemble
 @REFINE
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
-               engine: str, cache_dir: Path | None, no_cache: bool, refine: int, as_json: bool) -> None:
+               eigensolver: str, engine: str, cache_dir: Path | None, no_cache: bool, refine: int,
+               as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant).
 
     With --engine petsc run it under `mpiexec -n P`: every rank assembles its z-slab of the image."""
@@ -49,7 +54,7 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, refer
     cache = False if no_cache else NpzCache(cache_dir)
     rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
                  basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
-                 progress=sys.stderr.isatty() and is_root(engine), engine=engine)
+                 progress=sys.stderr.isatty() and is_root(engine), engine=engine, eigensolver=eigensolver)
     if not is_root(engine):
         return
     info = dict(rom.info)
