@@ -113,12 +113,13 @@ class ReducedModel:
                  basis.T @ (sp.csr_array(t.operator) @ ones), "capacity")
             for t in system.capacity.terms))
         outputs, e = system.observation_matrix()
+        e_basis = np.asarray(e @ basis)
         projected = ThermalSystem(
             n=basis.shape[1],
             conductance=project(system.conductance, basis, memo),
             capacity=project(system.capacity, basis, memo),
             load=project(system.load, basis, memo),
-            observation={name: row @ basis for name, row in zip(outputs, e, strict=True)},
+            observation={name: e_basis[i] for i, name in enumerate(outputs)},
             parameters={k: float(v) for k, v in system.parameters.items()},
             time=system.time,
         )

@@ -192,7 +192,8 @@ def simulate(
     if system.is_steady or system.time is None:
         field = steady_field(system, values, method)
         names, e = system.observation_matrix()
-        means = {name: np.atleast_1d(e[i] @ field) for i, name in enumerate(names)}
+        y = e @ field
+        means = {name: np.atleast_1d(y[i]) for i, name in enumerate(names)}
         return Observables(t=np.zeros(1), mean_T=means, steady=True, fields=field[None, :] if fields else None)
     return transient(system, values, times, scheme=scheme, fields=fields, method=method, progress=progress)
 

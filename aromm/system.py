@@ -183,10 +183,11 @@ class ThermalSystem:
     """``C(p) dT/dt + K(p) T = F(p)`` with observation rows ``E`` (face means).
 
     ``capacity`` is empty for a steady system; ``observation`` maps an output name
-    (a face) to a row vector ``e`` with ``e @ T`` the output (e.g. the face-mean
-    temperature, so ``e`` sums to one).  ``parameters`` holds the scene's values,
-    which callers override by name.  ``boundary`` is the boundary mass ``B = ∫_Γ φ_a φ_b`` (m²)
-    of the whole outer boundary Γ, attached by the assembler (the Steklov modes need it).
+    (a face, or a sensor of aromm.sensors) to a row vector ``e`` with ``e @ T`` the output (e.g. the face-mean
+    temperature, so ``e`` sums to one); sensor rows are sparse (1, n) CSR arrays.
+    ``parameters`` holds the scene's values, which callers override by name.  ``boundary`` is the boundary
+    mass ``B = ∫_Γ φ_a φ_b`` (m²) of the whole outer boundary Γ, attached by the assembler (the Steklov modes
+    need it).
     """
 
     n: int
@@ -194,7 +195,7 @@ class ThermalSystem:
     capacity: Affine = Affine()
     load: Affine = Affine()
     dirichlet: tuple[Dirichlet, ...] = ()
-    observation: Mapping[str, FloatArray] = field(default_factory=dict)
+    observation: Mapping[str, FloatArray | sp.csr_array] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
     time: TimeGrid | None = None
     geometry: Geometry | None = None
@@ -241,11 +242,15 @@ class ThermalSystem:
                 raise InputError(f"parameter {k!r} has non-finite values")
         return out, m
 
-    def observation_matrix(self) -> tuple[tuple[str, ...], FloatArray]:
+    def observation_matrix(self) -> tuple[tuple[str, ...], FloatArray | sp.csr_array]:
+        """Output names and their rows stacked (n_outputs, n): dense, or CSR when a row is sparse (sensors)."""
         names = tuple(self.observation)
         if not names:
             return (), np.zeros((0, self.n))
-        return names, np.vstack([self.observation[k] for k in names])
+        rows = [self.observation[k] for k in names]
+        if any(sp.issparse(r) for r in rows):
+            return names, sp.csr_array(sp.vstack([sp.csr_array(r.reshape(1, -1)) for r in rows]))
+        return names, np.vstack(rows)
 
     def fingerprint(self) -> str:
         """Content hash of every term (name, role, coefficient, operator), Dirichlet set and observation row."""
@@ -254,6 +259,7 @@ class ThermalSystem:
             [(t.name, t.role, t.coefficient.describe(), t.operator)
              for group in (self.capacity, self.conductance, self.load) for t in group.terms],
             [(d.name, d.param, d.dofs) for d in self.dirichlet],
-            [(name, np.asarray(row, dtype=float)) for name, row in self.observation.items()],
+            [(name, row if sp.issparse(row) else np.asarray(row, dtype=float))
+             for name, row in self.observation.items()],
             self.boundary,
         )[:20]
