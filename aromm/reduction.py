@@ -28,7 +28,14 @@ from tqdm import tqdm
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError
-from aromm.modes import boundary_of, compute_basis, correction_samples, split_modes, with_corrections
+from aromm.modes import (
+    ModalBasis,
+    boundary_of,
+    compute_basis,
+    correction_samples,
+    split_modes,
+    with_corrections,
+)
 from aromm.pod import PodReductor
 from aromm.reductor import DetailedModel, Reductor
 from aromm.rom import ReducedModel, from_arrays, to_arrays
@@ -135,6 +142,7 @@ def reduce(
     solver: str = "auto",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
+    fields: bool = False,
 ) -> ReducedModel:
     """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3].
 
@@ -153,6 +161,9 @@ def reduce(
     * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline) or object.
     * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
       stored by content hash; a second call with the same inputs loads the result.
+    * ``fields``: keep the basis Ψ (n × r) in the model, for temperature fields
+      (:meth:`ReducedModel.iter_fields`).  The cache stores the coefficients of Ψ on the detailed basis
+      (Ñ × r) apart from the model; a cached model given ``fields`` rebuilds Ψ from the cached detailed basis.
     """
     reductor = _reductor(method)
     for label, given in (("basis_values", basis_values), ("reference_values", reference_values)):
@@ -179,18 +190,21 @@ def reduce(
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
     if store is not None:
         stored = store.load("rom", key)
-        if stored is not None:
+        recipe = store.load("reconstruction", key) if fields and stored is not None else None
+        if stored is not None and (not fields or recipe is not None):
             log.info("reduced model loaded from the cache %s", store.path("rom", key))
             rom = from_arrays(stored)
-            return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+            rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+            if recipe is None:
+                return rom
+            modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
+                                    store=store, stages=_Stages(False))
+            return replace(rom, basis=modal.vectors @ recipe["coefficients"])
 
     start = time.perf_counter()
     stages = _Stages(progress)
-    stages.next(f"modes (Ñ = {n_d} Dirichlet + {n_s} Steklov)")
-    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, cache=store)
-    if samples:
-        stages.next(f"correction vectors ({len(samples)} parameter samples)")
-        basis = with_corrections(system, basis, samples, values=basis_values, method=solver, cache=store)
+    basis = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver, store=store,
+                            stages=stages)
     stages.next("projection and reference cases")
     memo: dict[int, FloatArray] = {}
     model = ReducedModel.from_system(system, basis.vectors, memo)
@@ -221,7 +235,20 @@ def reduce(
              rom.order, basis.size, info["offline_seconds"], err)
     if store is not None:
         store.save("rom", key, to_arrays(rom))
-    return rom
+        store.save("reconstruction", key, {"coefficients": coefficients})
+    return replace(rom, basis=basis.vectors @ coefficients) if fields else rom
+
+
+def _detailed_basis(system: ThermalSystem, n_d: int, n_s: int, *, basis_values: Mapping[str, float],
+                    samples: list[dict[str, float]], solver: str, store: NpzCache | None,
+                    stages: _Stages) -> ModalBasis:
+    """The detailed basis (Ñ modes and the correction vectors), from the cache when it holds them."""
+    stages.next(f"modes (Ñ = {n_d} Dirichlet + {n_s} Steklov)")
+    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, cache=store)
+    if samples:
+        stages.next(f"correction vectors ({len(samples)} parameter samples)")
+        basis = with_corrections(system, basis, samples, values=basis_values, method=solver, cache=store)
+    return basis
 
 
 def _snapshot(case: ReferenceCase, model: ReducedModel, kinds: np.ndarray, grid: TimeGrid | None) -> FloatArray:

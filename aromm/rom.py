@@ -18,14 +18,15 @@ solution is exact at any time::
 
 and the steady limit (when A is invertible) is ``X∞ = A⁻¹ N``.  A whole swarm of parameter sets is
 evaluated in one call with stacked (batched) Cholesky, inverse and eigh.  The offline construction of Ψ
-is in :mod:`aromm.reduction`.
+is in :mod:`aromm.reduction`.  Temperature fields ``T(t) ≈ Ψ X(t)`` need Ψ itself (n × r), which a model
+keeps only when built with ``reduce(..., fields=True)``; they are reconstructed one time at a time.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -88,12 +89,14 @@ class ReducedModel:
     ``projected`` is the reduced system (dense r × r operators, projected observation rows, the scene's
     parameters and time grid); ``initial`` holds ``Ψᵀ C_j 1`` per capacity term with the coefficient
     ``c_j · initial.T`` (the initial state of a uniform initial temperature).  ``info`` records how the
-    model was built (orders, seconds, errors on the reference cases).
+    model was built (orders, seconds, errors on the reference cases).  ``basis`` is Ψ (n × r, for fields),
+    or None (the default: evaluations of outputs never need it).
     """
 
     projected: ThermalSystem
     initial: Affine
     info: Mapping[str, float | int | str] = field(default_factory=dict)
+    basis: FloatArray | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def from_system(cls, system: ThermalSystem, basis: FloatArray,
@@ -160,11 +163,24 @@ class ReducedModel:
         return self.time.times if self.time is not None else np.zeros(1)
 
     def simulate(self, params: Mapping[str, float] | None = None,
-                 times: npt.ArrayLike | None = None) -> Observables:
-        """One parameter set (overrides of the scene's values) → face means at ``times`` (exact in time)."""
+                 times: npt.ArrayLike | None = None, *, fields: bool = False) -> Observables:
+        """One parameter set (overrides of the scene's values) → outputs at ``times`` (exact in time); with
+        ``fields`` also the reconstructed temperature fields (len(times), n) (:meth:`iter_fields`)."""
         t = self._times(times)
         y = self.simulate_batch({k: [v] for k, v in (params or {}).items()}, t)[0]
-        return Observables(t=t, mean_T={name: y[:, i] for i, name in enumerate(self.outputs)})
+        stacked = np.stack([f for _, f in self.iter_fields(params, t)]) if fields else None
+        return Observables(t=t, mean_T={name: y[:, i] for i, name in enumerate(self.outputs)}, fields=stacked)
+
+    def iter_fields(self, params: Mapping[str, float] | None,
+                    times: npt.ArrayLike) -> Iterator[tuple[float, FloatArray]]:
+        """``(t, T(t) ≈ Ψ X(t))`` for each time (°C at the n unknowns of the full model), one field at a time
+        (only the r-vectors X of all times are held) [Chavez2020, eq. 5]."""
+        if self.basis is None:
+            raise InputError("this reduced model keeps no basis Ψ, so it cannot reconstruct temperature fields: "
+                             "build it with reduce(..., fields=True)")
+        t = self._times(times)
+        for ti, x in zip(t, self.states(params, t), strict=True):
+            yield float(ti), self.basis @ x
 
     def simulate_batch(self, params: Mapping[str, npt.ArrayLike],
                        times: npt.ArrayLike | None = None) -> FloatArray:

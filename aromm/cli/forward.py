@@ -6,7 +6,6 @@ import sys
 from pathlib import Path
 
 import click
-import meshio
 import numpy as np
 
 from aromm.cli.common import echo_json
@@ -15,6 +14,7 @@ from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capaci
 from aromm.linalg import METHODS
 from aromm.observables import Observables, write_csv
 from aromm.scene import assemble, load_scene
+from aromm.series import write_series, write_vtu
 from aromm.solve import simulate as simulate_full
 from aromm.system import ThermalSystem
 from inverse.measurements import homogeneous_measurements, save_measurements
@@ -39,16 +39,26 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "observables.csv"]
     if not obs.mean_T:
-        raise InputError("the scene has no [outputs] mean_T: nothing to write; list faces to observe")
+        raise InputError("the scene has no [outputs] (mean_T or sensors): nothing to write; list faces to observe")
     write_csv(obs, written[0], "observables file")
     if obs.fields is not None and system.geometry is not None:
-        geo = system.geometry
-        mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)],
-                           point_data={"T": obs.fields[-1]},
-                           cell_data={k: [np.asarray(v)] for k, v in geo.cell_data.items()})
-        written.append(out / "field.vtu")
-        mesh.write(written[-1])
+        written.append(write_vtu(out / "field.vtu", system.geometry, obs.fields[-1]))
     return written
+
+
+def parse_times(text: str | None) -> tuple[float, ...] | None:
+    """``--fields t1,t2,...``: finite, non-negative, strictly increasing times (s)."""
+    if text is None:
+        return None
+    try:
+        times = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: expected times in s separated by commas, e.g. 0.5,1,2",
+                                 param_hint="--fields") from None
+    t = np.asarray(times)
+    if not (np.all(np.isfinite(t)) and np.all(t >= 0) and np.all(np.diff(t) > 0)):
+        raise click.BadParameter(f"{text!r}: times must be finite, >= 0 and increasing", param_hint="--fields")
+    return times
 
 
 @click.command("simulate")
@@ -58,23 +68,34 @@ def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for observables.csv and field.vtu (final field, full model).")
+@click.option("--fields", "field_times", default=None, metavar="T1,T2,...",
+              help="With --model reduced and --out: the reconstructed temperature fields at these times (s) as "
+                   "field_0000.vtu, ... and field.pvd (ParaView).")
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
 @SOLVER
 @JSON
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str,
-                 as_json: bool) -> None:
-    """Simulate SCENE: face-mean temperatures over time (or at steady state)."""
+def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field_times: str | None, scheme: str,
+                 solver: str, as_json: bool) -> None:
+    """Simulate SCENE: face-mean and sensor temperatures over time (or at steady state)."""
+    times = parse_times(field_times)
+    if times is not None and (model != "reduced" or out is None):
+        raise click.UsageError("--fields needs --model reduced and --out DIR (the full model writes its final field "
+                               "to DIR/field.vtu)")
     sc = load_scene(scene)
     system = assemble(sc)
+    written: list[Path] = []
     if model == "reduced":
         from aromm.reduction import reduce
 
-        obs = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
-                     progress=sys.stderr.isatty()).simulate()
+        rom = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
+                     progress=sys.stderr.isatty(), fields=times is not None)
+        obs = rom.simulate()
+        if times is not None and out is not None and system.geometry is not None:
+            written += write_series(out, system.geometry, rom.iter_fields(None, times))
     else:
         obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
                             progress=sys.stderr.isatty())
-    written = _save(obs, system, out) if out is not None else []
+    written = (_save(obs, system, out) if out is not None else []) + written
     if as_json:
         echo_json(obs.to_json())
     else:
