@@ -15,6 +15,7 @@ import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +28,9 @@ from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
 from inverse.measurements import Measurements
 from inverse.uncertainty import Uncertainty, linearised
+
+if TYPE_CHECKING:
+    from inverse.posterior import Posterior
 
 DEFAULT_PARTICLES = 20
 CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
@@ -67,7 +71,9 @@ class Fit:
 
 @dataclasses.dataclass(frozen=True)
 class Identification:
-    """Result of :func:`identify`; :meth:`to_json` gives the docs/design.md shape."""
+    """Result of :func:`identify`; :meth:`to_json` gives the docs/design.md shape.  ``posterior`` holds MCMC
+    samples of the unknowns when asked for (:func:`inverse.posterior.sample_posterior`, attached with
+    ``dataclasses.replace``)."""
 
     estimates: Mapping[str, float]
     criterion: float
@@ -78,9 +84,10 @@ class Identification:
     model: Mapping[str, object]
     bounds: Mapping[str, tuple[float, float]]
     fits: tuple[Fit, ...]
+    posterior: Posterior | None = None
 
     def to_json(self) -> dict[str, object]:
-        return {
+        out: dict[str, object] = {
             "estimates": {k: float(v) for k, v in self.estimates.items()},
             "criterion": float(self.criterion),
             "evaluations": int(self.evaluations),
@@ -88,12 +95,16 @@ class Identification:
             "model": dict(self.model),
             "uncertainty": self.uncertainty.to_json(),
         }
+        if self.posterior is not None:
+            out["posterior"] = self.posterior.to_json()
+        return out
 
 
 ModelInput = ForwardModel | Sequence[tuple[ForwardModel, Measurements]]
 
 
-def _scenarios(model: ModelInput, measurements: Measurements | None) -> list[Scenario]:
+def scenarios_of(model: ModelInput, measurements: Measurements | None) -> list[Scenario]:
+    """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit."""
     if measurements is not None:
         if not isinstance(model, ForwardModel):
             raise InputError(f"model must be a forward model (FullModel, ReducedModel), got {type(model).__name__}")
@@ -212,7 +223,7 @@ def identify(
     for o in chain:
         if not isinstance(o, opt.Optimiser):
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
-    scenarios = _scenarios(model, measurements)
+    scenarios = scenarios_of(model, measurements)
     box = opt.Box.from_bounds(unknowns)
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
