@@ -36,3 +36,23 @@ dt = {dt}
 [outputs]
 mean_T = ["z0", "z1"]
 """
+
+
+#: A filler octant in a matrix cell (``aromm.effective.cell_mesh`` written to cell.vtu), contact resistance R.
+MESH_CELL = """
+[geometry]
+mesh = "cell.vtu"
+
+[phases.filler]
+label = 1
+k = 2.0
+c = 3.0e6
+
+[phases.matrix]
+label = 2
+k = 1.0
+c = 1.0e6
+
+[interfaces."filler|matrix"]
+R = {R}
+"""

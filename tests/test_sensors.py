@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scene_text import scenario_1
+from scene_text import MESH_CELL, scenario_1
 
 from aromm.analytic import slab_dirichlet_series
 from aromm.cli import main
@@ -187,20 +187,10 @@ pixels = [2, 2]
 
 
 def test_point_sensor_on_a_mesh_interpolates_p1_and_p2_and_patches_are_refused(tmp_path: Path) -> None:
-    """A mesh scene's thermocouple reproduces a linear field exactly (P1 and P2: Lagrange interpolants)."""
+    """A mesh scene's thermocouple reproduces a linear (P1) or quadratic (P2) field exactly: the Lagrange
+    interpolant of its element, on the split unknowns of a contact resistance."""
     cell_mesh("cell", B=0.5, h=0.5).write(tmp_path / "cell.vtu")
-    base = """
-[geometry]
-mesh = "cell.vtu"
-order = {order}
-[phases.filler]
-label = 1
-k = 2.0
-c = 3.0e6
-[phases.matrix]
-label = 2
-k = 1.0
-c = 1.0e6
+    base = MESH_CELL.replace('"cell.vtu"', '"cell.vtu"\norder = {order}').replace("{R}", "5.0") + """
 [boundary.z0]
 flux = 1.0
 [boundary.z1]
