@@ -336,7 +336,8 @@ def _outputs(r: _Reader, data: Mapping[str, Any],
     if not isinstance(faces, list) or any(f not in FACES for f in faces):
         raise r.fail("outputs.mean_T", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
     named = {k: v for k, v in out.items() if k != "mean_T"}
-    return tuple(faces), parse_sensors(named, box(geometry), faces, _where(r.path))
+    return tuple(faces), parse_sensors(named, box(geometry), faces, _where(r.path),
+                                       voxels=isinstance(geometry, VoxelGeometry))
 
 
 def _interfaces(r: _Reader, data: Mapping[str, Any], names: set[str]) -> dict[tuple[str, str], float]:

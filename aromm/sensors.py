@@ -53,6 +53,8 @@ EDGE_TOL = 1e-9
 #: Barycentric tolerance for a point on an element's boundary (mesh scenes).
 BARYCENTRIC_TOL = 1e-10
 MAX_PIXELS = 1_000_000
+MESH_FACE_SENSORS = ("face patches and cameras need a voxel scene (geometry.image or generator); a mesh scene "
+                     "takes point sensors and mean_T")
 
 
 @dataclass(frozen=True)
@@ -112,13 +114,14 @@ def output_names(sensors: Sequence[Sensor]) -> tuple[str, ...]:
 # ----------------------------------------------------------------- parsing ([outputs.<name>] tables)
 
 def parse_sensors(table: Mapping[str, Any], box: tuple[FloatArray, FloatArray], faces: Sequence[str],
-                  where: str = "") -> tuple[Sensor, ...]:
+                  where: str = "", voxels: bool = True) -> tuple[Sensor, ...]:
     """Sensors from the sub-tables of ``[outputs]`` (every key but ``mean_T``); ``box`` = (lower, upper) corners (m).
 
-    ``faces`` are the face-mean outputs already named (a sensor may not reuse a name).  Refused with
-    InputError naming ``outputs.<name>.<key>``: unknown keys, a point outside the box, a window outside the
-    face or of zero width, pixel counts that are not positive integers, names that are not identifiers or
-    clash with another output.
+    ``faces`` are the face-mean outputs already named (a sensor may not reuse a name); ``voxels`` is False for
+    a mesh scene (point sensors only).  Refused with InputError naming ``outputs.<name>.<key>``: unknown
+    keys, a point outside the box, a window outside the face or of zero width, pixel counts that are not
+    positive integers, names that are not identifiers or clash with another output, a patch or camera on a
+    mesh scene.
     """
     sensors: list[Sensor] = []
     for name, spec in table.items():
@@ -139,6 +142,8 @@ def parse_sensors(table: Mapping[str, Any], box: tuple[FloatArray, FloatArray], 
         if ("point" in spec) == ("face" in spec):
             raise fail("", "give exactly one of point = [x, y, z] (a thermocouple) or face = \"<face>\" (a patch "
                            "or, with pixels, a camera)")
+        if "face" in spec and not voxels:
+            raise fail("face", MESH_FACE_SENSORS)
         sensors.append(_point(name, spec, box, fail) if "point" in spec else _face_sensor(name, spec, box, fail))
     names = [*faces, *output_names(sensors)]
     repeated = sorted({n for n in names if names.count(n) > 1})
@@ -304,8 +309,7 @@ def mesh_rows(sensors: Sequence[Sensor], geometry: Geometry, n: int, where: str 
     edges = np.swapaxes(corners[:, 1:] - corners[:, :1], 1, 2)  # (n_cells, 3, 3), columns v_i − v_0
     for s in sensors:
         if isinstance(s, FaceSensor):
-            raise InputError(f"{where}outputs.{s.name}: face patches and cameras need a voxel scene (geometry.image "
-                             "or generator); a mesh scene takes point sensors and mean_T")
+            raise InputError(f"{where}outputs.{s.name}: {MESH_FACE_SENSORS}")
         x = np.asarray(s.point)
         lam = np.linalg.solve(edges, (x - corners[:, 0])[..., None])[..., 0]
         bary = np.column_stack([1.0 - lam.sum(axis=1), lam])

@@ -211,8 +211,8 @@ point = [0.9, 0.2, 1.1]
         expected = 1.0 + 0.9 - 0.4 + 0.55 + (order - 1) * 0.99
         assert (system.observation["tc"] @ quadratic)[0] == pytest.approx(expected, rel=1e-12)
     (tmp_path / "m.toml").write_text(base.format(order=1) + '[outputs.spot]\nface = "z1"\n', encoding="utf-8")
-    with pytest.raises(InputError, match=r"outputs\.spot: face patches and cameras need a voxel scene"):
-        assemble(load_scene(tmp_path / "m.toml"))
+    with pytest.raises(InputError, match=r"m\.toml: outputs\.spot\.face: face patches and cameras need a voxel"):
+        load_scene(tmp_path / "m.toml")
     (tmp_path / "m.toml").write_text(base.format(order=1).replace("[0.9, 0.2, 1.1]", "[2.0, 0.2, 1.1]"),
                                      encoding="utf-8")
     with pytest.raises(InputError, match=r"outputs\.tc\.point: .* outside the box"):
