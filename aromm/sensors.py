@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -52,7 +53,8 @@ NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]*\Z")
 EDGE_TOL = 1e-9
 #: Barycentric tolerance for a point on an element's boundary (mesh scenes).
 BARYCENTRIC_TOL = 1e-10
-MAX_PIXELS = 1_000_000
+#: Most pixels of one camera (each is an output: a measurement column and a row of every model evaluation).
+MAX_PIXELS = 65_536
 MESH_FACE_SENSORS = ("face patches and cameras need a voxel scene (geometry.image or generator); a mesh scene "
                      "takes point sensors and mean_T")
 
@@ -145,8 +147,8 @@ def parse_sensors(table: Mapping[str, Any], box: tuple[FloatArray, FloatArray], 
         if "face" in spec and not voxels:
             raise fail("face", MESH_FACE_SENSORS)
         sensors.append(_point(name, spec, box, fail) if "point" in spec else _face_sensor(name, spec, box, fail))
-    names = [*faces, *output_names(sensors)]
-    repeated = sorted({n for n in names if names.count(n) > 1})
+    counts = Counter([*faces, *output_names(sensors)])
+    repeated = sorted(n for n, k in counts.items() if k > 1)
     if repeated:
         raise InputError(f"{where}outputs: output name(s) {repeated} appear twice (a camera 'cam' names its pixels "
                          "cam_i_j)")
