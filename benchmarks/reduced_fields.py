@@ -15,6 +15,8 @@ dt = 0.1 s) it prints, per size:
 
     python benchmarks/reduced_fields.py                      # sizes 12 and 24
     python benchmarks/reduced_fields.py --sizes 16 --order 60 --json out.json
+    python benchmarks/reduced_fields.py --sizes 46 --order 200 --no-full   # VER size: bytes and seconds only
+                                                                           # (the full fields would hold every step)
 """
 
 from __future__ import annotations
@@ -32,11 +34,12 @@ from pathlib import Path
 import numpy as np
 
 from aromm.cache import NpzCache
+from aromm.observables import Observables
 from aromm.reduction import reduce
 from aromm.scene import assemble
 from aromm.sensors import FaceSensor, voxel_rows
 from aromm.solve import simulate
-from aromm.system import TimeGrid
+from aromm.system import ThermalSystem, TimeGrid
 from studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES, loading, small_wood
 
 TIMES = np.array([1.0, 10.0, 60.0])
@@ -55,7 +58,7 @@ def _bytes(folder: Path, kind: str) -> int:
     return sum(p.stat().st_size for p in folder.glob(f"{kind}-*.npz"))
 
 
-def measure(n: int, order: int) -> dict[str, float]:
+def measure(n: int, order: int, full: bool = True) -> dict[str, float]:
     scene = loading(small_wood(n), "z", end=60.0, dt=0.1)
     system = assemble(scene)
     voxels = n**3
@@ -83,21 +86,8 @@ def measure(n: int, order: int) -> dict[str, float]:
     start = _clock()
     reduced = rom.simulate(PARAMS, TIMES, fields=True)
     out["reduced_fields_cpu_s"], out["reduced_fields_wall_s"] = _since(start)
-    start = _clock()
-    coarse = simulate(system, PARAMS, TIMES, fields=True)
-    out["full_cpu_s"], out["full_wall_s"] = _since(start)
-    fine = simulate(replace(system, time=TimeGrid(60.0, 0.05)), PARAMS, TIMES, fields=True)
-    assert reduced.fields is not None and coarse.fields is not None and fine.fields is not None
-    exact = fine.fields + (fine.fields - coarse.fields) / 3.0  # Richardson, BDF2 is second order
-    weight = np.asarray(system.capacity.evaluate(system.values(PARAMS)) @ np.ones(system.n))
-    diff = reduced.fields - exact
-    out["field_max_error"] = float(np.abs(diff).max())
-    out["field_rms_error"] = float(np.sqrt(((diff**2) @ weight / weight.sum()).max()))
-    out["bdf2_dt_field_error"] = float(np.abs(coarse.fields - exact).max())
-    exact_out = fine.as_array() + (fine.as_array() - coarse.as_array()) / 3.0
-    out["output_max_error"] = float(np.abs(reduced.as_array() - exact_out).max())
-    out["field_scale"] = float(np.abs(exact).max())
-
+    if full:
+        out.update(_against_full(system, reduced))
     for nt in (10, 100):
         times = np.linspace(0.5, 60.0, nt)
         tracemalloc.start()
@@ -113,15 +103,36 @@ def measure(n: int, order: int) -> dict[str, float]:
     return out
 
 
+def _against_full(system: ThermalSystem, reduced: Observables) -> dict[str, float]:
+    """Errors of the reduced fields and outputs against the full model (BDF2 at dt and dt/2, Richardson)."""
+    out: dict[str, float] = {}
+    start = _clock()
+    coarse = simulate(system, PARAMS, TIMES, fields=True)
+    out["full_cpu_s"], out["full_wall_s"] = _since(start)
+    fine = simulate(replace(system, time=TimeGrid(60.0, 0.05)), PARAMS, TIMES, fields=True)
+    assert reduced.fields is not None and coarse.fields is not None and fine.fields is not None
+    exact = fine.fields + (fine.fields - coarse.fields) / 3.0  # Richardson, BDF2 is second order
+    weight = np.asarray(system.capacity.evaluate(system.values(PARAMS)) @ np.ones(system.n))
+    diff = reduced.fields - exact
+    out["field_max_error"] = float(np.abs(diff).max())
+    out["field_rms_error"] = float(np.sqrt(((diff**2) @ weight / weight.sum()).max()))
+    out["bdf2_dt_field_error"] = float(np.abs(coarse.fields - exact).max())
+    exact_out = fine.as_array() + (fine.as_array() - coarse.as_array()) / 3.0
+    out["output_max_error"] = float(np.abs(reduced.as_array() - exact_out).max())
+    out["field_scale"] = float(np.abs(exact).max())
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[12, 24])
     parser.add_argument("--order", type=int, default=40)
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--no-full", dest="full", action="store_false", help="skip the full-model comparison")
     args = parser.parse_args()
     rows = []
     for n in args.sizes:
-        row = measure(n, args.order)
+        row = measure(n, args.order, args.full)
         rows.append(row)
         print(f"\n{n}³ voxels, {int(row['nodes'])} nodes, order {args.order}, load average {os.getloadavg()[0]:.1f} "
               "(shared 2-core machine)")
@@ -131,11 +142,12 @@ def main() -> None:
         print(f"  load light {row['load_cpu_s']:.3f} s CPU ({row['load_wall_s']:.3f} wall); with Ψ "
               f"{row['load_fields_cpu_s']:.3f} s CPU ({row['load_fields_wall_s']:.3f} wall); "
               f"build {row['build_cpu_s']:.1f} s CPU ({row['build_wall_s']:.1f} wall)")
-        print(f"  fields at {TIMES.tolist()} s: reduced {row['reduced_fields_cpu_s']:.3f} s CPU, full BDF2 "
-              f"{row['full_cpu_s']:.2f} s CPU; error vs the extrapolated full model: fields max "
-              f"{row['field_max_error']:.2e} °C, RMS {row['field_rms_error']:.2e} °C; outputs "
-              f"{row['output_max_error']:.2e} °C; BDF2 at dt = 0.1 s itself {row['bdf2_dt_field_error']:.2e} °C "
-              f"(fields up to {row['field_scale']:.3g} °C)")
+        print(f"  fields at {TIMES.tolist()} s: reduced {row['reduced_fields_cpu_s']:.3f} s CPU")
+        if args.full:
+            print(f"  full BDF2 {row['full_cpu_s']:.2f} s CPU; error vs the extrapolated full model: fields max "
+                  f"{row['field_max_error']:.2e} °C, RMS {row['field_rms_error']:.2e} °C; outputs "
+                  f"{row['output_max_error']:.2e} °C; BDF2 at dt = 0.1 s itself {row['bdf2_dt_field_error']:.2e} °C "
+                  f"(fields up to {row['field_scale']:.3g} °C)")
         print(f"  iter_fields peak traced memory: 10 times {row['iter_fields_peak_bytes_10'] / 1e6:.2f} MB, "
               f"100 times {row['iter_fields_peak_bytes_100'] / 1e6:.2f} MB")
         print(f"  16 × 16 camera rows: sparse {row['camera_sparse_bytes'] / 1e3:.1f} kB, dense would be "
