@@ -43,7 +43,7 @@ BOUNDS = {"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}
 NOISE = 0.02
 
 
-def experiment(rom, system, data: Measurements, steps: int, walkers: int,  # type: ignore[no-untyped-def]
+def experiment(rom, system, data: Measurements, *, steps: int, walkers: int,  # type: ignore[no-untyped-def]
                seed: int) -> dict[str, object]:
     start = time.process_time()
     simulate(system, TRUTH, data.t)
@@ -122,7 +122,7 @@ def main() -> None:
     print(f"{args.size}³ voxels ({system.n} nodes), reduced order {rom.order}, {args.walkers} walkers × {args.steps} "
           f"steps; load average {os.getloadavg()[0]:.1f} (shared 2-core machine)")
     for label, data in (("60 s, z0 and z1", long), ("3 s, z0 only", short)):
-        results[label] = experiment(rom, system, data, args.steps, args.walkers, args.seed)
+        results[label] = experiment(rom, system, data, steps=args.steps, walkers=args.walkers, seed=args.seed)
         report(label, results[label])
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3
     print(f"\npeak RSS {peak:.0f} MB; load average {os.getloadavg()[0]:.1f}")
