@@ -108,7 +108,7 @@ def _posterior_table(post: Posterior) -> str:
               help="Checkpoint file (.npz) rewritten after every swarm iteration.")
 @click.option("--resume", is_flag=True, help="Continue from --checkpoint when it exists.")
 @click.option("--noise-std", type=click.FloatRange(min=0.0, min_open=True), default=None, metavar="S",
-              help="Known standard deviation of the sensor noise (°C); --posterior samples it when not given.")
+              help="Known standard deviation of the sensor noise (°C): the σ of --posterior (sampled when not given).")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
               help="Also sample the posterior of the unknowns: N steps of an emcee ensemble started at the estimates "
                    "(optional extra: pip install 'aromm[posterior]'); with --plot, a corner plot FILE_posterior.png.")
