@@ -1,21 +1,12 @@
-"""Homogenisation of a two-phase (or n-phase) voxel scene [Chavez2020, § 4.2].
+"""Homogenisation of a voxel scene [Chavez2020, § 4.2]: effective conductivity tensor and capacity.
 
-Effective conductivity by the flux method [Chavez2020, eq. 13]: for each axis i a uniform
-flux q enters face i0, face i1 is held at T = 0, the four other faces are adiabatic,
-and at steady state
-
-    k_ii = q L_i / (T̄_{i0} - T̄_{i1}),
-
-with T̄ the face-mean temperatures (``boundary="flux"``, the default).  Imposing a
-uniform flux is a static (Neumann-type) condition: along the layers of a laminate it
-gives less than the arithmetic mean, because the heated face is not isothermal.
-``boundary="temperature"`` holds both faces at fixed temperatures instead (T = 1 on i0,
-T = 0 on i1) and takes the heat flow Q from the reaction at i0, k_ii = Q L_i / (A_i ΔT):
-exact for laminates in both directions and for mirror-symmetric periodic cells.
-
-Both give the principal values along the image axes (the material is taken orthotropic
-in those axes, as in the seed); the off-diagonal entries of the returned tensor are zero.  The effective capacity is the
-volume average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
+:func:`homogenize` solves the cell problems of :mod:`aromm.cell_problems` under one of three boundary
+conditions: ``"periodic"`` (the default: full tensor with its off-diagonal terms, the value that converges
+to the effective property of the medium), ``"flux"`` ([Chavez2020, eq. 13]: uniform flux into face i0,
+T = 0 on face i1, adiabatic sides — a lower-bound type condition) and ``"temperature"`` (T fixed on both
+faces, adiabatic sides — a mixed condition, exact for laminates and mirror-symmetric cells).  Mesh scenes
+take ``"flux"`` or ``"temperature"`` on the assembled mesh model.  The effective capacity is the volume
+average (eq. 14): c̄ = Σ_phases c_p |Ω_p| / |Ω|.
 
 [Chavez2020, § 4.2] applies eq. 13 differently from a textbook homogenisation: it "reproduces the fluxmetric
 experimental technique on the heterogeneous model *according to the three scenarios of Table 1*", i.e.
@@ -28,49 +19,94 @@ measurements of an identification free of homogenisation bias.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from aromm.cell_problems import BOUNDARIES, PROBE_FLUX, effective_conductivity
+from aromm.engines import check_engine
 from aromm.errors import InputError, NumericalError
 from aromm.geometry import VoxelGeometry
+from aromm.profiles import Profile
 from aromm.scene import Scene, assemble
 from aromm.solve import reaction_heat_flow, steady_field
-from aromm.system import FloatArray
-from aromm.vocabulary import FaceSpec, PhaseSpec, opposite
+from aromm.system import FloatArray, TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec, held, opposite
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
-PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
+#: The conditions solved by probes on an assembled model (mesh scenes, the petsc engine).
+PROBE_BOUNDARIES = ("flux", "temperature")
+__all__ = ["BOUNDARIES", "Fluxmetric", "fluxmetric", "homogeneous_twin", "homogenize", "mean_capacity"]
 
 
-BOUNDARIES = ("flux", "temperature")
+class ProbeScene(Protocol):
+    """What the homogenisation probes need of a scene: its box and the same material under other faces
+    (a :class:`~aromm.scene.Scene`, or the petsc engine's slab-read VoxelProblem)."""
+
+    @property
+    def size(self) -> tuple[float, float, float]: ...
+
+    def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
+                      time: TimeGrid | None = None) -> ProbeScene: ...
 
 
-def homogenize(scene: Scene, boundary: str = "flux", method: str = "auto") -> FloatArray:
-    """Effective conductivity tensor (3x3, W/(m K)); ``boundary="flux"`` is [Chavez2020, eq. 13].
+#: A steady solve of a probe: face means (°C) of its outputs and the heat flow (W) entering through its
+#: first fixed-temperature face.
+ProbeSolver = Callable[[Any], tuple[dict[str, float], float]]
 
-    Uses the scene's geometry and phases only; it applies the boundary conditions itself.
-    ``method`` is the linear solver (aromm.linalg).
+
+def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto", engine: str = "scipy") -> FloatArray:
+    """Effective conductivity tensor (3x3, W/(m K)) of the scene's material under ``boundary``.
+
+    ``boundary``: ``"periodic"`` (default), ``"flux"`` ([Chavez2020, eq. 13]) or ``"temperature"`` — their
+    meaning and bounds in :mod:`aromm.cell_problems`.  Uses the scene's geometry and phases only; it applies
+    the boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a linear solver of
+    aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on); with
+    ``engine="petsc"`` (PETSc under MPI, aromm.engines.petsc: collective, every rank calls it and gets the
+    tensor) ``gamg`` or ``mumps``.  A mesh scene and the petsc engine take ``"flux"`` or ``"temperature"``
+    (principal values, by probes on the assembled model).
     """
-    if boundary not in BOUNDARIES:
-        raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
+    if check_engine(engine) == "scipy" and isinstance(scene.geometry, VoxelGeometry):
+        return effective_conductivity(scene, boundary, method).k
+    if boundary not in PROBE_BOUNDARIES:
+        where = "the petsc engine" if engine == "petsc" else f"{scene.where}a mesh scene"
+        raise InputError(f"{where} homogenises with boundary 'flux' or 'temperature' (periodic conditions need a "
+                         f"voxel image and the scipy engine), got {boundary!r}")
+    if engine == "petsc":
+        from aromm.engines.petsc.homogenization import probe_solver
+
+        return conductivity(scene, boundary, probe_solver(method))
+    return conductivity(scene, boundary, lambda probe: _steady_probe(probe, method))
+
+
+def conductivity(scene: ProbeScene, boundary: str, solve: ProbeSolver) -> FloatArray:
+    """Eq. 13 (``boundary="flux"``) or the fixed-temperature heat flow, one probe per axis, by ``solve``."""
+    if boundary not in PROBE_BOUNDARIES:
+        raise InputError(f"unknown probe boundary {boundary!r}; allowed: {', '.join(PROBE_BOUNDARIES)}")
     k = np.zeros((3, 3))
     size = scene.size
     for i, axis in enumerate("xyz"):
         hot, cold = f"{axis}0", f"{axis}1"
         area = size[0] * size[1] * size[2] / size[i]
         if boundary == "flux":
-            system = assemble(_probe(scene, FaceSpec(hot, flux=PROBE_FLUX), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            drop = float(system.observation[hot] @ field - system.observation[cold] @ field)
-            k[i, i] = PROBE_FLUX * size[i] / drop
+            means, _ = solve(_probe(scene, FaceSpec(hot, flux=PROBE_FLUX), FaceSpec(cold, T=0.0)))
+            k[i, i] = PROBE_FLUX * size[i] / (means[hot] - means[cold])
         else:
-            system = assemble(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
-            field = steady_field(system, method=method)
-            heat_flow = reaction_heat_flow(system, field, system.dirichlet[0].dofs)
+            _, heat_flow = solve(_probe(scene, FaceSpec(hot, T=1.0), FaceSpec(cold, T=0.0)))
             k[i, i] = heat_flow * size[i] / area
     return k
+
+
+def _steady_probe(scene: Scene, method: str) -> tuple[dict[str, float], float]:
+    """Face means and the heat flow through the first fixed-temperature face, by aromm.solve."""
+    system = assemble(scene)
+    field = steady_field(system, method=method)
+    means = {name: float(e @ field) for name, e in system.observation.items()}
+    flow = reaction_heat_flow(system, field, system.dirichlet[0].dofs) if system.dirichlet else 0.0
+    return means, flow
 
 
 @dataclass(frozen=True)
@@ -92,6 +128,8 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     under convection or a fixed temperature, every other face adiabatic.  The steady state of the
     heterogeneous model is solved (no capacity is assembled) and k = φ L / (T̄_S1 − T̄_S2).  Along a
     loaded axis a homogeneous twin of conductivity k then has the same steady face means as the sample.
+    A history on S1 (a pulse, :mod:`aromm.profiles`) is replaced by the constant probe flux and the other
+    histories by their held final values: k does not depend on them (the problem is linear).
 
     >>> slab = Scene(VoxelGeometry(np.zeros((4, 1, 1), dtype=int), (1e-3, 1e-3, 1e-3)), (PhaseSpec("m", 0, 2.0),),
     ...              (FaceSpec("x0", flux=100.0), FaceSpec("x1", h=10.0)))
@@ -99,7 +137,7 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     2.0
     """
     where = scene.where
-    heated = [f for f in scene.boundary if f.flux is not None and f.flux != 0.0]
+    heated = [f for f in scene.boundary if isinstance(f.flux, Profile) or (f.flux is not None and f.flux != 0.0)]
     if len(heated) != 1:
         raise InputError(f"{where}the fluxmetric conductivity [Chavez2020, eq. 13] needs exactly one [boundary] face "
                          f"with a non-zero flux (S1); found {[f.face for f in heated] or 'none'}")
@@ -112,19 +150,20 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
         raise InputError(f"{where}the fluxmetric conductivity needs face {cold} (opposite S1 = {s1.face}) under "
                          f"convection (h) or a fixed temperature (T) and every other face adiabatic; "
                          f"faces with other conditions: {others or 'none'}")
-    steady = scene.with_boundary(scene.boundary, (s1.face, cold), time=None)
-    system = assemble(steady)
+    # a history is replaced by its held value, the heated face's by the probe flux (the problem is linear)
+    flux = PROBE_FLUX if isinstance(s1.flux, Profile) else float(s1.flux)  # type: ignore[arg-type]
+    faces = tuple(FaceSpec(f.face, flux=flux) if f is s1 else held(f) for f in scene.boundary)
+    system = assemble(scene.with_boundary(faces, (s1.face, cold), time=None))
     field = steady_field(system, method=method)
     drop = float(system.observation[s1.face] @ field - system.observation[cold] @ field)
     length = scene.size["xyz".index(axis)]
-    flux = float(s1.flux)  # type: ignore[arg-type]
     if not (np.isfinite(drop) and drop * flux > 0):
         raise NumericalError(f"{where}steady face-mean drop T̄_{s1.face} − T̄_{cold} = {drop:g} K has not the sign "
                              f"of the flux {flux:g} W/m²; cannot define a conductivity")
     return Fluxmetric(axis, s1.face, cold, flux, drop, flux * length / drop)
 
 
-def _probe(scene: Scene, hot: FaceSpec, cold: FaceSpec) -> Scene:
+def _probe(scene: ProbeScene, hot: FaceSpec, cold: FaceSpec) -> ProbeScene:
     """The scene's material, steady, with only the two probe faces loaded."""
     return scene.with_boundary((hot, cold), (hot.face, cold.face), time=None)
 

@@ -8,6 +8,8 @@ unknowns, while the supernodal Cholesky CHOLMOD (shipped in cvxopt's PyPI wheels
 * ``"cholmod"`` (default when cvxopt imports): supernodal Cholesky, lower triangle.
 * ``"splu"``: SuperLU with the ``MMD_AT_PLUS_A`` ordering (symmetric structure), pure scipy.
 * ``"amg"``: pyamg smoothed-aggregation preconditioned CG (steady solves, large sizes).
+* ``"mg"``: geometric multigrid-preconditioned CG on the voxel node grid read off ``points``
+  (aromm.multigrid.assembled; the homogenisation uses its matrix-free twin, aromm.cell_problems).
 
 Every solve checks its relative residual ``||A x - b|| / ||b||`` against ``rtol``
 and raises :class:`~aromm.errors.NumericalError` naming the method when it fails.
@@ -29,8 +31,8 @@ from aromm.errors import InputError, NumericalError
 from aromm.ordering import nested_dissection
 from aromm.system import FloatArray
 
-Method = Literal["auto", "cholmod", "splu", "amg"]
-METHODS = ("auto", "cholmod", "splu", "amg")
+Method = Literal["auto", "cholmod", "splu", "amg", "mg"]
+METHODS = ("auto", "cholmod", "splu", "amg", "mg")
 DEFAULT_RTOL = 1e-8
 
 
@@ -91,11 +93,15 @@ def factorize(a: sp.spmatrix | sp.sparray, method: str = "auto", rtol: float = D
     name = resolve_method(method)
     if a.shape[0] == 0:
         return Factorization(a, name, np.zeros_like, rtol)
-    perm = nested_dissection(a, points) if points is not None and name != "amg" else None
+    perm = nested_dissection(a, points) if points is not None and name in ("cholmod", "splu") else None
     if name == "cholmod":
         return Factorization(a, name, _cholmod(a, perm), rtol)
     if name == "splu":
         return Factorization(a, name, _splu(a, perm), rtol)
+    if name == "mg":
+        from aromm.multigrid.assembled import grid_solver
+
+        return Factorization(a, name, grid_solver(a, points, rtol), rtol)
     return Factorization(a, name, _amg(a, rtol), rtol)
 
 

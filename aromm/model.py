@@ -44,3 +44,9 @@ class ForwardModel(Protocol):
                        times: npt.ArrayLike | None = None) -> FloatArray:
         """Arrays of equal length m per parameter -> outputs of shape (m, len(times), len(outputs))."""
         ...
+
+
+def one_set(model: ForwardModel, params: Mapping[str, float] | None, t: FloatArray) -> Observables:
+    """:meth:`ForwardModel.simulate` through ``simulate_batch``: one parameter set, outputs at times ``t``."""
+    y = model.simulate_batch({k: [v] for k, v in (params or {}).items()}, t)[0]
+    return Observables(t=t, mean_T={name: y[:, i] for i, name in enumerate(model.outputs)})

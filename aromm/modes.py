@@ -26,7 +26,7 @@ when they fail.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,6 +39,7 @@ from scipy.sparse import csgraph
 from aromm.cache import NpzCache, content_key
 from aromm.errors import InputError, NumericalError
 from aromm.linalg import Factorization, factorize
+from aromm.shifts import SHIFT
 from aromm.system import FloatArray, ThermalSystem
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
@@ -57,6 +58,9 @@ _BASIS_VERSION = 3
 CORRECTION_FACTORS = (0.1, 1.0, 3.0)
 #: Directions of the correction vectors with a relative Gram eigenvalue below this are dependent (dropped).
 CORRECTION_RANK_TOL = 1e-12
+#: A component's constant is a zero mode when ``|K0 1|`` stays below this fraction of the largest diagonal
+#: entry of K0 (rows of a conduction matrix sum to zero up to round-off, ~1e-16 of the entries).
+NULL_CONSTANT = 1e-10
 
 
 @dataclass(frozen=True)
@@ -129,10 +133,8 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
         raise InputError("the modal bases need a transient system (a [time] section and phase capacities c)")
     if system.dirichlet:
         names = ", ".join(d.param for d in system.dirichlet)
-        raise InputError(
-            f"fixed temperatures ({names}) are not supported by the modal reduction: the reduced model "
-            "uses natural boundary conditions only; replace them by convection with a large h (penalty)"
-        )
+        raise InputError(f"fixed temperatures ({names}): build the bases on the lifted system of the free "
+                         "unknowns (aromm.lifting.lift; aromm.reduce does it)")
     vals: dict[str, float] = {k: float(v) for k, v in system.parameters.items()}
     vals.update({k: float(v) for k, v in (values or {}).items()})
     k0 = sp.csr_array(system.conductance.with_role("conduction").evaluate(vals))
@@ -151,7 +153,12 @@ def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
     """Split Ñ = ``total`` into (n_dirichlet, n_steklov) evenly, moving to one family what the other lacks
     (at most n_interior Dirichlet modes and n_boundary Steklov modes exist)."""
     on_gamma = int(np.count_nonzero(boundary_of(system).diagonal() > 0))
-    n_interior = system.n - on_gamma
+    return split_counts(total, system.n, on_gamma)
+
+
+def split_counts(total: int, n: int, on_gamma: int) -> tuple[int, int]:
+    """:func:`split_modes` for ``n`` unknowns of which ``on_gamma`` lie on the boundary."""
+    n_interior = n - on_gamma
     n_s = min((total + 1) // 2, on_gamma)
     n_d = min(total - n_s, n_interior)
     n_s = min(total - n_d, on_gamma)
@@ -159,14 +166,17 @@ def split_modes(system: ThermalSystem, total: int) -> tuple[int, int]:
 
 
 def zero_modes(ops: ReferenceOperators) -> FloatArray:
-    """One constant per connected component of the conduction graph, capacity-normalised (columns)."""
+    """One constant per connected component of the conduction graph, capacity-normalised (columns), for the
+    components where it is a null vector of K0 (not those touching a lifted fixed face, aromm.lifting)."""
     graph = sp.csr_array(ops.stiffness != 0)
     count, labels = csgraph.connected_components(graph, directed=False)
-    out = np.zeros((ops.n, count))
+    scale = float(np.abs(ops.stiffness.diagonal()).max(initial=0.0))
+    columns = []
     for j in range(count):
         ind = (labels == j).astype(float)
-        out[:, j] = ind / np.sqrt(ind @ (ops.capacity @ ind))
-    return out
+        if float(np.abs(ops.stiffness @ ind).max(initial=0.0)) <= NULL_CONSTANT * scale:
+            columns.append(ind / np.sqrt(ind @ (ops.capacity @ ind)))
+    return np.column_stack(columns) if columns else np.zeros((ops.n, 0))
 
 
 def _relative_residuals(k: sp.csr_array, m: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
@@ -272,6 +282,11 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto") -> 
 def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> tuple[FloatArray, float]:
     """The capacity Gram matrix ``Φᵀ C0 Φ`` (unit diagonal) and its condition number; refuses a dependent basis."""
     gram = vectors.T @ (ops.capacity @ vectors)
+    return gram, check_gram(gram)
+
+
+def check_gram(gram: FloatArray) -> float:
+    """Condition number of a capacity Gram matrix ``Φᵀ C0 Φ``; NumericalError beyond GRAM_CONDITION_MAX."""
     ev = np.linalg.eigvalsh((gram + gram.T) / 2)
     cond = float(ev[-1] / ev[0]) if ev[0] > 0 else np.inf
     if not cond < GRAM_CONDITION_MAX:
@@ -279,7 +294,7 @@ def _check_combined(ops: ReferenceOperators, vectors: FloatArray) -> tuple[Float
             f"modal basis: capacity Gram matrix has condition number {cond:.1e} > {GRAM_CONDITION_MAX:.0e} "
             "(Dirichlet and Steklov modes nearly dependent); ask for fewer Steklov modes"
         )
-    return gram, cond
+    return cond
 
 
 def compute_basis(
@@ -389,36 +404,49 @@ def _correction_vectors(system: ThermalSystem, basis: ModalBasis, ops: Reference
         v = {k: val for k, val in sample.items() if k in system.parameter_names}
         k_mat = sp.csr_array(system.conductance.evaluate(system.values(v)))
         c_terms = [sp.csr_array(t.operator) for t in system.capacity.terms]
-        if not exchange:
-            c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
-            k_mat = sp.csr_array(k_mat + 1e-8 * (k_mat.diagonal().sum() / c_mat.diagonal().sum()) * c_mat)
+        c_mat = sp.csr_array(system.capacity.evaluate(system.values(v)))
+        shift = float(sample.get(SHIFT, 0.0))  # (K + s C)⁻¹: aromm.shifts
+        if not exchange and shift == 0.0:
+            shift = 1e-8 * k_mat.diagonal().sum() / c_mat.diagonal().sum()
+        if shift:
+            k_mat = sp.csr_array(k_mat + shift * c_mat)
         fac = factorize(k_mat, method, points=ops.points)
         for t in system.load.terms:
             x = fac.solve(np.asarray(t.operator, dtype=float))
             cols.append(x)
             cols.extend(fac.solve(c @ x) for c in c_terms)
         del fac  # one factorisation alive at a time (peak memory)
-    x = np.column_stack(cols)
-    x = x / np.sqrt(np.maximum(np.einsum("ij,ij->j", x, ops.capacity @ x), 1e-300))
+    return enrich(np.column_stack(cols), basis, lambda a, b: a.T @ (ops.capacity @ b))
+
+
+#: ``product(A, B) = Aᵀ C0 B`` for tall A, B (n × a, n × b): the capacity inner product, computed in one
+#: process or summed over MPI ranks that each hold some rows (aromm.engines.petsc).
+CapacityProduct = Callable[[FloatArray, FloatArray], FloatArray]
+
+
+def enrich(x: FloatArray, basis: ModalBasis, product: CapacityProduct) -> tuple[FloatArray, FloatArray]:
+    """New columns P (C0-orthonormal, C0-orthogonal to the basis) spanning the correction vectors ``x``, and
+    the coefficients (Ñ + m, m0) of the C0-orthonormalised corrections S in the enriched basis [Φ, P]."""
+    x = x / np.sqrt(np.maximum(np.diag(product(x, x)), 1e-300))
     z = basis.vectors[:, basis.zero_modes]  # the constants are kept anyway: remove them first
     for _ in range(2):
-        x = x - z @ np.linalg.solve(z.T @ (ops.capacity @ z), z.T @ (ops.capacity @ x))
-    s = _orthonormal(x, ops.capacity, CORRECTION_RANK_TOL)
+        x = x - z @ np.linalg.solve(product(z, z), product(z, x))
+    s = _orthonormal(x, product, CORRECTION_RANK_TOL)
     phi, gram = basis.vectors, basis.gram
     a = np.zeros((phi.shape[1], s.shape[1]))
     r = s
     for _ in range(2):  # block Gram–Schmidt in the C0 product, twice for accuracy
-        step = np.linalg.solve(gram, phi.T @ (ops.capacity @ r))
+        step = np.linalg.solve(gram, product(phi, r))
         a += step
         r = r - phi @ step
-    p = _orthonormal(r, ops.capacity, CORRECTION_RANK_TOL)
-    b = p.T @ (ops.capacity @ r)
+    p = _orthonormal(r, product, CORRECTION_RANK_TOL)
+    b = product(p, r)
     return p, np.vstack([a, b])
 
 
-def _orthonormal(x: FloatArray, capacity: sp.csr_array, tol: float) -> FloatArray:
+def _orthonormal(x: FloatArray, product: CapacityProduct, tol: float) -> FloatArray:
     """C0-orthonormal basis of span(x), directions with Gram eigenvalue below ``tol`` (relative to 1) dropped."""
-    g = x.T @ (capacity @ x)
+    g = product(x, x)
     w, u = np.linalg.eigh((g + g.T) / 2)
     keep = w > tol * max(1.0, float(w.max(initial=0.0)))
     return (x @ u[:, keep]) / np.sqrt(w[keep])

@@ -18,15 +18,20 @@ from aromm.errors import InputError, NumericalError
 from aromm.reductor import DetailedModel
 from aromm.system import FloatArray
 
+#: Singular values below this fraction of the largest are the snapshots' numerical null space.
+RANK_TOL = 1e-13
+
 
 def pod_coefficients(states: FloatArray, gram: FloatArray, order: int, kept: FloatArray) -> FloatArray:
-    """Coefficients ``A`` (Ñ × order): the ``kept`` columns (Ñ × q: constants, corrections), then POD modes."""
+    """Coefficients ``A`` (Ñ × order): the ``kept`` columns (Ñ × q: constants, corrections), then POD modes.
+
+    An order beyond what the snapshots span (q + their numerical rank) is refused (InputError), never capped.
+    """
     states = np.asarray(states, dtype=float)
     n_modes = states.shape[0]
     z = np.asarray(kept, dtype=float).reshape(n_modes, -1)
     if order < max(1, z.shape[1]):
         raise InputError(f"order must be at least {max(1, z.shape[1])} (the constant modes), got {order}")
-    order = min(order, n_modes)
     g = (gram + gram.T) / 2
     if z.shape[1]:
         zg = z.T @ g
@@ -36,9 +41,14 @@ def pod_coefficients(states: FloatArray, gram: FloatArray, order: int, kept: Flo
     except np.linalg.LinAlgError:
         raise NumericalError("POD: capacity Gram matrix of the modal basis is not positive definite") from None
     u, s, _ = np.linalg.svd(r.T @ states, full_matrices=False)
-    rank = int(np.count_nonzero(s > s[0] * 1e-13)) if s.size and s[0] > 0 else 0
-    keep = min(order - z.shape[1], rank)
-    modes = sla.solve_triangular(r.T, u[:, :keep], lower=False)
+    rank = int(np.count_nonzero(s > s[0] * RANK_TOL)) if s.size and s[0] > 0 else 0
+    if order - z.shape[1] > rank:
+        raise InputError(
+            f"POD order {order} is more than the snapshots hold: {z.shape[1] + rank} available "
+            f"({z.shape[1]} kept columns + snapshot rank {rank}); ask for order <= {z.shape[1] + rank}, "
+            "add reference cases, or use method='greedy'"
+        )
+    modes = sla.solve_triangular(r.T, u[:, : order - z.shape[1]], lower=False)
     return np.column_stack([z, modes])
 
 

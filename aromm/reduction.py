@@ -19,7 +19,7 @@ import logging
 import os
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -27,29 +27,26 @@ from tqdm import tqdm
 
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
+from aromm.engines import check_engine
 from aromm.errors import InputError
-from aromm.modes import (
-    ModalBasis,
-    boundary_of,
-    compute_basis,
-    correction_samples,
-    split_modes,
-    with_corrections,
-)
+from aromm.greedy import PodGreedy
+from aromm.lifting import lift, liftings
+from aromm.modes import ModalBasis, boundary_of, compute_basis, correction_samples, split_modes, with_corrections
 from aromm.pod import PodReductor
 from aromm.reductor import DetailedModel, Reductor
 from aromm.rom import ReducedModel, from_arrays, to_arrays
+from aromm.scene import Scene, assemble
 from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
 
 log = logging.getLogger(__name__)
 
 #: The reductors known by name; any object implementing :class:`~aromm.reductor.Reductor` is accepted too.
-REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor())}
+REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor(), PodGreedy())}
 METHODS = tuple(REDUCTORS)
 #: Relaxation reference case [Chavez2020, § 3.2]: initially at 30 °C, cooled on all faces (h in W/(m² K)).
 RELAXATION_T0 = 30.0
 RELAXATION_H = 20.0
-_ROM_VERSION = 3
+_ROM_VERSION = 4  # 4: histories, feedthrough and lifted fixed temperatures
 
 
 @dataclass(frozen=True)
@@ -102,7 +99,8 @@ def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> Npz
     return NpzCache(cache)
 
 
-def _reductor(method: str | Reductor) -> Reductor:
+def resolve_reductor(method: str | Reductor) -> Reductor:
+    """The reductor named ``method`` (:data:`REDUCTORS`), or ``method`` itself when it is one."""
     if isinstance(method, str):
         if method not in REDUCTORS:
             raise InputError(f"unknown reduction method {method!r}; allowed: {', '.join(METHODS)}")
@@ -112,22 +110,26 @@ def _reductor(method: str | Reductor) -> Reductor:
     return method
 
 
+def at_reference(system: ThermalSystem, reference_values: Mapping[str, float]) -> dict[str, float]:
+    """The system's parameters with the reference overrides it knows (the values of its reference case)."""
+    own = {k: float(v) for k, v in system.parameters.items()}
+    return {**own, **{k: float(v) for k, v in reference_values.items() if k in own}}
+
+
 def _cases(system: ThermalSystem, reference_values: Mapping[str, float],
            references: Sequence[ThermalSystem | ReferenceCase]) -> list[ReferenceCase]:
-    def at_reference(s: ThermalSystem) -> dict[str, float]:
-        own = {k: float(v) for k, v in s.parameters.items()}
-        return {**own, **{k: float(v) for k, v in reference_values.items() if k in own}}
-
-    cases = [ReferenceCase(system, at_reference(system), name="system")]
-    cases += [ReferenceCase(r, at_reference(r)) if isinstance(r, ThermalSystem) else r for r in references]
+    cases = [ReferenceCase(system, at_reference(system, reference_values), name="system")]
+    cases += [ReferenceCase(r, at_reference(r, reference_values)) if isinstance(r, ThermalSystem) else r
+              for r in references]
     for case in cases:
         if case.system.n != system.n:
-            raise InputError(f"reference case {case.name!r} has {case.system.n} unknowns, the system {system.n}")
+            raise InputError(f"reference case {case.name!r} has {case.system.n} free unknowns, the system "
+                             f"{system.n}: fix the temperature of the same faces in every reference case")
     return cases
 
 
 def reduce(
-    system: ThermalSystem,
+    system: ThermalSystem | Scene,
     order: int = 200,
     *,
     modes: int | None = None,
@@ -142,6 +144,7 @@ def reduce(
     solver: str = "auto",
     cache: bool | str | os.PathLike[str] | NpzCache | None = True,
     progress: bool = False,
+    engine: str = "scipy",
     fields: bool = False,
 ) -> ReducedModel:
     """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3].
@@ -154,18 +157,38 @@ def reduce(
       ``reference_values`` (overrides of its parameters, default none), each of ``references`` (other
       scenarios on the same mesh, at the same overrides), and the relaxation from 30 °C cooled on the
       whole boundary (``relaxation``).
+    * Fixed temperatures (constant or histories) are lifted at ``basis_values`` (:func:`aromm.lifting.lift`):
+      the basis spans the free unknowns, its Steklov modes vanish on the fixed faces, and the reduced
+      model adds the lifting to its outputs; every reference case fixes the same faces.
     * ``corrections``: enrich the basis with static and first-order dynamic correction modes of the
       system's loads (:func:`aromm.modes.with_corrections`; an extension of [Chavez2020]) at the samples of
       :func:`aromm.modes.correction_samples` (True), at given samples, or not at all (False: the method of
       the paper exactly).
-    * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline) or object.
+    * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline, refused
+      beyond the rank of its snapshots; ``"greedy"``: multi-point POD-greedy, :mod:`aromm.greedy`) or object
+      (its ``cache_key``, when it has one, keys the cache; else its ``name``).
     * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
       stored by content hash; a second call with the same inputs loads the result.
-    * ``fields``: keep the basis Ψ (n × r) in the model, for temperature fields
-      (:meth:`ReducedModel.iter_fields`).  The cache stores the coefficients of Ψ on the detailed basis
-      (Ñ × r) apart from the model; a cached model given ``fields`` rebuilds Ψ from the cached detailed basis.
+    * ``engine``: ``"scipy"`` (one process) or ``"petsc"`` (PETSc/SLEPc under ``mpiexec``, collective:
+      aromm.engines.petsc.reduction; ``system`` may then be a voxel Scene, assembled by z-slabs, and
+      ``solver`` is ``gamg`` or ``mumps``).
+    * ``fields`` (scipy engine): keep Ψ (n × r) and the lifting of the fixed temperatures in the model, for
+      temperature fields (:meth:`ReducedModel.iter_fields`).  The cache stores Ψ's coefficients on the
+      detailed basis (Ñ × r) apart from the model; a cached model asked for ``fields`` rebuilds Ψ from the
+      cached detailed basis.
     """
-    reductor = _reductor(method)
+    if fields and check_engine(engine) != "scipy":
+        raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.reduction import reduce as reduce_petsc
+
+        return reduce_petsc(system, order, modes=modes, n_dirichlet=n_dirichlet, n_steklov=n_steklov,
+                            basis_values=basis_values, reference_values=reference_values, references=references,
+                            relaxation=relaxation, corrections=corrections, method=method, solver=solver,
+                            cache=cache)
+    if isinstance(system, Scene):
+        system = assemble(system)
+    reductor = resolve_reductor(method)
     for label, given in (("basis_values", basis_values), ("reference_values", reference_values)):
         unknown = sorted(set(given or {}) - system.parameter_names)
         if unknown:
@@ -173,20 +196,20 @@ def reduce(
                              f"the system has {sorted(system.parameter_names)}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
-    total = int(modes) if modes is not None else default_modes(int(order))
-    if n_dirichlet is None and n_steklov is None:
-        n_d, n_s = split_modes(system, total)
-    else:
-        n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
-        n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
     basis_values = dict(basis_values or {})
+    fixed = len(system.dirichlet)
+    original = system
+    system = lift(system, basis_values, solver)  # fixed temperatures: the free unknowns (aromm.lifting)
+    references = [_lifted(r, basis_values, solver) for r in references]
+    n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov, lambda total: split_modes(system, total))
     cases = _cases(system, reference_values or {}, references)
     store = resolve_cache(cache)
     if corrections is True:
         samples = correction_samples(system, basis_values)
     else:
         samples = [dict(s) for s in corrections] if corrections is not False else []
-    key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values, reductor.name, solver,
+    key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values,
+                      getattr(reductor, "cache_key", reductor.name), solver,
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases])
     if store is not None:
         stored = store.load("rom", key)
@@ -199,7 +222,7 @@ def reduce(
                 return rom
             modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
                                     store=store, stages=_Stages(False))
-            return replace(rom, basis=modal.vectors @ recipe["coefficients"])
+            return _with_fields(rom, original, modal.vectors @ recipe["coefficients"], basis_values, solver)
 
     start = time.perf_counter()
     stages = _Stages(progress)
@@ -210,45 +233,121 @@ def reduce(
     model = ReducedModel.from_system(system, basis.vectors, memo)
     if relaxation:
         cases.append(relaxation_case(system, cases[0].values))
-    snapshots = [_snapshot(case, model if case.system is system else
-                           ReducedModel.from_system(case.system, basis.vectors, memo), basis.kinds, system.time)
-                 for case in cases]
-    detailed = DetailedModel(basis, model, np.hstack(snapshots))
+    projected = [(model if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
+                  case) for case in cases]
     stages.next(f"{reductor.name} to order {order}")
-    coefficients = np.eye(basis.size) if order >= basis.size else reductor.coefficients(detailed, int(order))
-    rom = model.transform(coefficients)
-    check_t = snapshot_times(system.time)
-    own = {k: v for k, v in cases[0].values.items() if k in model.parameter_names}
-    err = float(np.abs(rom.simulate(own, check_t).as_array() - model.simulate(own, check_t).as_array()).max(
-        initial=0.0))
+    tracked = replace(model, basis=np.eye(basis.size))  # transform() carries Ψ's coefficients A (Ψ = Φ A)
+    rom, err = reduce_detailed(tracked, projected, basis, int(order), reductor, check_values=cases[0].values)
+    coefficients, rom = rom.basis, replace(rom, basis=None)
+    assert coefficients is not None
     stages.close()
-    info: dict[str, float | int | str] = {
-        "method": reductor.name, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
-        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
-        "zeta": basis.zeta,
-        "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
-        "gram_condition": float(basis.info.get("gram_condition", np.nan)),
-        "offline_seconds": time.perf_counter() - start, "reference_error": err, "cached": 0, "key": key,
-    }
+    info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
+            "lifted_faces": fixed}
     rom = replace(rom, info=info)
     log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
              rom.order, basis.size, info["offline_seconds"], err)
     if store is not None:
         store.save("rom", key, to_arrays(rom))
         store.save("reconstruction", key, {"coefficients": coefficients})
-    return replace(rom, basis=basis.vectors @ coefficients) if fields else rom
+    return _with_fields(rom, original, basis.vectors @ coefficients, basis_values, solver) if fields else rom
 
 
 def _detailed_basis(system: ThermalSystem, n_d: int, n_s: int, *, basis_values: Mapping[str, float],
                     samples: list[dict[str, float]], solver: str, store: NpzCache | None,
                     stages: _Stages) -> ModalBasis:
-    """The detailed basis (Ñ modes and the correction vectors), from the cache when it holds them."""
+    """The detailed basis Φ (Ñ modes and the correction vectors), from the cache when it holds them."""
     stages.next(f"modes (Ñ = {n_d} Dirichlet + {n_s} Steklov)")
     basis = compute_basis(system, n_d, n_s, basis_values, method=solver, cache=store)
     if samples:
         stages.next(f"correction vectors ({len(samples)} parameter samples)")
         basis = with_corrections(system, basis, samples, values=basis_values, method=solver, cache=store)
     return basis
+
+
+def _with_fields(rom: ReducedModel, original: ThermalSystem, psi: FloatArray, basis_values: Mapping[str, float],
+                 solver: str) -> ReducedModel:
+    """``rom`` with Ψ on every unknown of ``original`` (zero rows on its fixed nodes) and the lifting of its
+    fixed temperatures, ``Σ_d τ_d g_d(t) ℓ_d`` (:mod:`aromm.lifting`, at the basis values like the reduction)."""
+    if not original.dirichlet:
+        return replace(rom, basis=psi)
+    free = np.flatnonzero(original.fixed_owner() < 0)
+    full = np.zeros((original.n, psi.shape[1]))
+    full[free] = psi
+    ell = liftings(original, basis_values, solver)
+    terms = tuple(Term(f"lift_{d.name}", Coefficient((d.param,)), ell[:, i], "output", d.time)
+                  for i, d in enumerate(original.dirichlet))
+    return replace(rom, basis=full, field_lifting=Affine(terms))
+
+
+#: Reduced columns whose capacity Gram eigenvalue is below this fraction of the largest are dependent.
+DEPENDENT_COLUMNS = 1e-10
+
+
+def independent(coefficients: FloatArray, gram: FloatArray) -> FloatArray:
+    """The coefficients A unchanged when the columns of Ψ = Φ A are independent in the capacity product
+    (``AᵀGA``, G = ΦᵀC0Φ); otherwise an orthonormal basis of their span without the dependent directions
+    (the Galerkin model depends on the span only).  Kept correction vectors can fall in the span of the
+    amalgamated modes when the detailed basis is complete (tiny bodies) and make L singular."""
+    g = coefficients.T @ gram @ coefficients
+    w, u = np.linalg.eigh((g + g.T) / 2)
+    keep = w > DEPENDENT_COLUMNS * float(w.max(initial=0.0))
+    if np.all(keep):
+        return coefficients
+    log.info("reduce: %d dependent reduced column(s) dropped", int(np.count_nonzero(~keep)))
+    return (coefficients @ u[:, keep]) / np.sqrt(w[keep])
+
+
+def _lifted(case: ThermalSystem | ReferenceCase, values: Mapping[str, float], solver: str) -> ThermalSystem | \
+        ReferenceCase:
+    """A reference case with its fixed temperatures lifted at the basis values, like the system."""
+    if isinstance(case, ThermalSystem):
+        return lift(case, values, solver)
+    return replace(case, system=lift(case.system, values, solver))
+
+
+def mode_counts(order: int, modes: int | None, n_dirichlet: int | None, n_steklov: int | None,
+                split: Callable[[int], tuple[int, int]]) -> tuple[int, int]:
+    """(n_dirichlet, n_steklov) of :func:`reduce`: Ñ = ``modes`` (default :func:`default_modes`) split by
+    ``split`` (aromm.modes.split_modes) unless one of the counts is given."""
+    total = int(modes) if modes is not None else default_modes(order)
+    if n_dirichlet is None and n_steklov is None:
+        return split(total)
+    n_s = int(n_steklov) if n_steklov is not None else total - int(n_dirichlet or 0)
+    n_d = int(n_dirichlet) if n_dirichlet is not None else total - n_s
+    return n_d, n_s
+
+
+def reduce_detailed(model: ReducedModel, cases: Sequence[tuple[ReducedModel, ReferenceCase]], basis: ModalBasis,
+                    order: int, reductor: Reductor, *, check_values: Mapping[str, float]) -> tuple[ReducedModel, float]:
+    """The order-ñ model from the detailed modal model ``model`` (on Φ) and the reference cases projected onto
+    Φ (``cases``: projected model and case), and its largest output error (°C) against ``model`` at
+    ``check_values`` on the snapshot times.
+
+    Works on Ñ × Ñ matrices only: whoever computed Φ and projected the operators (one process, or PETSc
+    under MPI, aromm.engines.petsc) hands over the projected models; ``basis.vectors`` is not used.
+    """
+    snapshots = [_snapshot(case, projected, basis.kinds, model.time) for projected, case in cases]
+    detailed = DetailedModel(basis, model, np.hstack(snapshots))
+    coefficients = np.eye(basis.size) if order >= basis.size else reductor.coefficients(detailed, order)
+    rom = model.transform(independent(coefficients, basis.gram))
+    check_t = snapshot_times(model.time)
+    own = {k: v for k, v in check_values.items() if k in model.parameter_names}
+    err = float(np.abs(rom.simulate(own, check_t).as_array() - model.simulate(own, check_t).as_array()).max(
+        initial=0.0))
+    return rom, err
+
+
+def reduction_info(rom: ReducedModel, basis: ModalBasis, method: str, *, seconds: float, error: float,
+                   key: str) -> dict[str, float | int | str]:
+    """What ``ReducedModel.info`` records of an offline build (orders, mode counts, seconds, errors)."""
+    return {
+        "method": method, "order": rom.order, "modes": basis.size, "n_dirichlet": basis.count("dirichlet"),
+        "n_steklov": basis.count("steklov") + basis.count("zero"), "n_corrections": basis.count("correction"),
+        "zeta": basis.zeta,
+        "basis_seconds": float(basis.info.get("seconds", 0.0)), "basis_cached": int(basis.info.get("cached", 0)),
+        "gram_condition": float(basis.info.get("gram_condition", np.nan)),
+        "offline_seconds": seconds, "reference_error": error, "cached": 0, "key": key,
+    }
 
 
 def _snapshot(case: ReferenceCase, model: ReducedModel, kinds: np.ndarray, grid: TimeGrid | None) -> FloatArray:

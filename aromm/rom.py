@@ -6,7 +6,7 @@ operator [Chavez2020, eq. 10] (sign convention ``M = −ΨᵀKΨ`` of [Quemener2
     L(p) = Σ c_j(p) Ψᵀ C_j Ψ          (L_F, L_G)
     A(p) = Σ k_j(p) Ψᵀ K_j Ψ = −M(p)  (M_F, M_G, M_H)
     N(p) = Σ f_j(p) Ψᵀ F_j            (N)
-    L(p) dX/dt = −A(p) X + N(p),   L(p) X(0) = T0 Σ c_j(p) Ψᵀ C_j 1,   y = E Ψ X.
+    L(p) dX/dt = −A(p) X + N(p, t),   L(p) X(0) = Σ c_j(p) Ψᵀ C_j T0(p),   y = E Ψ X + D(p, t).
 
 The projected operators form an ordinary :class:`~aromm.system.ThermalSystem` of order r (dense
 operators), so parameter handling and affine evaluation are those of the full model.  Evaluation never
@@ -16,10 +16,14 @@ solution is exact at any time::
 
     Y(t) = e^{−Λt} Y0 + (1 − e^{−Λt})/Λ · Wᵀ N     (→ Y0 + t WᵀN for Λ = 0),
 
-and the steady limit (when A is invertible) is ``X∞ = A⁻¹ N``.  A whole swarm of parameter sets is
+and it stays exact for load histories that are piecewise linear in time (:mod:`aromm.modal`), so the
+reduced model has no time-step error.  The steady limit (when A is invertible) is ``X∞ = A⁻¹ N`` with
+the histories held at their final values.  ``D(p, t)`` is the feedthrough of a system whose fixed
+temperatures were lifted (:mod:`aromm.lifting`), zero otherwise.  A whole swarm of parameter sets is
 evaluated in one call with stacked (batched) Cholesky, inverse and eigh.  The offline construction of Ψ
-is in :mod:`aromm.reduction`.  Temperature fields ``T(t) ≈ Ψ X(t)`` need Ψ itself (n × r), which a model
-keeps only when built with ``reduce(..., fields=True)``; they are reconstructed one time at a time.
+is in :mod:`aromm.reduction`.  Temperature fields ``T(t) ≈ Ψ X(t) + Σ_d τ_d g_d(t) ℓ_d`` (the lifting of fixed
+temperatures, :mod:`aromm.lifting`) need Ψ itself (n × r), which a model keeps only when built with
+``reduce(..., fields=True)``; they are reconstructed one time at a time.
 """
 
 from __future__ import annotations
@@ -35,7 +39,10 @@ import scipy.sparse as sp
 from threadpoolctl import ThreadpoolController
 
 from aromm.errors import InputError, NumericalError
+from aromm.modal import ModalForm
+from aromm.model import one_set
 from aromm.observables import Observables
+from aromm.profiles import Profile
 from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
 
 #: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
@@ -87,36 +94,43 @@ class ReducedModel:
     """A Galerkin-projected ThermalSystem of order r; implements the ForwardModel protocol (aromm.model).
 
     ``projected`` is the reduced system (dense r × r operators, projected observation rows, the scene's
-    parameters and time grid); ``initial`` holds ``Ψᵀ C_j 1`` per capacity term with the coefficient
-    ``c_j · initial.T`` (the initial state of a uniform initial temperature).  ``info`` records how the
-    model was built (orders, seconds, errors on the reference cases).  ``basis`` is Ψ (n × r, for fields),
-    or None (the default: evaluations of outputs never need it).
+    parameters and time grid, the feedthrough of a lifted system); ``initial`` holds ``Ψᵀ C_j 1`` per
+    capacity term with the coefficient ``c_j · initial.T`` (the initial state of a uniform initial
+    temperature), and ``Ψᵀ C_j v_i`` with ``c_j · c_i`` for each initial-field term of the system.
+    ``info`` records how the model was built (orders, seconds, errors on the reference cases).
+    ``basis`` is Ψ on every unknown of the full model (n × r, zero rows on fixed nodes) and ``field_lifting``
+    the lifting of the fixed temperatures (terms ``τ_d g_d(t) ℓ_d``, vectors of length n), for fields; both are
+    empty by default (evaluations of outputs never need them).  :meth:`transform` carries ``basis`` along
+    (Ψ A), so a model given the identity as its basis records the coefficients of its reductions.
     """
 
     projected: ThermalSystem
     initial: Affine
     info: Mapping[str, float | int | str] = field(default_factory=dict)
     basis: FloatArray | None = field(default=None, repr=False, compare=False)
+    field_lifting: Affine = field(default=Affine(), repr=False, compare=False)
 
     @classmethod
     def from_system(cls, system: ThermalSystem, basis: FloatArray,
                     memo: dict[int, FloatArray] | None = None) -> ReducedModel:
-        """Galerkin projection of every term of ``system`` onto the columns of ``basis`` (n × r)."""
+        """Galerkin projection of every term of ``system`` onto the columns of ``basis`` (n × r).
+
+        Fixed temperatures must have been lifted first (:func:`aromm.lifting.lift`; :func:`aromm.reduce`
+        does it): the basis spans the free unknowns only.
+        """
         if system.dirichlet:
             names = ", ".join(d.param for d in system.dirichlet)
-            raise InputError(
-                f"fixed temperatures ({names}) are not supported by the reduced model (natural boundary "
-                "conditions only); replace them by convection with a large h (penalty)"
-            )
+            raise InputError(f"fixed temperatures ({names}) must be lifted before projection "
+                             "(aromm.lifting.lift; aromm.reduce does it)")
         if system.is_steady:
             raise InputError("the reduced model needs a transient system (a [time] section and capacities c)")
-        ones = np.ones(system.n)
+        fields = [(Coefficient(("initial.T",)), np.ones(system.n), "")]
+        fields += [(t.coefficient, np.asarray(t.operator, dtype=float), f"·{t.name}") for t in system.initial.terms]
         initial = Affine(tuple(
-            Term(t.name, Coefficient((*t.coefficient.params, "initial.T"), scale=t.coefficient.scale),
-                 basis.T @ (sp.csr_array(t.operator) @ ones), "capacity")
-            for t in system.capacity.terms))
+            Term(t.name + suffix, t.coefficient.times(coef), basis.T @ (sp.csr_array(t.operator) @ vec), "capacity")
+            for coef, vec, suffix in fields for t in system.capacity.terms))
         outputs, e = system.observation_matrix()
-        e_basis = np.asarray(e @ basis)
+        e_basis = np.asarray(e @ basis)  # dense or sparse (sensor) rows
         projected = ThermalSystem(
             n=basis.shape[1],
             conductance=project(system.conductance, basis, memo),
@@ -125,6 +139,7 @@ class ReducedModel:
             observation={name: e_basis[i] for i, name in enumerate(outputs)},
             parameters={k: float(v) for k, v in system.parameters.items()},
             time=system.time,
+            feedthrough=system.feedthrough,
         )
         return cls(projected, initial)
 
@@ -135,7 +150,8 @@ class ReducedModel:
                             capacity=_transformed(sys_.capacity, a), load=_transformed(sys_.load, a),
                             observation={k: row @ a for k, row in sys_.observation.items()})
         return ReducedModel(projected, _transformed(self.initial, a),
-                            dict(info) if info is not None else dict(self.info))
+                            dict(info) if info is not None else dict(self.info),
+                            self.basis @ a if self.basis is not None else None, self.field_lifting)
 
     # ----------------------------------------------------------------- protocol
     @property
@@ -167,20 +183,21 @@ class ReducedModel:
         """One parameter set (overrides of the scene's values) → outputs at ``times`` (exact in time); with
         ``fields`` also the reconstructed temperature fields (len(times), n) (:meth:`iter_fields`)."""
         t = self._times(times)
-        y = self.simulate_batch({k: [v] for k, v in (params or {}).items()}, t)[0]
-        stacked = np.stack([f for _, f in self.iter_fields(params, t)]) if fields else None
-        return Observables(t=t, mean_T={name: y[:, i] for i, name in enumerate(self.outputs)}, fields=stacked)
+        obs = one_set(self, params, t)
+        return replace(obs, fields=np.stack([f for _, f in self.iter_fields(params, t)])) if fields else obs
 
     def iter_fields(self, params: Mapping[str, float] | None,
                     times: npt.ArrayLike) -> Iterator[tuple[float, FloatArray]]:
-        """``(t, T(t) ≈ Ψ X(t))`` for each time (°C at the n unknowns of the full model), one field at a time
-        (only the r-vectors X of all times are held) [Chavez2020, eq. 5]."""
+        """``(t, T(t) ≈ Ψ X(t) + Σ_d τ_d g_d(t) ℓ_d)`` for each time (°C at the n unknowns of the full model),
+        one field at a time (only the r-vectors X of all times are held) [Chavez2020, eq. 5]."""
         if self.basis is None:
             raise InputError("this reduced model keeps no basis Ψ, so it cannot reconstruct temperature fields: "
                              "build it with reduce(..., fields=True)")
         t = self._times(times)
+        values, _ = self.projected.batch_values({k: [v] for k, v in (params or {}).items()})
         for ti, x in zip(t, self.states(params, t), strict=True):
-            yield float(ti), self.basis @ x
+            lifted = self.field_lifting.stack(values, 1, float(ti))[0] if self.field_lifting else 0.0
+            yield float(ti), self.basis @ x + lifted
 
     def simulate_batch(self, params: Mapping[str, npt.ArrayLike],
                        times: npt.ArrayLike | None = None) -> FloatArray:
@@ -203,16 +220,18 @@ class ReducedModel:
             return self._modal(values, m).rates
 
     def steady(self, params: Mapping[str, npt.ArrayLike] | None = None) -> FloatArray:
-        """Steady limit of the outputs, (m, n_outputs); refused when no exchange fixes the mean temperature."""
+        """Steady limit of the outputs, (m, n_outputs), histories held at their final values; refused when
+        no exchange fixes the mean temperature."""
         values, m = self.projected.batch_values(params or {})
         a = self.projected.conductance.stack(values, m)
-        n = self._load(values, m)
+        n = self._load(values, m, np.inf)
         cond = np.linalg.cond(a)
         if not np.all(cond < STEADY_CONDITION_MAX):
             raise NumericalError(f"reduced steady state: conductance matrix condition number {np.max(cond):.1e} "
                                  "(no exchange with the surroundings, the mean temperature has no steady limit)")
         x = np.linalg.solve(a, n[..., None])[..., 0]
-        return x @ self.projected.observation_matrix()[1].T
+        direct = self.projected.feedthrough
+        return x @ self.projected.observation_matrix()[1].T + (direct.stack(values, m, np.inf) if direct else 0.0)
 
     # ----------------------------------------------------------------- internals
     def _times(self, times: npt.ArrayLike | None) -> FloatArray:
@@ -225,10 +244,10 @@ class ReducedModel:
             raise InputError("output times must be finite and non-negative")
         return t
 
-    def _load(self, values: Mapping[str, FloatArray], m: int) -> FloatArray:
-        return self.projected.load.stack(values, m) if self.projected.load else np.zeros((m, self.order))
+    def _load(self, values: Mapping[str, FloatArray], m: int, at: float) -> FloatArray:
+        return self.projected.load.stack(values, m, at) if self.projected.load else np.zeros((m, self.order))
 
-    def _modal(self, values: Mapping[str, FloatArray], m: int) -> _ModalForm:
+    def _modal(self, values: Mapping[str, FloatArray], m: int) -> ModalForm:
         lmat = self.projected.capacity.stack(values, m)
         amat = self.projected.conductance.stack(values, m)
         rhs0 = self.initial.stack(values, m)
@@ -247,38 +266,23 @@ class ReducedModel:
         lam = np.where(lam < ZERO_RATE * top, 0.0, lam)
         w = np.swapaxes(rinv, 1, 2) @ q  # Wᵀ L W = I, Wᵀ A W = Λ
         wt = np.swapaxes(w, 1, 2)
-        return _ModalForm(lam, w, (wt @ rhs0[..., None])[..., 0], (wt @ self._load(values, m)[..., None])[..., 0],
-                          self.projected.observation_matrix()[1])
-
-
-@dataclass(frozen=True)
-class _ModalForm:
-    """Diagonalised reduced system for m parameter sets: Ẏ = −ΛY + b, Y(0) = y0, X = W Y."""
-
-    rates: FloatArray  # (m, r)
-    w: FloatArray  # (m, r, r)
-    y0: FloatArray  # (m, r)
-    b: FloatArray  # (m, r)
-    e: FloatArray  # (n_out, r)
-
-    def modal(self, t: FloatArray) -> FloatArray:
-        """Y at times t, shape (m, r, nt): exact for inputs constant in time."""
-        x = self.rates[..., None] * t[None, None, :]
-        small = x < 1e-8
-        phi = np.where(small, t * (1.0 - 0.5 * x), -np.expm1(-x) / np.where(small, 1.0, self.rates[..., None]))
-        return np.exp(-x) * self.y0[..., None] + phi * self.b[..., None]
-
-    def outputs(self, t: FloatArray) -> FloatArray:
-        g = self.e[None] @ self.w  # (m, n_out, r)
-        return np.swapaxes(g @ self.modal(t), 1, 2)
-
-    def states(self, t: FloatArray) -> FloatArray:
-        return np.swapaxes(self.w @ self.modal(t), 1, 2)
+        constant = np.zeros((m, self.order))
+        timed: list[tuple[FloatArray, Profile]] = []
+        for term in self.projected.load.terms:
+            vec = np.broadcast_to(term.coefficient(values), (m,))[:, None] * (wt @ np.asarray(term.operator))
+            if term.time is None:
+                constant += vec
+            else:
+                timed.append((vec, term.time))
+        direct = [(np.broadcast_to(t.coefficient(values), (m,))[:, None] * np.asarray(t.operator), t.time)
+                  for t in self.projected.feedthrough.terms]
+        return ModalForm(lam, w, (wt @ rhs0[..., None])[..., 0], constant, timed,
+                         self.projected.observation_matrix()[1], direct)
 
 
 # ----------------------------------------------------------------- (de)serialisation, no pickle
 
-_GROUPS = ("capacity", "conductance", "load", "initial")
+_GROUPS = ("capacity", "conductance", "load", "initial", "feedthrough")
 
 
 def _affine(model: ReducedModel, group: str) -> Affine:
@@ -297,6 +301,9 @@ def to_arrays(model: ReducedModel) -> dict[str, np.ndarray]:
         out[f"{group}.scales"] = np.array([t.coefficient.scale for t in terms], dtype=float)
         for i, t in enumerate(terms):
             out[f"{group}.op{i}"] = np.asarray(t.operator)
+            if t.time is not None:
+                out[f"{group}.time{i}"] = t.time.arrays()
+                out[f"{group}.timekind{i}"] = np.array(t.time.kind)
     names, e = model.projected.observation_matrix()
     out["outputs.names"] = np.array(names, dtype=str)
     out["outputs.matrix"] = e
@@ -328,7 +335,9 @@ def from_arrays(data: Mapping[str, np.ndarray]) -> ReducedModel:
                                "harmonic" if str(data[f"{group}.kinds"][i]) == "harmonic" else "product",
                                float(data[f"{group}.scales"][i]))
             role = str(data[f"{group}.roles"][i])
-            terms.append(Term(name, coef, np.asarray(data[f"{group}.op{i}"]), role))  # type: ignore[arg-type]
+            time = (Profile.from_arrays(data[f"{group}.time{i}"], str(data[f"{group}.timekind{i}"]))
+                    if f"{group}.time{i}" in data else None)
+            terms.append(Term(name, coef, np.asarray(data[f"{group}.op{i}"]), role, time))  # type: ignore[arg-type]
         groups[group] = Affine(tuple(terms))
     t = data["time"]
     e = np.asarray(data["outputs.matrix"])
@@ -338,6 +347,7 @@ def from_arrays(data: Mapping[str, np.ndarray]) -> ReducedModel:
         parameters={str(k): float(v) for k, v in zip(data["parameters.names"], data["parameters.values"],
                                                       strict=True)},
         time=TimeGrid(float(t[0]), float(t[1])) if t.size else None,
+        feedthrough=groups["feedthrough"],
     )
     info = {str(k): _info_value(str(v)) for k, v in zip(data["info.names"], data["info.values"], strict=True)}
     return ReducedModel(projected, groups["initial"], info)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -21,13 +22,21 @@ from aromm import microstructure
 from aromm.errors import InputError
 from aromm.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
 from aromm.microstructure.generators import GENERATORS
+from aromm.observables import read_csv
+from aromm.profiles import Profile
 from aromm.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FACES, FaceSpec, PhaseSpec, parameter_values
+from aromm.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
 PHASE_KEYS = ("label", "k", "c")
 FACE_KEYS = ("flux", "h", "T_ext", "T")
+REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
+
+
+def physical_memory() -> float:
+    """Bytes of physical memory of this machine (the default budget of :meth:`Scene.refined`)."""
+    return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
 
 
 @dataclass(frozen=True)
@@ -74,6 +83,40 @@ class Scene:
     def volume_fractions(self) -> dict[str, float]:
         """Volume fraction of each phase (voxel counts, or the volumes of the mesh's cells)."""
         return self.geometry.volume_fractions(self.phases)
+
+    def refined(self, factor: int, bytes_per_voxel: float = REFINE_BYTES_PER_VOXEL,
+                budget: float | None = None) -> Scene:
+        """The same scene with each voxel split into ``factor``³ sub-voxel elements.
+
+        Labels are repeated ``factor`` times along each axis and ``voxel_size`` is divided by ``factor``: the
+        geometry, the phases and the face conditions are unchanged, only the Q1 discretisation is finer
+        (``aromm ... --refine R``).  Refused with :class:`InputError` when ``factor`` is not a positive
+        integer, when the scene is a mesh, or when the refined problem's estimate
+        ``factor³ · n_voxels · bytes_per_voxel`` exceeds ``budget`` (bytes; default: the machine's memory).
+
+        >>> phases = (PhaseSpec("a", 0, 1.0), PhaseSpec("b", 1, 2.0))
+        >>> s = Scene(VoxelGeometry(np.arange(2).reshape(2, 1, 1), (2e-3, 1e-3, 1e-3)), phases)
+        >>> r = s.refined(2)
+        >>> r.geometry.labels[:, 0, 0].tolist(), r.geometry.voxel_size, r.size == s.size
+        ([0, 0, 1, 1], (0.001, 0.0005, 0.0005), True)
+        """
+        if isinstance(factor, bool) or not isinstance(factor, int | np.integer) or factor < 1:
+            raise InputError(f"{self.where}refine: the refinement factor must be a positive integer, got {factor!r}")
+        if factor == 1:
+            return self
+        if not isinstance(self.geometry, VoxelGeometry):
+            raise InputError(f"{self.where}refine: a mesh scene has no voxels to split; refine the mesh instead")
+        labels, size = self.geometry.labels, self.geometry.voxel_size
+        limit = physical_memory() if budget is None else float(budget)
+        need = float(labels.size) * factor**3 * bytes_per_voxel
+        if need > limit:
+            shape = "×".join(str(n * factor) for n in labels.shape)
+            raise InputError(f"{self.where}refine: {factor}× gives {shape} voxels, about {need / 1e9:.3g} GB "
+                             f"at {bytes_per_voxel:g} B/voxel, more than the {limit / 1e9:.3g} GB available")
+        for axis in range(3):
+            labels = np.repeat(labels, factor, axis=axis)
+        voxel = (size[0] / factor, size[1] / factor, size[2] / factor)
+        return replace(self, geometry=VoxelGeometry(labels, voxel))
 
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> Scene:
@@ -139,29 +182,42 @@ def load_scene(path: str | Path) -> Scene:
     a face given two conditions; ``dt <= 0`` or ``end < dt``; non-3-D images; bad voxel_size.
     """
     path = Path(path)
+    return scene_from_dict(read_toml(path), path)
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """The parsed scene file (not yet validated); InputError when missing or not TOML."""
     if not path.is_file():
         raise InputError(f"{path}: scene file not found")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise InputError(f"{path}: not a valid TOML file ({err})") from None
-    return scene_from_dict(data, path)
 
 
-def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
-    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths."""
+def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
+                    image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None) -> Scene:
+    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths.
+
+    ``image`` = (labels, voxel size stored in the file or None) replaces reading ``geometry.image``: an
+    engine that reads the image slab by slab passes a stand-in holding each label present once
+    (aromm.engines.petsc.problem), so that the phases are checked without the whole image in memory.
+    """
     r = _Reader(path)
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
     geo = r.table(data, "geometry", None)
     geometry: SceneGeometry = MeshGeometry(*_mesh(r, geo, path)) if "mesh" in geo else VoxelGeometry(
-        *_geometry(r, geo, path))
+        *_geometry(r, geo, path, image))
     phases = _phases(r, data, geometry.present())
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
     initial_T = r.number(initial.get("T", 0.0), "initial.T")
     time = _time(r, data)
+    varying = [f.face for f in boundary if f.varies]
+    if varying and time is None:
+        raise r.fail(f"boundary.{varying[0]}", "a history (CSV file) needs a transient scene: add [time] end and dt")
     if time is not None:
         for ph in phases:
             if ph.c is None:
@@ -174,16 +230,23 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None) -> Scene:
                  sensors)
 
 
-def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None) -> tuple[np.ndarray, tuple[float, float, float]]:
+def _geometry(r: _Reader, geo: dict[str, Any], path: Path | None,
+              image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None,
+              ) -> tuple[np.ndarray, tuple[float, float, float]]:
     if not geo:
         raise r.fail("geometry", "missing: give image = \"file\" or generator = \"name\" with voxel_size")
     if ("image" in geo) == ("generator" in geo):
         raise r.fail("geometry", "give exactly one of image or generator")
     file_voxel: tuple[float, float, float] | None = None
-    if "image" in geo:
-        image = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+    if image is not None:
+        if "image" in geo:  # the keys are checked as below; the file itself is read by the caller
+            _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+        labels, vs = image
+        file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
+    elif "image" in geo:
+        file = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
         shape = geo.get("shape")
-        labels, vs = microstructure.load_image(image, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
+        labels, vs = microstructure.load_image(file, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
         file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
     else:
         name = geo["generator"]
@@ -307,12 +370,29 @@ def _boundary(r: _Reader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
             raise r.fail(f"{key}.T_ext", "T_ext goes with h")
         faces.append(FaceSpec(
             face,
-            flux=r.number(spec["flux"], f"{key}.flux") if "flux" in spec else None,
+            flux=_load(r, spec["flux"], f"{key}.flux") if "flux" in spec else None,
             h=r.number(spec["h"], f"{key}.h", positive=True) if "h" in spec else None,
-            T_ext=r.number(spec.get("T_ext", 0.0), f"{key}.T_ext"),
-            T=r.number(spec["T"], f"{key}.T") if "T" in spec else None,
+            T_ext=_load(r, spec.get("T_ext", 0.0), f"{key}.T_ext"),
+            T=_load(r, spec["T"], f"{key}.T") if "T" in spec else None,
         ))
     return tuple(faces)
+
+
+def _load(r: _Reader, value: Any, key: str) -> Load:
+    """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file) read
+    as a piecewise-linear history held at its last value (:class:`~aromm.profiles.Profile`)."""
+    if not isinstance(value, str):
+        return r.number(value, key)
+    file = Path(value)
+    if not file.is_absolute() and r.path is not None:
+        file = r.path.parent / file
+    if not file.is_file():
+        raise r.fail(key, f"history file not found: {file} (a number, or a CSV file t,<value> relative to the scene)")
+    table = read_csv(file)
+    if len(table.outputs) != 1:
+        raise r.fail(key, f"{file}: a history has two columns t,<value>, got {', '.join(('t', *table.outputs))}")
+    values = np.asarray(next(iter(table.mean_T.values())), dtype=float)
+    return Profile(tuple(np.asarray(table.t, dtype=float).tolist()), tuple(values.tolist()), source=str(file))
 
 
 def _time(r: _Reader, data: Mapping[str, Any]) -> TimeGrid | None:

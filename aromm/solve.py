@@ -7,7 +7,10 @@ Time stepping is implicit and L-stable: backward Euler (order 1) or BDF2 (order 
 started by one backward-Euler step).  The iteration matrix ``a C / dt + K`` is
 factorised once per parameter set and reused at every step (aromm.linalg; CHOLMOD when
 available).  Fixed temperatures are eliminated: the unknowns are the free nodes only,
-and the fixed nodes hold their value from t = 0 on.
+and the fixed nodes hold their value from t = 0 on.  Loads and fixed temperatures that vary in
+time (a history g(t), :mod:`aromm.profiles`) are evaluated at the step times ``t_n`` (implicit);
+a fixed temperature that varies adds its capacity coupling ``C_fd dT_d/dt``, differentiated by the
+same scheme.  A steady solve uses the held final values of the histories.
 
 Outputs are produced on the uniform grid ``dt, 2 dt, ...``; requested output times
 that fall between grid points are linearly interpolated (an O(dt^2) error, the same
@@ -26,9 +29,11 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from tqdm import tqdm
 
+from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.linalg import factorize
 from aromm.observables import Observables
+from aromm.profiles import Profile, time_factor
 from aromm.system import FloatArray, ParamValues, ThermalSystem, TimeGrid
 
 Scheme = Literal["bdf2", "euler"]
@@ -36,27 +41,37 @@ Scheme = Literal["bdf2", "euler"]
 
 @dataclass(frozen=True)
 class _Partition:
-    """Free/fixed split of the unknowns for one parameter set."""
+    """Free/fixed split of the unknowns for one parameter set: fixed node i holds ``scale[i] g_owner[i](t)``."""
 
     free: npt.NDArray[np.int64]
     fixed: npt.NDArray[np.int64]
-    fixed_values: FloatArray
+    scale: FloatArray
+    owner: npt.NDArray[np.int64]
+    histories: tuple[Profile | None, ...]
 
-    def full(self, n: int, free_values: FloatArray) -> FloatArray:
+    @property
+    def timed(self) -> bool:
+        return any(h is not None for h in self.histories)
+
+    def fixed_at(self, t: float) -> FloatArray:
+        """Values of the fixed unknowns at time t (s; ``inf``: the held final values)."""
+        if not self.timed:
+            return self.scale
+        return self.scale * np.array([time_factor(h, t) for h in self.histories])[self.owner]
+
+    def full(self, n: int, free_values: FloatArray, fixed_values: FloatArray) -> FloatArray:
         out = np.empty((*free_values.shape[:-1], n))
         out[..., self.free] = free_values
-        out[..., self.fixed] = self.fixed_values
+        out[..., self.fixed] = fixed_values
         return out
 
 
 def _partition(system: ThermalSystem, values: ParamValues) -> _Partition:
-    n = system.n
-    fixed_values = np.full(n, np.nan)
-    for d in system.dirichlet:
-        fixed_values[d.dofs] = float(np.asarray(values[d.param]))
-    mask = np.isfinite(fixed_values)
-    fixed = np.flatnonzero(mask)
-    return _Partition(np.flatnonzero(~mask), fixed, fixed_values[fixed])
+    owner = system.fixed_owner()
+    fixed = np.flatnonzero(owner >= 0)
+    scales = np.array([float(np.asarray(values[d.param])) for d in system.dirichlet])
+    return _Partition(np.flatnonzero(owner < 0), fixed, scales[owner[fixed]] if fixed.size else np.zeros(0),
+                      owner[fixed], tuple(d.time for d in system.dirichlet))
 
 
 def _points(system: ThermalSystem, part: _Partition) -> FloatArray | None:
@@ -71,20 +86,57 @@ def _split(a: sp.csr_array, part: _Partition) -> tuple[sp.csr_array, sp.csr_arra
     return sp.csr_array(rows[:, part.free]), sp.csr_array(rows[:, part.fixed])
 
 
-def _load(system: ThermalSystem, values: ParamValues) -> FloatArray:
+def _load(system: ThermalSystem, values: ParamValues, at: float = np.inf) -> FloatArray:
     if not system.load:
         return np.zeros(system.n)
-    return np.asarray(system.load.evaluate(values), dtype=float)
+    return np.asarray(system.load.evaluate(values, at), dtype=float)
+
+
+class _Forcing:
+    """``F_f(t) − K_fd T_d(t)`` on the free unknowns: the constant part summed once, the histories apart."""
+
+    def __init__(self, system: ThermalSystem, values: ParamValues, part: _Partition, k_fd: sp.csr_array) -> None:
+        self.part, self.k_fd = part, k_fd
+        terms = system.load.terms
+        self.constant = np.zeros(part.free.size)
+        self.timed: list[tuple[FloatArray, Profile]] = []
+        for t in terms:
+            vec = float(t.coefficient(values)) * np.asarray(t.operator, dtype=float)[part.free]
+            if t.time is None:
+                self.constant += vec
+            else:
+                self.timed.append((vec, t.time))
+        if not part.timed:
+            self.constant -= k_fd @ part.scale
+
+    def __call__(self, t: float) -> FloatArray:
+        out = self.constant + sum((g(t) * vec for vec, g in self.timed), np.zeros_like(self.constant))
+        return out - self.k_fd @ self.part.fixed_at(t) if self.part.timed else out
+
+
+def _initial(system: ThermalSystem, values: ParamValues, part: _Partition) -> FloatArray:
+    """Initial free values: ``initial.T`` plus the system's initial-field terms (a lifted system's)."""
+    x = np.full(part.free.size, float(np.asarray(values["initial.T"])))
+    return x + np.asarray(system.initial.evaluate(values), dtype=float)[part.free] if system.initial else x
+
+
+def _outputs_at(system: ThermalSystem, values: ParamValues, t: float) -> FloatArray:
+    """The feedthrough of the outputs at time t (zero for an assembled system)."""
+    if not system.feedthrough:
+        return np.zeros(len(system.observation))
+    return np.asarray(system.feedthrough.evaluate(values, t), dtype=float)
 
 
 def steady_field(system: ThermalSystem, values: ParamValues | None = None, method: str = "auto") -> FloatArray:
-    """Steady temperature field (K): solve ``K T = F`` with fixed temperatures eliminated."""
+    """Steady temperature field (K): solve ``K T = F`` with fixed temperatures eliminated (histories held at
+    their final values)."""
     v = system.values(values)
     part = _partition(system, v)
     k = sp.csr_array(system.conductance.evaluate(v))
     k_ff, k_fd = _split(k, part)
-    rhs = _load(system, v)[part.free] - k_fd @ part.fixed_values
-    return part.full(system.n, factorize(k_ff, method, points=_points(system, part)).solve(rhs))
+    fixed = part.fixed_at(np.inf)
+    rhs = _load(system, v)[part.free] - k_fd @ fixed
+    return part.full(system.n, factorize(k_ff, method, points=_points(system, part)).solve(rhs), fixed)
 
 
 def reaction_heat_flow(system: ThermalSystem, field: FloatArray, dofs: npt.ArrayLike,
@@ -97,6 +149,22 @@ def reaction_heat_flow(system: ThermalSystem, field: FloatArray, dofs: npt.Array
     v = system.values(values)
     residual = sp.csr_array(system.conductance.evaluate(v)) @ field - _load(system, v)
     return float(np.sum(residual[np.asarray(dofs, dtype=np.int64)]))
+
+
+def transient_grid(grid: TimeGrid | None, steady: bool, scheme: str) -> TimeGrid:
+    """The time grid of a transient system, refusing a steady one and an unknown ``scheme``."""
+    if grid is None or steady:
+        raise InputError("this system is steady (no [time] section / no capacity): use a steady solve")
+    if scheme not in ("bdf2", "euler"):
+        raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
+    return grid
+
+
+def output_steps(times: npt.ArrayLike | None, grid: TimeGrid) -> tuple[FloatArray, int]:
+    """Checked output times (default: the grid's) and the number of time steps that reach them."""
+    t_out = _check_times(times, grid)
+    steps = round(min(grid.end, t_out[-1] + grid.dt) / grid.dt - 1e-9) + 1
+    return t_out, max(1, min(steps, len(grid.times)))
 
 
 def _check_times(times: npt.ArrayLike | None, grid: TimeGrid) -> FloatArray:
@@ -124,27 +192,26 @@ def transient(
 
     Returns face means at ``times`` (default: the scene's grid); full fields too with ``fields``.
     """
-    if system.time is None or system.is_steady:
-        raise InputError("this system is steady (no [time] section / no capacity): use steady_field")
-    if scheme not in ("bdf2", "euler"):
-        raise InputError(f"unknown time scheme {scheme!r}; allowed: bdf2, euler")
-    grid = system.time
-    t_out = _check_times(times, grid)
+    grid = transient_grid(system.time, system.is_steady, scheme)
+    t_out, steps = output_steps(times, grid)
     v = system.values(values)
     part = _partition(system, v)
-    c_ff, _ = _split(sp.csr_array(system.capacity.evaluate(v)), part)
+    c_ff, c_fd = _split(sp.csr_array(system.capacity.evaluate(v)), part)
     k_ff, k_fd = _split(sp.csr_array(system.conductance.evaluate(v)), part)
-    f_free = _load(system, v)[part.free] - k_fd @ part.fixed_values
+    forcing = _Forcing(system, v, part, k_fd)
     dt = grid.dt
-    steps = round(min(grid.end, t_out[-1] + dt) / dt - 1e-9) + 1
-    steps = max(1, min(steps, len(grid.times)))
 
     names, e = system.observation_matrix()
-    e_free, e_fixed = e[:, part.free], e[:, part.fixed] @ part.fixed_values
-    x_prev = np.full(part.free.size, float(np.asarray(v["initial.T"])))
+    e_free, e_fixed = e[:, part.free], e[:, part.fixed]
+
+    def output(x: FloatArray, t: float) -> FloatArray:
+        return e_free @ x + e_fixed @ part.fixed_at(t) + _outputs_at(system, v, t)
+
+    x_prev = _initial(system, v, part)
     history_t = [0.0]
-    history_y = [e_free @ x_prev + e_fixed]
-    stored: list[FloatArray] = [x_prev] if fields else []
+    history_y = [output(x_prev, 0.0)]
+    stored: list[FloatArray] = [part.full(system.n, x_prev, part.fixed_at(0.0))] if fields else []
+    d_prev = d_older = part.fixed_at(0.0)
 
     # Step 1 is backward Euler (BDF2's starter); the Euler factor is released before BDF2's is built,
     # so at most one factorisation is alive at a time (each costs ~1 GB at 1e5 unknowns).
@@ -152,22 +219,28 @@ def transient(
     stepper = factorize(c_ff / dt + k_ff, method, points=points)
     x_older = x_prev
     for n in tqdm(range(1, steps + 1), desc="time steps", disable=not progress, leave=False):
-        if n == 1 or scheme == "euler":
-            x = stepper.solve(c_ff @ x_prev / dt + f_free)
-        else:
-            x = stepper.solve(c_ff @ (2.0 * x_prev - 0.5 * x_older) / dt + f_free)
+        t_n = n * dt
+        euler = n == 1 or scheme == "euler"
+        lead, past, past_d = (1.0, x_prev, d_prev) if euler else (
+            1.5, 2.0 * x_prev - 0.5 * x_older, 2.0 * d_prev - 0.5 * d_older)
+        rhs = c_ff @ past / dt + forcing(t_n)
+        d_n = part.fixed_at(t_n)
+        if part.timed:  # the capacity coupling to fixed temperatures that move
+            rhs -= c_fd @ (lead * d_n - past_d) / dt
+        x = stepper.solve(rhs)
         if n == 1 and scheme == "bdf2" and steps > 1:
             del stepper
             stepper = factorize(1.5 * c_ff / dt + k_ff, method, points=points)
         x_older, x_prev = x_prev, x
-        history_t.append(n * dt)
-        history_y.append(e_free @ x + e_fixed)
+        d_older, d_prev = d_prev, d_n
+        history_t.append(t_n)
+        history_y.append(output(x, t_n))
         if fields:
-            stored.append(x)
+            stored.append(part.full(system.n, x, d_n))
     ht = np.asarray(history_t)
     hy = interpolate_rows(t_out, ht, np.asarray(history_y))
     mean_t = {name: hy[:, i] for i, name in enumerate(names)}
-    field_out = interpolate_rows(t_out, ht, part.full(system.n, np.asarray(stored))) if fields else None
+    field_out = interpolate_rows(t_out, ht, np.asarray(stored)) if fields else None
     return Observables(t=t_out, mean_T=mean_t, fields=field_out)
 
 
@@ -187,13 +260,25 @@ def simulate(
     method: str = "auto",
     scheme: Scheme = "bdf2",
     progress: bool = False,
+    engine: str = "scipy",
 ) -> Observables:
-    """Full model: steady solve for a steady system, else :func:`transient`."""
+    """Full model: steady solve for a steady system, else :func:`transient`.
+
+    ``engine="petsc"``: the same solves distributed by PETSc under MPI (aromm.engines.petsc.transient; every
+    rank calls it; ``system`` may be a voxel Scene, assembled by z-slabs; ``method`` is then ``gamg`` or
+    ``mumps``; no ``fields``)."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.transient import simulate as simulate_petsc
+
+        if fields:
+            raise InputError("the petsc engine returns face means only (fields stay distributed); use engine='scipy'")
+        return simulate_petsc(system, values, times, scheme=scheme, solver=method)
     if system.is_steady or system.time is None:
         field = steady_field(system, values, method)
         names, e = system.observation_matrix()
+        direct = _outputs_at(system, system.values(values), np.inf)
         y = e @ field
-        means = {name: np.atleast_1d(y[i]) for i, name in enumerate(names)}
+        means = {name: np.atleast_1d(y[i] + direct[i]) for i, name in enumerate(names)}
         return Observables(t=np.zeros(1), mean_T=means, steady=True, fields=field[None, :] if fields else None)
     return transient(system, values, times, scheme=scheme, fields=fields, method=method, progress=progress)
 

@@ -22,6 +22,12 @@ face f, h, T_ext   ``H_f`` = ∫_f φ_a φ_b            ``f.h``            excha
 face f, T          Dirichlet on the face's unknowns ``f.T``            —
 =================  ===============================  ================  ==============
 
+A face's ``flux``, ``T_ext`` or ``T`` may be a :class:`~aromm.profiles.Profile` g(t) (a CSV history,
+piecewise linear) instead of a number.  Its term then carries g as its function of time and the named
+parameter (``z0.flux``, ``z1.T_ext``, ``x0.T``) becomes a dimensionless *scale* of the history, 1 in the
+scene: the load is ``z0.flux · g(t) · U_z0`` (W), the fixed temperature ``x0.T · g(t)``.  The system stays
+affine in its parameters, and a scale can be identified like any other parameter.
+
 A discretisation supplies only the operators (a :class:`Discretisation`); adding a boundary-condition
 type means adding it here and to the scene parser.  Capacities are built only for a transient scene,
 exchange terms only on faces with h.
@@ -38,6 +44,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from aromm.errors import InputError
+from aromm.profiles import Profile
 from aromm.system import Coefficient, Dirichlet, FloatArray, Term
 
 FACES = ("x0", "x1", "y0", "y1", "z0", "z1")
@@ -60,15 +67,32 @@ class PhaseSpec:
         return isinstance(self.k, tuple)
 
 
+#: A face value: a number, or a history g(t) whose scale parameter is 1 in the scene.
+Load = float | Profile
+
+
+def scale_of(value: Load) -> float:
+    """The named parameter's value for a face value: the number itself, or 1 (the scale) for a profile."""
+    return 1.0 if isinstance(value, Profile) else float(value)
+
+
+def history(value: Load | None) -> Profile | None:
+    """The function of time of a face value (None for a number)."""
+    return value if isinstance(value, Profile) else None
+
+
 @dataclass(frozen=True)
 class FaceSpec:
-    """Condition on one face: entering flux (W/m²) and/or convection h (W/(m² K)) to T_ext (°C), or fixed T."""
+    """Condition on one face: entering flux (W/m²) and/or convection h (W/(m² K)) to T_ext (°C), or fixed T.
+
+    ``flux``, ``T_ext`` and ``T`` are numbers or :class:`~aromm.profiles.Profile` histories (module doc).
+    """
 
     face: str
-    flux: float | None = None
+    flux: Load | None = None
     h: float | None = None
-    T_ext: float = 0.0
-    T: float | None = None
+    T_ext: Load = 0.0
+    T: Load | None = None
 
     def __post_init__(self) -> None:
         if self.face not in FACES:
@@ -80,6 +104,19 @@ class FaceSpec:
     def axis(self) -> int:
         """0, 1 or 2 for a face normal to x, y or z."""
         return AXES.index(self.face[0])
+
+    @property
+    def varies(self) -> bool:
+        """True when a value of this face is a history g(t)."""
+        return any(isinstance(v, Profile) for v in (self.flux, self.T_ext, self.T))
+
+
+def held(f: FaceSpec) -> FaceSpec:
+    """The face with every history replaced by its final (held) value: the conditions of the steady limit."""
+    def final(v: Load | None) -> float | None:
+        return v.final if isinstance(v, Profile) else v
+
+    return FaceSpec(f.face, flux=final(f.flux), h=f.h, T_ext=final(f.T_ext) or 0.0, T=final(f.T))
 
 
 def opposite(face: str) -> str:
@@ -107,13 +144,13 @@ def parameter_values(phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], 
             out[f"{ph.name}.q"] = float(ph.q)
     for f in boundary:
         if f.T is not None:
-            out[f"{f.face}.T"] = float(f.T)
+            out[f"{f.face}.T"] = scale_of(f.T)
             continue
         if f.h is not None:
             out[f"{f.face}.h"] = float(f.h)
-            out[f"{f.face}.T_ext"] = float(f.T_ext)
+            out[f"{f.face}.T_ext"] = scale_of(f.T_ext)
         if f.flux is not None:
-            out[f"{f.face}.flux"] = float(f.flux)
+            out[f"{f.face}.flux"] = scale_of(f.flux)
     return out
 
 
@@ -172,14 +209,16 @@ def face_terms(disc: FaceDiscretisation, boundary: Sequence[FaceSpec]) -> tuple[
     ones = np.ones(disc.n)
     for f in boundary:
         if f.T is not None:
-            dirichlet.append(Dirichlet(f"T_{f.face}", disc.face_dofs(f.face), f"{f.face}.T"))
+            dirichlet.append(Dirichlet(f"T_{f.face}", disc.face_dofs(f.face), f"{f.face}.T", history(f.T)))
             continue
         if f.flux is not None:
-            terms.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.flux",)), disc.face_mass(f.face) @ ones, "load"))
+            terms.append(Term(f"U_{f.face}", Coefficient((f"{f.face}.flux",)), disc.face_mass(f.face) @ ones, "load",
+                              history(f.flux)))
         if f.h is not None:
             mass = disc.face_mass(f.face)
             terms.append(Term(f"H_{f.face}", Coefficient((f"{f.face}.h",)), mass, "exchange"))
-            terms.append(Term(f"UH_{f.face}", Coefficient((f"{f.face}.h", f"{f.face}.T_ext")), mass @ ones, "load"))
+            terms.append(Term(f"UH_{f.face}", Coefficient((f"{f.face}.h", f"{f.face}.T_ext")), mass @ ones, "load",
+                              history(f.T_ext)))
     return terms, dirichlet
 
 

@@ -13,6 +13,7 @@ Prints, for a wood VER (coarse n³ by default; the shipped 46³ VER with AROMM_F
 5. accuracy against cost: swarm budget (with / without refinement), reduced order, full model.
 
 Usage: python benchmarks/identify.py [--size 12] [--order 40] [--reps 20] [--noise 0.02] [--no-full]
+       [--farm serial|processes|mpi] [--workers W]
        AROMM_FULL=1 python benchmarks/identify.py --no-full --data-refine 5 --twin-data twin_x.csv [--full-refine]
 """
 
@@ -32,6 +33,7 @@ from aromm.geometry import VoxelGeometry
 from aromm.model import ForwardModel
 from aromm.solve import FullModel
 from aromm.system import ThermalSystem, TimeGrid
+from inverse.farm import FARMS, Farm
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
 from inverse.measurements import Measurements, load_measurements, save_measurements, simulate_measurements
 from inverse.uncertainty import IdentifiabilityWarning
@@ -45,6 +47,7 @@ from studies.chavez2020 import (
     fibre_truth,
     homogeneous_properties,
     loading,
+    noisy_repetitions,
     reduced,
     refine_from,
     run,
@@ -63,13 +66,14 @@ def section(title: str) -> None:
 
 
 def coverage(model: ForwardModel, exact: Measurements, truth: dict[str, float], *, reps: int, noise: float,
-             particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS) -> dict[str, object]:
-    """How many of ``reps`` noisy copies of ``exact`` give 95 % intervals containing the truth."""
+             particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS,
+             farm: Farm | None = None) -> dict[str, object]:
+    """How many of ``reps`` noisy copies of ``exact`` give 95 % intervals containing the truth (spread over
+    ``farm``: serial, a process pool or mpi4py.futures; the same results whatever the farm)."""
     inside = dict.fromkeys(truth, 0)
     seconds = []
-    for rep in range(reps):
-        data = exact.with_noise(noise, np.random.default_rng(1000 + rep))
-        r = run(f"rep {rep}", model, data, truth, seed=rep, particles=particles, iterations=iterations)
+    for r in noisy_repetitions(model, exact, truth, reps=reps, noise=noise, particles=particles,
+                               iterations=iterations, farm=farm):
         unc = r.result.uncertainty
         for i, name in enumerate(unc.names):
             inside[name] += int(unc.lower[i] <= truth[name] <= unc.upper[i])
@@ -110,7 +114,12 @@ def main() -> None:
     parser.add_argument("--full-refine", action="store_true",
                         help="with --no-full: still fit the full model along x by least squares alone, started "
                              "from the reduced estimate (about 30 full simulations)")
+    parser.add_argument("--farm", choices=FARMS, default="serial",
+                        help="where the noisy repetitions run: serial, processes (this machine), mpi (mpi4py.futures: "
+                             "mpiexec -n P python -m mpi4py.futures benchmarks/identify.py --farm mpi)")
+    parser.add_argument("--workers", type=int, default=None, help="worker processes of the farm")
     args = parser.parse_args()
+    farm = Farm(args.farm, args.workers)
     warnings.simplefilter("ignore", IdentifiabilityWarning)  # listed with the results instead
 
     shipped = os.environ.get("AROMM_FULL") == "1"
@@ -170,12 +179,12 @@ def main() -> None:
     rows = []
     if not args.no_full:
         rows.append({"data": "full + noise", "identified with": "full model",
-                     **coverage(full_twin, exact, truth, reps=args.reps, noise=args.noise, particles=FULL_P,
+                     **coverage(full_twin, exact, truth, reps=args.reps, noise=args.noise, particles=FULL_P, farm=farm,
                                 iterations=FULL_I)})
     rows.append({"data": "full + noise", "identified with": f"reduced {order}",
-                 **coverage(rom, exact, truth, reps=args.reps, noise=args.noise)})
+                 **coverage(rom, exact, truth, reps=args.reps, noise=args.noise, farm=farm)})
     rows.append({"data": f"reduced {order} + noise", "identified with": f"reduced {order}",
-                 **coverage(rom, own, truth, reps=args.reps, noise=args.noise)})
+                 **coverage(rom, own, truth, reps=args.reps, noise=args.noise, farm=farm)})
     print(as_table(rows))
 
     section("4. Joint identification from the three scenarios (homogeneous-twin data, reduced models)")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -22,6 +22,7 @@ import numpy.typing as npt
 
 from aromm.errors import InputError
 from aromm.model import ForwardModel
+from aromm.offset import TIME_OFFSET, TimeShifted
 from aromm.system import FloatArray
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
@@ -103,20 +104,29 @@ class Identification:
 ModelInput = ForwardModel | Sequence[tuple[ForwardModel, Measurements]]
 
 
-def scenarios_of(model: ModelInput, measurements: Measurements | None) -> list[Scenario]:
-    """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit."""
+def scenarios_of(model: ModelInput, measurements: Measurements | None,
+                 parameters: Iterable[str] = ()) -> list[Scenario]:
+    """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit.
+
+    When ``parameters`` (the unknown and fixed names) hold the clock offset ``time_offset``, every model that
+    does not have it is wrapped in :class:`aromm.offset.TimeShifted` (one offset shared by every scenario).
+    """
     if measurements is not None:
         if not isinstance(model, ForwardModel):
             raise InputError(f"model must be a forward model (FullModel, ReducedModel), got {type(model).__name__}")
-        return [Scenario(model, measurements)]
-    if isinstance(model, ForwardModel) or not isinstance(model, Sequence) or not model:
+        out = [Scenario(model, measurements)]
+    elif isinstance(model, ForwardModel) or not isinstance(model, Sequence) or not model:
         raise InputError("give measurements, or a non-empty list of (model, measurements) pairs for a joint fit")
-    out = []
-    for i, pair in enumerate(model, start=1):
-        if not (isinstance(pair, tuple) and len(pair) == 2 and isinstance(pair[0], ForwardModel)
-                and isinstance(pair[1], Measurements)):
-            raise InputError(f"scenario {i}: expected a (model, measurements) pair, got {type(pair).__name__}")
-        out.append(Scenario(pair[0], pair[1], str(i)))
+    else:
+        out = []
+        for i, pair in enumerate(model, start=1):
+            if not (isinstance(pair, tuple) and len(pair) == 2 and isinstance(pair[0], ForwardModel)
+                    and isinstance(pair[1], Measurements)):
+                raise InputError(f"scenario {i}: expected a (model, measurements) pair, got {type(pair).__name__}")
+            out.append(Scenario(pair[0], pair[1], str(i)))
+    if TIME_OFFSET in set(parameters):
+        out = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(sc.model))
+               for sc in out]
     return out
 
 
@@ -180,6 +190,15 @@ def _signature(optimiser: opt.Optimiser) -> object:
     return optimiser.name
 
 
+def relative_scales(box: opt.Box, estimates: FloatArray) -> FloatArray:
+    """Magnitudes of the relative sensitivities: |β̂| for a parameter searched in a positive (or negative)
+    interval, the half-width of its bounds for one whose bounds reach zero (a clock offset, a temperature
+    in °C: no relative scale, and the estimate may be zero)."""
+    estimates = np.abs(np.asarray(estimates, dtype=float))
+    straddle = (box.lower <= 0.0) & (box.upper >= 0.0) | (estimates == 0.0)
+    return np.where(straddle, 0.5 * (box.upper - box.lower), estimates)
+
+
 def default_optimisers(particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS,
                        refine: bool = True) -> tuple[opt.Optimiser, ...]:
     """The chain of [Chavez2020, § 4.1]: a particle swarm, then a least-squares refinement from its best."""
@@ -223,7 +242,7 @@ def identify(
     for o in chain:
         if not isinstance(o, opt.Optimiser):
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
-    scenarios = scenarios_of(model, measurements)
+    scenarios = scenarios_of(model, measurements, {*unknowns, *(fixed or {})})
     box = opt.Box.from_bounds(unknowns)
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
@@ -272,7 +291,7 @@ def identify(
     sensitivity = -opt.jacobian(problem.residuals, u_best) / box.dtheta_du(u_best)[None, :]
     notes = [f"{name} = {value:.6g} is at its {'lower' if u < 0.5 else 'upper'} bound: widen the bounds"
              for name, value, u in zip(box.names, theta, u_best, strict=True) if min(u, 1.0 - u) < AT_BOUND]
-    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes)
+    uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, scales=relative_scales(box, theta))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),

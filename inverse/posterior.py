@@ -163,7 +163,7 @@ def sample_posterior(
     if noise_std is not None and not (math.isfinite(noise_std) and noise_std > 0):
         raise InputError(f"noise_std must be a positive temperature (°C), got {noise_std!r}")
     box = opt.Box.from_bounds(unknowns)
-    criterion = LeastSquares(scenarios_of(model, measurements), box.names, fixed)
+    criterion = LeastSquares(scenarios_of(model, measurements, {*box.names, *(fixed or {})}), box.names, fixed)
     n_obs = criterion.n_observations
     ndim = box.dim + (noise_std is None)
     if isinstance(walkers, bool) or not isinstance(walkers, int) or walkers < 2 * ndim:

@@ -77,8 +77,13 @@ class Uncertainty:
 
 
 def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatArray,
-               residuals: FloatArray, *, level: float = LEVEL, notes: Sequence[str] = ()) -> Uncertainty:
+               residuals: FloatArray, *, level: float = LEVEL, notes: Sequence[str] = (),
+               scales: FloatArray | None = None) -> Uncertainty:
     """Uncertainty from ``sensitivity`` X = ∂Ŷ/∂β (N, p) and ``residuals`` Y − Ŷ (N,) at the optimum.
+
+    ``scales`` (p,) are the magnitudes of the relative sensitivities X_j s_j (default |β̂|, 1 where β̂ = 0;
+    give them for a parameter without a relative scale, such as a clock offset or a temperature in °C,
+    whose estimate may be zero); they change the identifiability checks only, not the covariance.
 
     Issues :class:`IdentifiabilityWarning` (and lists the message in ``.warnings``) when a
     parameter has no effect on the data, when the parameters are not separable, or when there
@@ -91,7 +96,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     n_obs, p = x.shape
     notes = list(notes)
 
-    scaled = x * np.where(beta != 0, np.abs(beta), 1.0)
+    unit = np.where(beta != 0, np.abs(beta), 1.0) if scales is None else np.asarray(scales, dtype=float)
+    scaled = x * unit
     norms = np.linalg.norm(scaled, axis=0)
     dead = norms <= NULL_SENSITIVITY * max(float(norms.max()), np.finfo(float).tiny)
     for j in np.flatnonzero(dead):
@@ -114,7 +120,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                          f"{CONDITION_LIMIT:g}); least determined relative combination: {combo}")
         if math.isfinite(condition):
             # (XᵀX)⁻¹ = D V Σ⁻² Vᵀ D with X D = U Σ Vᵀ the relative sensitivities (D = diag|β|)
-            scale = np.where(beta != 0, np.abs(beta), 1.0)[live]
+            scale = unit[live]
             shape = (vt.T / sv**2) @ vt * np.outer(scale, scale)
             d = np.sqrt(np.diag(shape))
             corr[np.ix_(live, live)] = np.clip(shape / np.outer(d, d), -1.0, 1.0)

@@ -28,6 +28,7 @@ from aromm.system import ThermalSystem, TimeGrid
 from aromm.vocabulary import FaceSpec
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
+from inverse.farm import Farm
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, identify
 from inverse.measurements import Measurements, homogeneous_measurements
 
@@ -165,6 +166,38 @@ def run(label: str, model: ForwardModel | Sequence[tuple[ForwardModel, Measureme
     result = identify(model, measurements, unknowns, seed=seed, particles=particles, iterations=iterations,
                       refine=refine, description=description)
     return Run(label, result, relative_errors(result.estimates, truth))
+
+
+@dataclass(frozen=True)
+class Repetition:
+    """One identification of a farm of repetitions: ``noise_seed`` draws the noise, ``seed`` the swarm."""
+
+    label: str
+    model: ForwardModel
+    exact: Measurements
+    truth: Mapping[str, float]
+    noise: float
+    noise_seed: int
+    seed: int
+    particles: int = DEFAULT_PARTICLES
+    iterations: int = DEFAULT_ITERATIONS
+
+
+def run_repetition(task: Repetition) -> Run:
+    """:func:`run` on ``task.exact`` plus Gaussian noise of standard deviation ``task.noise`` (°C)."""
+    data = task.exact.with_noise(task.noise, np.random.default_rng(task.noise_seed)) if task.noise > 0 else task.exact
+    return run(task.label, task.model, data, task.truth, seed=task.seed, particles=task.particles,
+               iterations=task.iterations)
+
+
+def noisy_repetitions(model: ForwardModel, exact: Measurements, truth: Mapping[str, float], *, reps: int,
+                      noise: float, particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS,
+                      farm: Farm | None = None, first_noise_seed: int = 1000) -> list[Run]:
+    """``reps`` identifications from noisy copies of ``exact`` (noise seed ``first_noise_seed + rep``, swarm
+    seed ``rep``), spread over ``farm`` (inverse.farm; default serial); the same results whatever the farm."""
+    tasks = [Repetition(f"rep {rep}", model, exact, dict(truth), noise, first_noise_seed + rep, rep, particles,
+                        iterations) for rep in range(reps)]
+    return (farm or Farm()).map(run_repetition, tasks)
 
 
 def refine_from(label: str, model: ForwardModel, measurements: Measurements, start: Mapping[str, float],

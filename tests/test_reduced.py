@@ -231,10 +231,15 @@ def test_amalgam_recovers_exact_groups() -> None:
     np.testing.assert_allclose(a @ y, states, atol=1e-12)
 
 
-def test_dirichlet_scene_refused(tmp_path) -> None:
+def test_fixed_temperatures_are_lifted_not_projected(tmp_path) -> None:
+    """A fixed face is lifted by reduce (tests/test_lifting.py checks the accuracy); projecting the system
+    itself is refused.  The mean of the fixed face is its temperature exactly, at any order."""
     system = system_of(random_labels(3), [FaceSpec("z0", flux=1.0), FaceSpec("z1", T=20.0)])
-    with pytest.raises(InputError, match="fixed temperatures"):
-        reduce(system, order=5, cache=tmp_path)
+    with pytest.raises(InputError, match="lifted"):
+        ReducedModel.from_system(system, np.eye(system.n))
+    rom = reduce(system, order=5, cache=tmp_path)
+    assert rom.info["lifted_faces"] == 1
+    np.testing.assert_allclose(rom.simulate({"z1.T": 7.0}).mean_T["z1"], 7.0, rtol=1e-14)
 
 
 def test_correction_modes_make_the_steady_state_exact_at_their_samples(tmp_path) -> None:

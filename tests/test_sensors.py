@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scene_text import MESH_CELL, scenario_1
+from scene_text import MESH_CELL, SLAB_ALPHA, SLAB_L, SLAB_TAU, scenario_1, steel_slab
 
 from aromm.analytic import slab_dirichlet_series
 from aromm.cli import main
@@ -19,52 +19,21 @@ from aromm.scene import assemble, load_scene
 from aromm.sensors import hat_means, hat_values
 from aromm.solve import transient
 
-L, K, C = 0.1, 33.0, 7.02e6  # [Hassan2019]'s steel slab: 0.1 m, 33 W/(m K), rho c (J/(m3 K))
-ALPHA = K / C
-TAU = L**2 / ALPHA
 # one third of an element past a node plane on every grid below (s = z/dz = 7/3, 14/3, 28/3): the interpolation
 # error ½ f (1 − f) dz² T'' keeps its factor f (1 − f) = 2/9, so the reading's error converges cleanly at order 2
-DEPTH = 7 / 24 * L
-
-
-def _slab_scene(folder: Path, nz: int, end: float, dt: float, sensors: str) -> Path:
-    np.save(folder / f"slab{nz}.npy", np.zeros((2, 3, nz), dtype=np.int32))
-    text = f"""
-[geometry]
-image = "slab{nz}.npy"
-voxel_size = [{L / 2}, {L / 3}, {L / nz}]
-[phases.steel]
-label = 0
-k = {K}
-c = {C}
-[boundary.z0]
-T = 25.0
-[boundary.z1]
-T = 100.0
-[initial]
-T = 25.0
-[time]
-end = {end}
-dt = {dt}
-[outputs]
-mean_T = ["z0", "z1"]
-{sensors}
-"""
-    path = folder / f"slab{nz}.toml"
-    path.write_text(text, encoding="utf-8")
-    return path
+DEPTH = 7 / 24 * SLAB_L
 
 
 def test_point_sensor_in_a_slab_converges_to_the_analytic_temperature_at_its_depth(tmp_path: Path) -> None:
     """[Hassan2019, eq. 12–13]: T(z, t) between fixed faces; the thermocouple sits off the node planes and off
     the axis, so its reading combines all 8 trilinear weights.  Error O(dz²) (nodal error and interpolation)
     + O(dt²) (dt small enough not to show): rate ≈ 2."""
-    t_end = 0.05 * TAU
-    sensor = f"[outputs.tc]\npoint = [{0.31 * L}, {0.77 * L}, {DEPTH}]\n"
-    exact = slab_dirichlet_series(DEPTH, t_end, L, ALPHA, 25.0, 25.0, 100.0, n_terms=400)
+    t_end = 0.05 * SLAB_TAU
+    sensor = f"[outputs.tc]\npoint = [{0.31 * SLAB_L}, {0.77 * SLAB_L}, {DEPTH}]\n"
+    exact = slab_dirichlet_series(DEPTH, t_end, SLAB_L, SLAB_ALPHA, 25.0, 25.0, 100.0, n_terms=400)
     errors = []
     for nz in (8, 16, 32):
-        system = assemble(load_scene(_slab_scene(tmp_path, nz, t_end, t_end / 400, sensor)))
+        system = assemble(load_scene(steel_slab(tmp_path, nz, t_end, t_end / 400, sensor)))
         reading = transient(system, times=[t_end]).mean_T["tc"][0]
         errors.append(abs(reading - float(exact)))
     rates = np.log2(np.asarray(errors[:-1]) / np.asarray(errors[1:]))

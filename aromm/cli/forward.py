@@ -8,12 +8,16 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aromm.cli.common import echo_json
+from aromm.cell_problems import CellResult, effective_conductivity
+from aromm.cli import engine as engine_cli
+from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, REFINE, echo_json
+from aromm.engines import is_root
 from aromm.errors import InputError
+from aromm.geometry import VoxelGeometry
 from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
-from aromm.linalg import METHODS
+from aromm.linalg import DEFAULT_RTOL, METHODS
 from aromm.observables import Observables, write_csv
-from aromm.scene import assemble, load_scene
+from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from aromm.series import write_series, write_vtu
 from aromm.solve import simulate as simulate_full
 from aromm.system import ThermalSystem
@@ -22,7 +26,8 @@ from inverse.measurements import homogeneous_measurements, save_measurements
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
-                      help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG).")
+                      help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG; "
+                           "mg: geometric multigrid + CG).")
 
 
 def _table(obs: Observables, rows: int = 10) -> str:
@@ -34,14 +39,14 @@ def _table(obs: Observables, rows: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _save(obs: Observables, system: ThermalSystem, out: Path) -> list[Path]:
+def _save(obs: Observables, system: ThermalSystem | None, out: Path) -> list[Path]:
     """observables.csv always; field.vtu (last time, or steady) when fields were kept."""
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "observables.csv"]
     if not obs.mean_T:
         raise InputError("the scene has no [outputs] (mean_T or sensors): nothing to write; list faces to observe")
     write_csv(obs, written[0], "observables file")
-    if obs.fields is not None and system.geometry is not None:
+    if obs.fields is not None and system is not None and system.geometry is not None:
         written.append(write_vtu(out / "field.vtu", system.geometry, obs.fields[-1]))
     return written
 
@@ -67,35 +72,42 @@ def parse_times(text: str | None) -> tuple[float, ...] | None:
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
-              help="Folder for observables.csv and field.vtu (final field, full model).")
+              help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
 @click.option("--fields", "field_times", default=None, metavar="T1,T2,...",
               help="With --model reduced and --out: the reconstructed temperature fields at these times (s) as "
-                   "field_0000.vtu, ... and field.pvd (ParaView).")
+                   "field_0000.vtu, ... and field.pvd (ParaView; scipy engine).")
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True)
-@SOLVER
+@engine_cli.SOLVER
+@engine_cli.ENGINE
+@REFINE
 @JSON
 def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field_times: str | None, scheme: str,
-                 solver: str, as_json: bool) -> None:
+                 solver: str, engine: str, refine: int, as_json: bool) -> None:
     """Simulate SCENE: face-mean and sensor temperatures over time (or at steady state)."""
     times = parse_times(field_times)
-    if times is not None and (model != "reduced" or out is None):
-        raise click.UsageError("--fields needs --model reduced and --out DIR (the full model writes its final field "
-                               "to DIR/field.vtu)")
-    sc = load_scene(scene)
-    system = assemble(sc)
-    written: list[Path] = []
+    if times is not None and (model != "reduced" or out is None or engine != "scipy"):
+        raise click.UsageError("--fields needs --model reduced, --out DIR and the scipy engine (the full model "
+                               "writes its final field to DIR/field.vtu)")
+    solver = engine_cli.resolve(engine, solver)
+    sc = engine_cli.load(scene, engine, refine)
+    system = assemble(sc) if engine == "scipy" else None
+    progress = sys.stderr.isatty() and is_root(engine)
+    series: list[Path] = []
     if model == "reduced":
         from aromm.reduction import reduce
 
-        rom = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
-                     progress=sys.stderr.isatty(), fields=times is not None)
+        rom = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
+                     reference_values=sc.reduction.reference, progress=progress, engine=engine,
+                     solver=solver, fields=times is not None)
         obs = rom.simulate()
-        if times is not None and out is not None and system.geometry is not None:
-            written += write_series(out, system.geometry, rom.iter_fields(None, times))
+        if times is not None and out is not None and system is not None and system.geometry is not None:
+            series = write_series(out, system.geometry, rom.iter_fields(None, times))
     else:
-        obs = simulate_full(system, fields=out is not None, method=solver, scheme=scheme,  # type: ignore[arg-type]
-                            progress=sys.stderr.isatty())
-    written = (_save(obs, system, out) if out is not None else []) + written
+        obs = simulate_full(system if system is not None else sc, fields=out is not None and system is not None,
+                            method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
+    if not is_root(engine):
+        return
+    written = (_save(obs, system, out) if out is not None else []) + series
     if as_json:
         echo_json(obs.to_json())
     else:
@@ -106,18 +118,53 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
 
 @click.command("homogenize")
 @SCENE
-@click.option("--boundary", type=click.Choice(BOUNDARIES), default="flux", show_default=True,
-              help="flux: [Chavez2020, eq. 13] (flux in, fixed T out); temperature: fixed T on both faces.")
-@SOLVER
+@click.option("--boundary", type=click.Choice(BOUNDARIES), default=None,
+              help="periodic (default for images): full tensor, converges to the effective property; flux: "
+                   "[Chavez2020, eq. 13] (flux in, fixed T out; lower-bound type; default for mesh scenes and the "
+                   "petsc engine); temperature: fixed T on both faces (mixed, exact on laminates).")
+@engine_cli.SOLVER
+@click.option("--rtol", type=click.FloatRange(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
+              show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach (scipy engine).")
+@engine_cli.ENGINE
+@REFINE
 @JSON
-def homogenize_cmd(scene: Path, boundary: str, solver: str, as_json: bool) -> None:
-    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material."""
-    sc = load_scene(scene)
-    k = homogenize(sc, boundary=boundary, method=solver)
-    c = mean_capacity(sc) if all(ph.c is not None for ph in sc.phases) else None
-    if as_json:
-        echo_json({"k": k, "c": c})
+def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, engine: str, refine: int,
+                   as_json: bool) -> None:
+    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material.
+
+    Solvers: mg (geometric multigrid CG, matrix-free, ~200 B/voxel; the default above 20³ voxels), cholmod and
+    splu (direct), amg (pyamg + CG); with the petsc engine gamg or mumps.
+    """
+    solver = engine_cli.resolve(engine, solver)
+    direct = solver in ("cholmod", "splu")
+    sc = engine_cli.load(scene, engine, refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
+    capacities = all(ph.c is not None for ph in sc.phases)
+    image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
+    if engine == "petsc":
+        from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
+
+        boundary = boundary or "flux"
+        result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
+        c = mean_capacity_petsc(sc) if capacities else None
+    elif image is None:
+        boundary = boundary or "flux"
+        result = CellResult(homogenize(sc, boundary=boundary, method=solver), boundary, solver)
+        c = mean_capacity(sc) if capacities else None
+    else:
+        boundary = boundary or "periodic"
+        result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
+        c = mean_capacity(sc) if capacities else None
+    if not is_root(engine):
         return
+    k = result.k
+    shape = list(image.shape) if image is not None else None
+    if as_json:
+        echo_json({"k": k, "c": c, "boundary": boundary, "solver": result.method, "iterations": result.iterations,
+                   "cpu_seconds": result.cpu_seconds, "shape": shape})
+        return
+    click.echo(f"{boundary} boundary, solver {result.method}"
+               + (f", {'×'.join(map(str, shape))} voxels" if shape else ", mesh")
+               + (f", CG iterations {result.iterations}" if result.method == "mg" else ""))
     click.echo("k̄ (W/(m K)):")
     for row in k:
         click.echo("  " + "  ".join(f"{v:12.6g}" for v in row))

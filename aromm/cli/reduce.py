@@ -8,11 +8,12 @@ from pathlib import Path
 import click
 
 from aromm.cache import NpzCache
-from aromm.cli.common import echo_json
-from aromm.linalg import METHODS
+from aromm.cli import engine as engine_cli
+from aromm.cli.common import REFINE, echo_json
+from aromm.engines import is_root
 from aromm.reduction import METHODS as REDUCTIONS
 from aromm.reduction import reduce
-from aromm.scene import assemble, load_scene
+from aromm.scene import assemble
 
 
 @click.command("reduce")
@@ -25,22 +26,29 @@ from aromm.scene import assemble, load_scene
               help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
               help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
-@click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
-              help="Sparse factorisation used by the eigensolvers.")
+@engine_cli.SOLVER
+@engine_cli.ENGINE
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
               help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")
+@REFINE
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
-               cache_dir: Path | None, no_cache: bool, as_json: bool) -> None:
-    """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant)."""
-    sc = load_scene(scene)
-    system = assemble(sc)
-    refs = [assemble(load_scene(path)) for path in references]
+               engine: str, cache_dir: Path | None, no_cache: bool, refine: int, as_json: bool) -> None:
+    """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant).
+
+    With --engine petsc run it under `mpiexec -n P`: every rank assembles its z-slab of the image."""
+    solver = engine_cli.resolve(engine, solver)
+    sc, *refs = [engine_cli.load(path, engine, refine) for path in (scene, *references)]
+    system = assemble(sc) if engine == "scipy" else sc
+    if engine == "scipy":
+        refs = [assemble(r) for r in refs]
     cache = False if no_cache else NpzCache(cache_dir)
     rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
                  basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
-                 progress=sys.stderr.isatty())
+                 progress=sys.stderr.isatty() and is_root(engine), engine=engine)
+    if not is_root(engine):
+        return
     info = dict(rom.info)
     info["cache_dir"] = "" if no_cache else str(NpzCache(cache_dir).directory)
     if as_json:

@@ -47,6 +47,9 @@ class _Explicit:
 def _prepare(system: ThermalSystem, values: Mapping[str, float] | None) -> _Explicit:
     if system.is_steady:
         raise InputError("explicit integration needs a transient system (with a capacity term)")
+    if system.load.timed or any(d.time is not None for d in system.dirichlet) or system.initial:
+        raise InputError("explicit integration takes constant loads and fixed temperatures only "
+                         "(use aromm.solve.transient for histories)")
     v = system.values(values)
     n = system.n
     fixed_values = np.full(n, np.nan)

@@ -1,0 +1,68 @@
+"""Computational engines behind the public API: ``"scipy"`` (one process, today's path) or ``"petsc"``.
+
+``engine="petsc"`` (``--engine petsc`` on the command line) runs the assembly, the eigenbases and the
+steady solves on PETSc/SLEPc under MPI (``mpiexec -n P``): each rank holds a z-slab of the voxel image
+and its rows of the operators (aromm.engines.petsc).  The petsc engine is an optional extra: nothing
+here imports petsc4py; :func:`check_engine` refuses ``"petsc"`` with the install routes when it is absent.
+"""
+
+from __future__ import annotations
+
+import glob
+import importlib.util
+import os
+
+from aromm.errors import InputError
+
+ENGINES = ("scipy", "petsc")
+
+#: What to do when petsc4py is missing (README "Running on a cluster").
+INSTALL_HINT = (
+    "the petsc engine needs petsc4py, slepc4py and mpi4py: on Debian 12 `apt-get install python3-petsc4py "
+    "python3-slepc4py python3-mpi4py`, a venv made with `/usr/bin/python3 -m venv --system-site-packages`, "
+    "`pip install \"numpy<2\" -e .`, and PETSC_DIR/SLEPC_DIR set (README, 'Running on a cluster'); on a "
+    "cluster load the site's PETSc/SLEPc modules or `pip install petsc4py slepc4py` built from source"
+)
+
+#: Debian installs petsc4py/slepc4py under these directories and finds them through PETSC_DIR/SLEPC_DIR.
+DEBIAN_PETSC_DIRS = "/usr/lib/petscdir/petsc3.*/*-real"
+DEBIAN_SLEPC_DIRS = "/usr/lib/slepcdir/slepc3.*/*-real"
+
+
+def petsc_available() -> bool:
+    """True when petsc4py, slepc4py and mpi4py can be imported (nothing is imported here)."""
+    return all(importlib.util.find_spec(name) is not None for name in ("petsc4py", "slepc4py", "mpi4py"))
+
+
+def check_engine(engine: str) -> str:
+    """``engine`` when known and usable, else :class:`InputError` naming the allowed engines or the install."""
+    if engine not in ENGINES:
+        raise InputError(f"unknown engine {engine!r}; allowed: {', '.join(ENGINES)}")
+    if engine == "petsc" and not petsc_available():
+        hint = ""
+        petsc, slepc = sorted(glob.glob(DEBIAN_PETSC_DIRS)), sorted(glob.glob(DEBIAN_SLEPC_DIRS))
+        if petsc and slepc and not os.environ.get("PETSC_DIR"):
+            hint = f" (Debian's packages are installed: export PETSC_DIR={petsc[-1]} SLEPC_DIR={slepc[-1]})"
+        raise InputError(f"engine 'petsc' is not available{hint}; {INSTALL_HINT}")
+    return engine
+
+
+#: Linear solvers of the petsc engine (aromm.engines.petsc.linear); "auto" means "gamg".
+PETSC_SOLVERS = ("gamg", "mumps")
+
+
+def check_solver(engine: str, solver: str, scipy_solvers: tuple[str, ...]) -> str:
+    """``solver`` when it belongs to ``engine`` (``scipy_solvers`` for scipy, :data:`PETSC_SOLVERS` for petsc)."""
+    allowed = ("auto", *PETSC_SOLVERS) if engine == "petsc" else scipy_solvers
+    if solver not in allowed:
+        raise InputError(f"solver {solver!r} does not belong to engine {engine!r}; allowed: {', '.join(allowed)}")
+    return solver
+
+
+def is_root(engine: str) -> bool:
+    """True on the process that prints and writes: the only one for scipy, rank 0 for petsc."""
+    if engine != "petsc":
+        return True
+    from aromm.engines.petsc import runtime
+
+    return runtime.is_root(runtime.world())

@@ -1,0 +1,120 @@
+"""The detailed modal basis on the petsc engine: constants + Steklov + Dirichlet modes + correction modes.
+
+Same definitions as :func:`aromm.modes.compute_basis` and :func:`aromm.modes.with_corrections` ([Chavez2020,
+§ 3.1] and the static / first-order dynamic corrections of the loads), with the operators held by PETSc and
+the vectors distributed by rows.  The small dense algebra (Gram matrices, orthonormalisation, the
+enrichment) is aromm.modes' own (:func:`aromm.modes.enrich`, :func:`aromm.modes.check_gram`) with the
+capacity product summed over the ranks.  The returned :class:`~aromm.modes.ModalBasis` holds this rank's
+rows in ``vectors``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+
+import numpy as np
+import scipy.linalg as sla
+
+from aromm.engines.petsc import convert, linear, runtime
+from aromm.engines.petsc.assembly import DistributedSystem
+from aromm.engines.petsc.eigen import Reference, dirichlet_modes, steklov_modes
+from aromm.errors import InputError
+from aromm.modes import ModalBasis, check_gram, enrich, reference_operators, zero_modes
+from aromm.system import FloatArray
+
+#: Relative residual of the correction solves K(s) x = U_j.
+CORRECTION_RTOL = 1e-12
+
+
+def reference(system: DistributedSystem, values: Mapping[str, float] | None = None) -> tuple[Reference, FloatArray]:
+    """Distributed K0, C0, B and ζ at the reference values (aromm.modes.reference_operators), and the
+    capacity-normalised constant modes (this rank's rows)."""
+    template = system.template
+    ops = reference_operators(template, values)  # the same checks and reference values as the serial path
+    conduction = set(template.conductance.with_role("conduction").names)
+    k_terms = tuple(t for t in system.conductance if t.name in conduction)
+    if any(float(t.coefficient(ops.values)) <= 0 for t in k_terms):
+        raise InputError("the modal bases need positive reference conductivities; got "
+                         f"{ {t.name: float(t.coefficient(ops.values)) for t in k_terms} }")
+    if system.boundary is None:
+        raise InputError("the system has no boundary (no exchange term, no face load): Steklov modes need one")
+    k0 = system.combine(k_terms, ops.values)
+    c0 = system.combine(system.capacity, ops.values)
+    rows, comm = system.rows, system.comm
+    ones = np.ones(rows.local)
+    heat, area = runtime.allsum([convert.apply(c0, ones, rows, comm).sum(),
+                                 convert.apply(system.boundary, ones, rows, comm).sum()], comm)
+    if not (heat > 0 and area > 0):
+        raise InputError("reference capacity and boundary area must be positive to build the bases")
+    ref = Reference(k0, c0, system.boundary, float(heat / area), rows, comm)
+    # the whole system known to every rank: its connected components; a voxel image with every conductivity
+    # positive is one connected body
+    constants = (zero_modes(ops)[rows.lo:rows.hi] if system.complete
+                 else np.full((rows.local, 1), 1.0 / np.sqrt(heat)))
+    return ref, constants
+
+
+def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
+                  values: Mapping[str, float] | None = None, solver: str = "gamg") -> ModalBasis:
+    """Constants + ``n_steklov`` Steklov (counting the constants) + ``n_dirichlet`` Dirichlet modes."""
+    if n_dirichlet < 0 or n_steklov < 1:
+        raise InputError(f"mode counts must be n_dirichlet >= 0 and n_steklov >= 1, got {n_dirichlet}, {n_steklov}")
+    start = time.perf_counter()
+    ref, z = reference(system, values)
+    lam_s, v_s = steklov_modes(ref, n_steklov - z.shape[1], z.shape[1], solver)
+    t_s = time.perf_counter() - start
+    lam_d, v_d = dirichlet_modes(ref, n_dirichlet, solver)
+    vectors = np.column_stack([z, v_s, v_d])
+    eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
+    kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
+    gram = convert.gram(vectors, convert.apply(ref.capacity, vectors, ref.rows, ref.comm), ref.comm)
+    cond = check_gram(gram)
+    return ModalBasis(vectors, eigenvalues, kinds, ref.zeta, gram,
+                      {"seconds": time.perf_counter() - start, "steklov_seconds": t_s, "cached": 0.0,
+                       "gram_condition": cond})
+
+
+def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list[dict[str, float]],
+                     values: Mapping[str, float] | None = None, solver: str = "gamg") -> ModalBasis:
+    """The basis enriched with the static and first-order dynamic correction modes of the loads at each
+    parameter sample (aromm.modes.with_corrections), solved by PETSc."""
+    template = system.template
+    if not template.load.terms:
+        return basis
+    ref, _ = reference(system, values)
+    rows, comm = system.rows, system.comm
+    exchange = bool(template.conductance.with_role("exchange"))
+    cols = []
+    for sample in samples:
+        v = template.values({k: val for k, val in sample.items() if k in template.parameter_names})
+        k_mat = system.combine(system.conductance, v)
+        if not exchange:  # K singular: shift by a tiny multiple of the capacity, as the serial path does
+            c_mat = system.combine(system.capacity, v)
+            trace = runtime.allsum([convert.array(k_mat.getDiagonal()).sum(),
+                                    convert.array(c_mat.getDiagonal()).sum()], comm)
+            k_mat.axpy(1e-8 * trace[0] / trace[1], c_mat,
+                       structure=runtime.petsc().Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        ksp = linear.krylov(k_mat, solver, CORRECTION_RTOL, "aromm_correction_")
+        for t in system.load:
+            x = k_mat.createVecRight()
+            x.set(0.0)
+            linear.solve(ksp, t.operator, x, "correction modes", CORRECTION_RTOL)
+            cols.append(convert.array(x))
+            for c in system.capacity:
+                rhs = c.operator.createVecLeft()
+                c.operator.mult(x, rhs)
+                y = k_mat.createVecRight()
+                y.set(0.0)
+                linear.solve(ksp, rhs, y, "correction modes", CORRECTION_RTOL)
+                cols.append(convert.array(y))
+        ksp.destroy()  # one multigrid hierarchy (or factorisation) alive at a time (peak memory)
+        k_mat.destroy()
+    capacity = ref.capacity
+    extra, coefficients = enrich(np.column_stack(cols), basis,
+                                 lambda a, b: convert.gram(a, convert.apply(capacity, b, rows, comm), comm))
+    return ModalBasis(np.column_stack([basis.vectors, extra]),
+                      np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
+                      np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
+                      basis.zeta, sla.block_diag(basis.gram, np.eye(extra.shape[1])),
+                      {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)

@@ -1,0 +1,90 @@
+"""PETSc linear solvers for symmetric positive-definite voxel systems, with checked residuals.
+
+Two choices (the knob ``solver``), both usable as the inner solver of SLEPc's shift-and-invert:
+
+* ``"gamg"`` (default): conjugate gradients preconditioned by PETSc's algebraic multigrid GAMG; memory
+  O(unknowns), cost ≈ O(N^1.1–1.3) (docs/notes/solver_facts.md); converged to ``rtol`` on the
+  preconditioned residual, then the true relative residual ``||b − A x|| / ||b||`` is checked.
+* ``"mumps"``: Cholesky factorisation by MUMPS (parallel direct, exact to round-off, memory ≈ N^1.3).
+
+PETSc options with the prefix of each solver (``-aromm_steady_ksp_rtol 1e-8`` ...) override these choices
+for the expert; failures raise :class:`~aromm.errors.NumericalError` naming the solver and why.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from aromm.engines.petsc import runtime
+from aromm.errors import InputError, NumericalError
+
+SOLVERS = ("gamg", "mumps")
+#: Relative residual of the steady solves (face means to ~1e-9 of the temperature scale on the test cases).
+STEADY_RTOL = 1e-11
+#: Largest number of CG iterations before a solve is declared failed.
+MAX_ITERATIONS = 5000
+
+
+def check_solver(solver: str) -> str:
+    """``solver`` when it is one of :data:`SOLVERS`; ``"auto"`` means ``"gamg"``."""
+    if solver == "auto":
+        return "gamg"
+    if solver not in SOLVERS:
+        raise InputError(f"unknown PETSc solver {solver!r}; allowed with the petsc engine: auto, "
+                         f"{', '.join(SOLVERS)}")
+    return solver
+
+
+def configure(ksp: Any, solver: str, rtol: float) -> None:
+    """Set ``ksp`` (whose operators are set) to CG + GAMG at ``rtol`` or to a MUMPS Cholesky solve."""
+    PETSc = runtime.petsc()
+    pc = ksp.getPC()
+    if check_solver(solver) == "mumps":
+        ksp.setType(PETSc.KSP.Type.PREONLY)
+        pc.setType(PETSc.PC.Type.CHOLESKY)
+        pc.setFactorSolverType("mumps")
+    else:
+        ksp.setType(PETSc.KSP.Type.CG)
+        pc.setType(PETSc.PC.Type.GAMG)
+        ksp.setTolerances(rtol=rtol, atol=0.0, max_it=MAX_ITERATIONS)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+
+
+def krylov(mat: Any, solver: str, rtol: float, prefix: str) -> Any:
+    """A KSP for ``mat`` configured by :func:`configure`; PETSc options with ``prefix`` override it."""
+    PETSc = runtime.petsc()
+    ksp = PETSc.KSP().create(comm=mat.getComm())
+    ksp.setOperators(mat)
+    ksp.setOptionsPrefix(prefix)
+    configure(ksp, solver, rtol)
+    ksp.setFromOptions()
+    return ksp
+
+
+def solve(ksp: Any, b: Any, x: Any, label: str, rtol: float) -> int:
+    """Solve ``A x = b`` (``x`` holds the initial guess); check convergence and the true residual.
+
+    Returns the number of iterations."""
+    try:
+        ksp.solve(b, x)
+    except runtime.petsc().Error as err:
+        raise NumericalError(f"PETSc {ksp.getType()}/{ksp.getPC().getType()} ({label}) failed: {err}") from None
+    reason = int(ksp.getConvergedReason())
+    iterations = int(ksp.getIterationNumber())
+    if reason < 0:
+        raise NumericalError(f"PETSc {ksp.getType()}/{ksp.getPC().getType()} ({label}) diverged (reason {reason}) "
+                             f"after {iterations} iterations: is part of the body insulated from every fixed "
+                             "temperature or exchange?")
+    mat = ksp.getOperators()[0]
+    residual = b.duplicate()
+    mat.mult(x, residual)
+    residual.aypx(-1.0, b)
+    norm_b = max(float(b.norm()), 1e-300)
+    relative = float(residual.norm()) / norm_b
+    if not np.isfinite(relative) or relative > max(100.0 * rtol, 1e-8):
+        raise NumericalError(f"PETSc {ksp.getType()}/{ksp.getPC().getType()} ({label}): relative residual "
+                             f"{relative:.1e} exceeds {max(100.0 * rtol, 1e-8):.0e} (singular or badly "
+                             "conditioned system)")
+    return iterations

@@ -1,0 +1,116 @@
+"""A voxel scene whose image every rank reads slab by slab (memory-mapped .npy, TIFF pages, raw bytes).
+
+:func:`load_problem` parses and validates the scene file as :func:`aromm.load_scene` does, but instead of
+the whole image each rank opens the file's header (:class:`aromm.microstructure.slabs.ImageSlabs`), reads
+its own layers to find the labels present (their union over the ranks checks the phases), and keeps the
+file open for the assembly.  :meth:`VoxelProblem.from_scene` wraps a scene already in memory.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aromm.engines.petsc import runtime
+from aromm.engines.petsc.layout import SlabLayout
+from aromm.errors import InputError
+from aromm.fem.voxel import assemble_voxels
+from aromm.geometry import VoxelGeometry
+from aromm.microstructure.slabs import ImageSlabs
+from aromm.scene import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
+from aromm.system import ThermalSystem, TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
+
+#: Named sensors ([outputs.<name>], aromm.sensors) are observation rows of the serial assembly only.
+SENSORS_REFUSED = "sensors are assembled by the scipy engine only; use --engine scipy (or mean_T outputs)"
+
+
+@dataclass(frozen=True)
+class VoxelProblem:
+    """What the distributed assembler needs: the image by slabs, phases, faces, time grid and outputs."""
+
+    image: ImageSlabs
+    voxel_size: tuple[float, float, float]
+    phases: tuple[PhaseSpec, ...]
+    boundary: tuple[FaceSpec, ...]
+    initial_T: float
+    time: TimeGrid | None
+    outputs: tuple[str, ...]
+    present: tuple[int, ...]  # labels present in the whole image
+    where: str = "scene: "
+    reduction: ReductionSettings = field(default_factory=ReductionSettings)  # the scene's [reduction] values
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return self.image.shape
+
+    @property
+    def size(self) -> tuple[float, float, float]:
+        """Edge lengths of the box (m)."""
+        return (self.shape[0] * self.voxel_size[0], self.shape[1] * self.voxel_size[1],
+                self.shape[2] * self.voxel_size[2])
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        return dict(self.template().parameters)
+
+    def layout(self, comm: Any) -> SlabLayout:
+        return SlabLayout.split(self.shape, runtime.size(comm), runtime.rank(comm))
+
+    def template(self) -> ThermalSystem:
+        """The serial system of a stand-in image holding each present label once: the same terms (names,
+        coefficients, order), parameters, Dirichlet faces and outputs as the whole image's system."""
+        stand_in = np.asarray(self.present, dtype=np.int32).reshape(-1, 1, 1)
+        return assemble_voxels(stand_in, self.voxel_size, self.phases, self.boundary, time=self.time,
+                               initial_T=self.initial_T, outputs=self.outputs)
+
+    def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
+                      time: TimeGrid | None = None) -> VoxelProblem:
+        """The same material under other face conditions (homogenisation probes)."""
+        return replace(self, boundary=boundary, outputs=outputs, time=time)
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> VoxelProblem:
+        geometry = scene.geometry
+        if not isinstance(geometry, VoxelGeometry):
+            raise InputError(f"{scene.where}the petsc engine assembles voxel images by z-slabs; for a mesh scene "
+                             "assemble it (aromm.assemble) and pass the ThermalSystem, which is distributed by rows")
+        if scene.interfaces:
+            raise InputError(f"{scene.where}[interfaces]: contact resistance needs a conforming mesh")
+        if scene.sensors:
+            raise InputError(f"{scene.where}outputs.{scene.sensors[0].name}: {SENSORS_REFUSED}")
+        present = tuple(sorted(geometry.present()))
+        return cls(ImageSlabs.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
+                   geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs,
+                   present, scene.where, scene.reduction)
+
+
+def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
+    """Read a scene file for the petsc engine: the image by slabs when it is a file (collective)."""
+    path = Path(path)
+    data = read_toml(path)
+    geo = data.get("geometry")
+    outputs = data.get("outputs")
+    named = [k for k in outputs if k != "mean_T"] if isinstance(outputs, dict) else []
+    if named:  # checked before the stand-in image, whose box is not the body's
+        raise InputError(f"{path}: outputs.{named[0]}: {SENSORS_REFUSED}")
+    if not isinstance(geo, dict) or "image" not in geo or "generator" in geo:
+        return VoxelProblem.from_scene(load_scene(path))  # generated images are made whole on every rank
+    file = Path(str(geo["image"]))
+    if not file.is_absolute():
+        file = path.parent / file
+    if not file.exists():
+        raise InputError(f"{path}: geometry.image: file not found: {file}")
+    shape = geo.get("shape")
+    image = ImageSlabs.open(file, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
+    layout = SlabLayout.split(image.shape, runtime.size(comm), runtime.rank(comm))
+    present = sorted(runtime.union(image.labels_present(layout.k0, layout.k1), comm))
+    stand_in = np.asarray(present, dtype=np.int32).reshape(-1, 1, 1)
+    scene = scene_from_dict(data, path, image=(stand_in, image.voxel_size))
+    geometry = scene.geometry
+    assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
+    return VoxelProblem(image, geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,
+                        scene.outputs, tuple(present), scene.where, scene.reduction)

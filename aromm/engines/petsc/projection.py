@@ -1,0 +1,60 @@
+"""Galerkin projection of a distributed ThermalSystem onto a distributed basis [Chavez2020, eq. 10].
+
+Every term keeps its name and coefficient and gets ``Ψᵀ C_j Ψ``, ``Ψᵀ K_j Ψ`` (r × r) or ``Ψᵀ F_j`` (r): each
+rank multiplies its rows (one MatMatMult per term) and the small products are summed over the ranks, so
+every rank ends with the same :class:`~aromm.rom.ReducedModel`, built by its public constructor (a projected
+ThermalSystem and the initial-state terms) exactly as :meth:`ReducedModel.from_system` builds it in one process.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aromm.engines.petsc import convert
+from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm
+from aromm.errors import InputError
+from aromm.rom import ReducedModel
+from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem
+
+
+def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatArray] | None = None) -> ReducedModel:
+    """The reduced model of ``system`` on the columns of ``basis`` (this rank's rows, n_local × r).
+
+    ``memo`` (id of a PETSc operator → projection) shares work between systems with common terms.
+    """
+    template = system.template
+    if template.dirichlet:
+        fixed = ", ".join(d.param for d in template.dirichlet)
+        raise InputError(f"fixed temperatures ({fixed}) are not supported by the reduced model (natural boundary "
+                         "conditions only); replace them by convection with a large h (penalty)")
+    if system.is_steady:
+        raise InputError("the reduced model needs a transient system (a [time] section and capacities c)")
+    memo = {} if memo is None else memo
+    rows, comm = system.rows, system.comm
+
+    def projected(terms: tuple[DistributedTerm, ...], vector: bool) -> Affine:
+        out = []
+        for t in terms:
+            key = id(t.operator)
+            if key not in memo:
+                image = convert.array(t.operator) if vector else convert.apply(t.operator, basis, rows, comm)
+                memo[key] = convert.gram(basis, image, comm)
+            out.append(Term(t.name, t.coefficient, memo[key], t.role))
+        return Affine(tuple(out))
+
+    ones = np.ones(rows.local)
+    initial = Affine(tuple(
+        Term(t.name, Coefficient((*t.coefficient.params, "initial.T"), scale=t.coefficient.scale),
+             convert.gram(basis, convert.apply(t.operator, ones, rows, comm), comm), "capacity")
+        for t in system.capacity))
+    observation = {k: convert.gram(convert.array(v)[:, None], basis, comm)[0] for k, v in system.observation.items()}
+    reduced = ThermalSystem(
+        n=basis.shape[1],
+        conductance=projected(system.conductance, False),
+        capacity=projected(system.capacity, False),
+        load=projected(system.load, True),
+        observation=observation,
+        parameters={k: float(v) for k, v in template.parameters.items()},
+        time=template.time,
+    )
+    return ReducedModel(reduced, initial)

@@ -1,0 +1,1 @@
+"""Exports of aromm objects to other libraries (each imported lazily: aromm never needs them)."""

@@ -1,0 +1,1 @@
+"""Geometric multigrid for the steady voxel conduction problem: matrix-free fine level, Galerkin coarse levels."""

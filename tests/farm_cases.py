@@ -1,0 +1,22 @@
+"""Repeated identifications shared by tests/test_farm.py and its MPI worker: a 4³ full model, 3 noisy copies."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aromm.solve import FullModel
+from inverse.farm import Farm
+from inverse.measurements import simulate_measurements
+from studies.chavez2020 import noisy_repetitions
+
+TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
+
+
+def estimates(farm: Farm) -> np.ndarray:
+    """(reps, 2) estimates of k_F, c_F from noisy twin data, PSO 4 × 2 + refinement, through ``farm``."""
+    from inverse_cases import scenario_system
+
+    model = FullModel(scenario_system("z", n=4, end=20.0, dt=2.0))
+    exact = simulate_measurements(model, TRUTH, model.default_times)
+    runs = noisy_repetitions(model, exact, TRUTH, reps=3, noise=0.01, particles=4, iterations=2, farm=farm)
+    return np.array([[r.result.estimates[k] for k in TRUTH] for r in runs])

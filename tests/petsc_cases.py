@@ -1,0 +1,99 @@
+"""Cases of the petsc-engine tests, computed the same way at 1 rank (in the pytest process) and at 2 ranks
+(``mpiexec -n 2 python tests/petsc_worker.py OUT.npz``): small random two-phase images, no symmetry (so
+no degenerate eigenvalues), contrast 12 in k and 3300 in c."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+import aromm
+from aromm.geometry import VoxelGeometry
+from aromm.modes import reference_operators, zero_modes
+from aromm.scene import Scene, assemble
+from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
+
+PHASES = (PhaseSpec("fibre", 1, 0.3, 4.0e6), PhaseSpec("gas", 0, 0.025, 1.2e3))
+SCENARIO = (FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0, T_ext=0.0))
+#: Parameters at which the reduced and the full models are compared (away from the reference values).
+PROBE = {"fibre.k": 0.5, "fibre.c": 3.0e6}
+#: Dirichlet and Steklov modes (the latter counting the constant) of the eigenvalue comparison.
+N_DIRICHLET, N_STEKLOV = 12, 12
+
+
+def labels(shape: tuple[int, int, int], seed: int) -> np.ndarray:
+    return (np.random.default_rng(seed).random(shape) < 0.4).astype(np.int32)
+
+
+def basis_scene() -> Scene:
+    """9×10×11 voxels (1320 nodes): the eigenvalue comparison with ARPACK (scipy's eigsh, called directly)."""
+    return Scene(VoxelGeometry(labels((9, 10, 11), 3), (1e-4, 1e-4, 1e-4)), PHASES, SCENARIO, 0.0, TimeGrid(2.0, 0.1),
+                 ("z0", "z1"))
+
+
+def reduce_scene() -> Scene:
+    return Scene(VoxelGeometry(labels((6, 7, 8), 3), (1e-4, 1e-4, 1e-4)), PHASES, SCENARIO, 0.0, TimeGrid(2.0, 0.2),
+                 ("z0", "z1"))
+
+
+def steady_scene() -> Scene:
+    """Steady, one fixed-temperature face (Dirichlet elimination) and convection: the full-model solves."""
+    return Scene(VoxelGeometry(labels((7, 6, 8), 4), (1e-4, 1.2e-4, 0.9e-4)), PHASES,
+                 (FaceSpec("z0", flux=500.0), FaceSpec("x1", T=3.0), FaceSpec("z1", h=20.0, T_ext=1.0)), 1.0, None,
+                 ("z0", "z1", "x1"))
+
+
+def results(comm: Any) -> dict[str, np.ndarray]:
+    """Everything the tests compare, computed by the petsc engine on ``comm`` (collective)."""
+    from aromm.engines.petsc.basis import compute_basis
+    from aromm.engines.petsc.reduction import distributed
+
+    out: dict[str, np.ndarray] = {}
+    system = distributed(basis_scene(), comm)
+    for solver in ("mumps", "gamg"):
+        basis = compute_basis(system, N_DIRICHLET, N_STEKLOV, solver=solver)
+        out[f"dirichlet_{solver}"] = basis.eigenvalues[basis.kinds == "dirichlet"]
+        out[f"steklov_{solver}"] = basis.eigenvalues[basis.kinds == "steklov"]
+    for corrections in (True, False):
+        rom = aromm.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False, engine="petsc",
+                           solver="mumps")
+        out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
+    transient = aromm.simulate(reduce_scene(), PROBE, engine="petsc", method="mumps")
+    out["transient"] = transient.as_array()
+    out["steady"] = aromm.simulate(steady_scene(), {"fibre.k": 0.5}, engine="petsc").as_array()
+    scene = steady_scene()
+    out["k_flux"] = aromm.homogenize(scene, engine="petsc")
+    out["k_temperature"] = aromm.homogenize(scene, "temperature", method="mumps", engine="petsc")
+    return out
+
+
+def arpack() -> dict[str, np.ndarray]:
+    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.modes' problems."""
+    ops = reference_operators(assemble(basis_scene()))
+    inner = ops.interior
+    k_ii = sp.csc_array(ops.stiffness[inner][:, inner])
+    c_ii = sp.csc_array(ops.capacity[inner][:, inner])
+    dirichlet = np.sort(spla.eigsh(k_ii, k=N_DIRICHLET, M=c_ii, sigma=0.0, which="LM")[0])
+    b = sp.csc_array(ops.zeta * ops.boundary)
+    n_zero = zero_modes(ops).shape[1]
+    on_gamma = b.diagonal() > 0
+    top = float(np.max(ops.stiffness.diagonal()[on_gamma] / b.diagonal()[on_gamma]))
+    lam = np.sort(spla.eigsh(sp.csc_array(ops.stiffness), k=N_STEKLOV, M=b, sigma=-1e-6 * top, which="LM")[0])
+    return {"dirichlet": dirichlet, "steklov": lam[n_zero:]}
+
+
+def serial() -> dict[str, np.ndarray]:
+    """The keys of :func:`results` that the serial (scipy) engine computes, by the serial engine."""
+    out = {}
+    for corrections in (True, False):
+        rom = aromm.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False)
+        out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
+    out["transient"] = aromm.simulate(assemble(reduce_scene()), PROBE).as_array()
+    out["steady"] = aromm.simulate(assemble(steady_scene()), {"fibre.k": 0.5}).as_array()
+    out["k_flux"] = aromm.homogenize(steady_scene())
+    out["k_temperature"] = aromm.homogenize(steady_scene(), "temperature")
+    return out

@@ -1,0 +1,52 @@
+"""``factorize(method="mg")``: geometric multigrid on assembled voxel systems, against CHOLMOD."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from aromm.errors import InputError
+from aromm.fem import assemble_voxels
+from aromm.linalg import factorize
+from aromm.solve import _partition, _points, _split, steady_field
+from aromm.system import TimeGrid
+from aromm.vocabulary import FaceSpec, PhaseSpec
+
+RTOL = 1e-10
+
+
+def _system(shape: tuple[int, int, int], contrast: float = 12.0):  # type: ignore[no-untyped-def]
+    labels = (np.random.default_rng(2).random(shape) < 0.4).astype(int)
+    phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, (0.3, 0.025 * contrast, 0.2), 4e6)]
+    faces = [FaceSpec("z0", flux=100.0), FaceSpec("z1", h=20.0), FaceSpec("x0", T=1.0)]
+    return assemble_voxels(labels, (1e-3, 1e-3, 2e-3), phases, faces, time=TimeGrid(10.0, 1.0))
+
+
+@pytest.mark.parametrize("contrast", [12.0, 1e4])
+def test_mg_steady_field_equals_cholmod(contrast: float) -> None:
+    """Fixed temperatures eliminated, convection and orthotropic phases: the same field to the tolerance."""
+    system = _system((18, 13, 21), contrast)
+    direct = steady_field(system, method="cholmod")
+    mg = steady_field(system, method="mg")
+    np.testing.assert_allclose(mg, direct, rtol=1e-6, atol=1e-6 * np.abs(direct).max())
+
+
+def test_mg_time_step_matrix_and_several_right_hand_sides() -> None:
+    system = _system((9, 10, 11))
+    v = system.values()
+    part = _partition(system, v)
+    c_ff, _ = _split(sp.csr_array(system.capacity.evaluate(v)), part)
+    k_ff, _ = _split(sp.csr_array(system.conductance.evaluate(v)), part)
+    a = c_ff / 0.5 + k_ff
+    b = np.random.default_rng(0).standard_normal((a.shape[0], 2))
+    x = factorize(a, "mg", rtol=RTOL, points=_points(system, part)).solve(b)
+    np.testing.assert_allclose(a @ x, b, atol=RTOL * np.linalg.norm(b, axis=0).max() * 10)
+
+
+def test_mg_needs_a_voxel_grid() -> None:
+    a = sp.csr_array(sp.eye(8) * 2.0)
+    with pytest.raises(InputError, match="coordinates"):
+        factorize(a, "mg")
+    with pytest.raises(InputError, match="grid"):
+        factorize(a, "mg", points=np.zeros((8, 3)))
