@@ -105,6 +105,7 @@ def lift(system: ThermalSystem, values: Mapping[str, float] | None = None, metho
     loads = _restricted(system.load, free)
     initial = _restricted(system.initial, free)
     names, e = system.observation_matrix()
+    e_free = e[:, free]  # dense rows, or CSR when there are sensors (aromm.sensors)
     direct = list(system.feedthrough.terms)
     for i, d in enumerate(system.dirichlet):
         vec = ell[:, i]
@@ -128,7 +129,7 @@ def lift(system: ThermalSystem, values: Mapping[str, float] | None = None, metho
         conductance=Affine(tuple(_restricted(system.conductance, free))),
         capacity=Affine(tuple(_restricted(system.capacity, free))),
         load=Affine(tuple(loads)),
-        observation={name: e[j, free] for j, name in enumerate(names)},
+        observation={name: e_free[[j]] if sp.issparse(e_free) else e_free[j] for j, name in enumerate(names)},
         parameters=dict(system.parameters),
         time=system.time,
         geometry=geometry,

@@ -1,7 +1,8 @@
 """One time-series table for what a model computes and what a laboratory measures, and its CSV file.
 
 An :class:`Observables` holds times ``t`` (s) and one series per output (a face-mean temperature in °C,
-named by its face, e.g. ``"z0"``).  Simulations return one; measurements are one (``inverse.Measurements``
+named by its face, e.g. ``"z0"``, or a sensor's reading named by the sensor, e.g. ``"tc1"``, ``"cam_0_3"``:
+aromm.sensors).  Simulations return one; measurements are one (``inverse.Measurements``
 is this class); the identification compares two of them [Chavez2020, eq. 4, 12].
 
 The file format is a CSV with a header ``t,<output>,...`` and one row per time, times strictly
@@ -125,8 +126,8 @@ def read_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = None)
         if names.count(name) > 1:
             raise InputError(f"{p} line {header_line}: face {name!r} appears twice")
         if allowed is not None and name not in allowed:
-            raise InputError(f"{p} line {header_line}, column {col}: face {name!r} is not an output of the "
-                             f"model; allowed: {', '.join(allowed) or '(none)'}")
+            raise InputError(f"{p} line {header_line}, column {col}: {name!r} is not an output of the "
+                             f"model (a face or a sensor); allowed: {', '.join(allowed) or '(none)'}")
     if len(rows) < 2:
         raise InputError(f"{p}: no data rows after the header")
     data = np.empty((len(rows) - 1, len(header)))

@@ -31,7 +31,7 @@ from aromm.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
 from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.greedy import PodGreedy
-from aromm.lifting import lift
+from aromm.lifting import lift, liftings
 from aromm.modes import ModalBasis, boundary_of, compute_basis, correction_samples, split_modes, with_corrections
 from aromm.pod import PodReductor
 from aromm.reductor import DetailedModel, Reductor
@@ -149,6 +149,7 @@ def reduce(
     progress: bool = False,
     eigen_progress: ProgressCallback | None = None,
     engine: str = "scipy",
+    fields: bool = False,
 ) -> ReducedModel:
     """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3].
 
@@ -181,7 +182,13 @@ def reduce(
     * ``engine``: ``"scipy"`` (one process) or ``"petsc"`` (PETSc/SLEPc under ``mpiexec``, collective:
       aromm.engines.petsc.reduction; ``system`` may then be a voxel Scene, assembled by z-slabs, and
       ``solver`` is ``gamg`` or ``mumps``).
+    * ``fields`` (scipy engine): keep Ψ (n × r) and the lifting of the fixed temperatures in the model, for
+      temperature fields (:meth:`ReducedModel.iter_fields`).  The cache stores Ψ's coefficients on the
+      detailed basis (Ñ × r) apart from the model; a cached model asked for ``fields`` rebuilds Ψ from the
+      cached detailed basis.
     """
+    if fields and check_engine(engine) != "scipy":
+        raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
     if check_engine(engine) == "petsc":
         from aromm.engines.petsc.reduction import reduce as reduce_petsc
 
@@ -204,6 +211,7 @@ def reduce(
         raise InputError(f"order must be a positive integer, got {order!r}")
     basis_values = dict(basis_values or {})
     fixed = len(system.dirichlet)
+    original = system
     system = lift(system, basis_values, solver)  # fixed temperatures: the free unknowns (aromm.lifting)
     references = [_lifted(r, basis_values, solver) for r in references]
     n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov, lambda total: split_modes(system, total))
@@ -214,28 +222,29 @@ def reduce(
     else:
         samples = [dict(s) for s in corrections] if corrections is not False else []
     eig = choose_eigensolver(eigensolver, system.n)
-    linear = "amg" if eig == "lobpcg" and solver == "auto" else solver
     key = content_key(_ROM_VERSION, system.fingerprint(), order, n_d, n_s, basis_values,
                       getattr(reductor, "cache_key", reductor.name), solver,
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases],
                       *([eig] if eig != "arpack" else []), *([basis_storage] if basis_storage != "float64" else []))
     if store is not None:
         stored = store.load("rom", key)
-        if stored is not None:
+        recipe = store.load("reconstruction", key) if fields and stored is not None else None
+        if stored is not None and (not fields or recipe is not None):
             log.info("reduced model loaded from the cache %s", store.path("rom", key))
             rom = from_arrays(stored)
-            return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+            rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+            if recipe is None:
+                return rom
+            modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
+                                    eigensolver=eig, storage=basis_storage, store=store, stages=_Stages(False))
+            return _with_fields(rom, original, modal.vectors @ recipe["coefficients"], basis_values, solver)
 
     start = time.perf_counter()
     stages = _Stages(progress)
-    stages.next(f"modes (Ñ = {n_d} Dirichlet + {n_s} Steklov)")
     pairs = PairsBar(enabled=progress, listener=eigen_progress)
-    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, eigensolver=eig, cache=store,
-                          progress=pairs, storage=basis_storage)
+    basis = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
+                            eigensolver=eig, storage=basis_storage, store=store, stages=stages, progress=pairs)
     pairs.close()
-    if samples:
-        stages.next(f"correction vectors ({len(samples)} parameter samples)")
-        basis = with_corrections(system, basis, samples, values=basis_values, method=linear, cache=store)
     stages.next("projection and reference cases")
     memo: dict[int, FloatArray] = {}
     model = ReducedModel.from_system(system, basis.vectors, memo)
@@ -244,7 +253,10 @@ def reduce(
     projected = [(model if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
                   case) for case in cases]
     stages.next(f"{reductor.name} to order {order}")
-    rom, err = reduce_detailed(model, projected, basis, int(order), reductor, check_values=cases[0].values)
+    tracked = replace(model, basis=np.eye(basis.size))  # transform() carries Ψ's coefficients A (Ψ = Φ A)
+    rom, err = reduce_detailed(tracked, projected, basis, int(order), reductor, check_values=cases[0].values)
+    coefficients, rom = rom.basis, replace(rom, basis=None)
+    assert coefficients is not None
     stages.close()
     info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
             "lifted_faces": fixed, "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values())}
@@ -253,7 +265,39 @@ def reduce(
              rom.order, basis.size, info["offline_seconds"], err)
     if store is not None:
         store.save("rom", key, to_arrays(rom))
-    return rom
+        store.save("reconstruction", key, {"coefficients": coefficients})
+    return _with_fields(rom, original, basis.vectors @ coefficients, basis_values, solver) if fields else rom
+
+
+def _detailed_basis(system: ThermalSystem, n_d: int, n_s: int, *, basis_values: Mapping[str, float],
+                    samples: list[dict[str, float]], solver: str, eigensolver: str, storage: str,
+                    store: NpzCache | None, stages: _Stages, progress: ProgressCallback | None = None) -> ModalBasis:
+    """The detailed basis Φ (Ñ modes and the correction vectors), from the cache when it holds them.
+
+    With LOBPCG (no factorisation) the correction solves use AMG unless a solver was named."""
+    stages.next(f"modes (Ñ = {n_d} Dirichlet + {n_s} Steklov)")
+    basis = compute_basis(system, n_d, n_s, basis_values, method=solver, eigensolver=eigensolver, cache=store,
+                          progress=progress, storage=storage)
+    if samples:
+        stages.next(f"correction vectors ({len(samples)} parameter samples)")
+        linear = "amg" if eigensolver == "lobpcg" and solver == "auto" else solver
+        basis = with_corrections(system, basis, samples, values=basis_values, method=linear, cache=store)
+    return basis
+
+
+def _with_fields(rom: ReducedModel, original: ThermalSystem, psi: FloatArray, basis_values: Mapping[str, float],
+                 solver: str) -> ReducedModel:
+    """``rom`` with Ψ on every unknown of ``original`` (zero rows on its fixed nodes) and the lifting of its
+    fixed temperatures, ``Σ_d τ_d g_d(t) ℓ_d`` (:mod:`aromm.lifting`, at the basis values like the reduction)."""
+    if not original.dirichlet:
+        return replace(rom, basis=psi)
+    free = np.flatnonzero(original.fixed_owner() < 0)
+    full = np.zeros((original.n, psi.shape[1]))
+    full[free] = psi
+    ell = liftings(original, basis_values, solver)
+    terms = tuple(Term(f"lift_{d.name}", Coefficient((d.param,)), ell[:, i], "output", d.time)
+                  for i, d in enumerate(original.dirichlet))
+    return replace(rom, basis=full, field_lifting=Affine(terms))
 
 
 #: Reduced columns whose capacity Gram eigenvalue is below this fraction of the largest are dependent.

@@ -21,14 +21,16 @@ reduced model has no time-step error.  The steady limit (when A is invertible) i
 the histories held at their final values.  ``D(p, t)`` is the feedthrough of a system whose fixed
 temperatures were lifted (:mod:`aromm.lifting`), zero otherwise.  A whole swarm of parameter sets is
 evaluated in one call with stacked (batched) Cholesky, inverse and eigh.  The offline construction of Ψ
-is in :mod:`aromm.reduction`.
+is in :mod:`aromm.reduction`.  Temperature fields ``T(t) ≈ Ψ X(t) + Σ_d τ_d g_d(t) ℓ_d`` (the lifting of fixed
+temperatures, :mod:`aromm.lifting`) need Ψ itself (n × r), which a model keeps only when built with
+``reduce(..., fields=True)``; they are reconstructed one time at a time.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -100,11 +102,17 @@ class ReducedModel:
     capacity term with the coefficient ``c_j · initial.T`` (the initial state of a uniform initial
     temperature), and ``Ψᵀ C_j v_i`` with ``c_j · c_i`` for each initial-field term of the system.
     ``info`` records how the model was built (orders, seconds, errors on the reference cases).
+    ``basis`` is Ψ on every unknown of the full model (n × r, zero rows on fixed nodes) and ``field_lifting``
+    the lifting of the fixed temperatures (terms ``τ_d g_d(t) ℓ_d``, vectors of length n), for fields; both are
+    empty by default (evaluations of outputs never need them).  :meth:`transform` carries ``basis`` along
+    (Ψ A), so a model given the identity as its basis records the coefficients of its reductions.
     """
 
     projected: ThermalSystem
     initial: Affine
     info: Mapping[str, float | int | str] = field(default_factory=dict)
+    basis: FloatArray | None = field(default=None, repr=False, compare=False)
+    field_lifting: Affine = field(default=Affine(), repr=False, compare=False)
 
     @classmethod
     def from_system(cls, system: ThermalSystem, basis: FloatArray,
@@ -126,12 +134,13 @@ class ReducedModel:
             Term(t.name + suffix, t.coefficient.times(coef), basis.T @ (sp.csr_array(t.operator) @ vec), "capacity")
             for coef, vec, suffix in fields for t in system.capacity.terms))
         outputs, e = system.observation_matrix()
+        e_basis = np.asarray(e @ basis)  # dense or sparse (sensor) rows
         projected = ThermalSystem(
             n=basis.shape[1],
             conductance=project(system.conductance, basis, memo),
             capacity=project(system.capacity, basis, memo),
             load=project(system.load, basis, memo),
-            observation={name: row @ basis for name, row in zip(outputs, e, strict=True)},
+            observation={name: e_basis[i] for i, name in enumerate(outputs)},
             parameters={k: float(v) for k, v in system.parameters.items()},
             time=system.time,
             feedthrough=system.feedthrough,
@@ -145,7 +154,8 @@ class ReducedModel:
                             capacity=_transformed(sys_.capacity, a), load=_transformed(sys_.load, a),
                             observation={k: row @ a for k, row in sys_.observation.items()})
         return ReducedModel(projected, _transformed(self.initial, a),
-                            dict(info) if info is not None else dict(self.info))
+                            dict(info) if info is not None else dict(self.info),
+                            self.basis @ a if self.basis is not None else None, self.field_lifting)
 
     # ----------------------------------------------------------------- protocol
     @property
@@ -173,9 +183,25 @@ class ReducedModel:
         return self.time.times if self.time is not None else np.zeros(1)
 
     def simulate(self, params: Mapping[str, float] | None = None,
-                 times: npt.ArrayLike | None = None) -> Observables:
-        """One parameter set (overrides of the scene's values) → face means at ``times`` (exact in time)."""
-        return one_set(self, params, self._times(times))
+                 times: npt.ArrayLike | None = None, *, fields: bool = False) -> Observables:
+        """One parameter set (overrides of the scene's values) → outputs at ``times`` (exact in time); with
+        ``fields`` also the reconstructed temperature fields (len(times), n) (:meth:`iter_fields`)."""
+        t = self._times(times)
+        obs = one_set(self, params, t)
+        return replace(obs, fields=np.stack([f for _, f in self.iter_fields(params, t)])) if fields else obs
+
+    def iter_fields(self, params: Mapping[str, float] | None,
+                    times: npt.ArrayLike) -> Iterator[tuple[float, FloatArray]]:
+        """``(t, T(t) ≈ Ψ X(t) + Σ_d τ_d g_d(t) ℓ_d)`` for each time (°C at the n unknowns of the full model),
+        one field at a time (only the r-vectors X of all times are held) [Chavez2020, eq. 5]."""
+        if self.basis is None:
+            raise InputError("this reduced model keeps no basis Ψ, so it cannot reconstruct temperature fields: "
+                             "build it with reduce(..., fields=True)")
+        t = self._times(times)
+        values, _ = self.projected.batch_values({k: [v] for k, v in (params or {}).items()})
+        for ti, x in zip(t, self.states(params, t), strict=True):
+            lifted = self.field_lifting.stack(values, 1, float(ti))[0] if self.field_lifting else 0.0
+            yield float(ti), self.basis @ x + lifted
 
     def simulate_batch(self, params: Mapping[str, npt.ArrayLike],
                        times: npt.ArrayLike | None = None) -> FloatArray:

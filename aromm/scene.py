@@ -23,6 +23,7 @@ from aromm.microstructure.generators import GENERATORS
 from aromm.observables import read_csv
 from aromm.profiles import Profile
 from aromm.resources import MAX_TIME_STEPS, available_memory
+from aromm.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.system import ThermalSystem, TimeGrid
 from aromm.tomlreader import TableReader, where
 from aromm.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
@@ -45,7 +46,8 @@ class ReductionSettings:
 @dataclass(frozen=True, eq=False)
 class Scene:
     """A validated scene: a geometry (voxel image or conforming mesh), phases, face conditions, initial
-    temperature, time grid, outputs, contact resistances (mesh scenes) and reduction settings."""
+    temperature, time grid, outputs (face means, and named sensors: aromm.sensors), contact resistances
+    (mesh scenes) and reduction settings."""
 
     geometry: SceneGeometry
     phases: tuple[PhaseSpec, ...]
@@ -56,6 +58,7 @@ class Scene:
     interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
     path: Path | None = None
     reduction: ReductionSettings = ReductionSettings()
+    sensors: tuple[Sensor, ...] = ()
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -113,21 +116,27 @@ class Scene:
 
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> Scene:
-        """The same material under other face conditions (used by homogenisation and measurements)."""
-        return replace(self, boundary=boundary, outputs=outputs, time=time)
+        """The same material under other face conditions and face-mean outputs, without sensors (used by
+        homogenisation and measurements)."""
+        return replace(self, boundary=boundary, outputs=outputs, time=time, sensors=())
 
 
 def assemble(scene: Scene) -> ThermalSystem:
     """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for.
 
     Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel).  Mesh scenes: Lagrange simplices with
-    the interface conductance 1/R on split interface nodes (aromm.fem.mesh).
+    the interface conductance 1/R on split interface nodes (aromm.fem.mesh).  Sensors add their observation
+    rows after the face means (aromm.sensors).
     """
     singular = singular_boundary(scene.boundary, scene.time)
     if singular:
         raise InputError(f"{scene.where}{singular}")
-    return scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
-                                   initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
+    system = scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
+                                     initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
+    if not scene.sensors:
+        return system
+    rows = sensor_rows(scene.sensors, scene.geometry, system, scene.where)
+    return replace(system, observation={**system.observation, **rows})
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -191,14 +200,15 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
         for ph in phases:
             if ph.c is None:
                 raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
-    outputs = _outputs(r, data)
+    outputs, sensors = _outputs(r, data, geometry)
     singular = singular_boundary(boundary, time)
-    if singular and ("boundary" in data or outputs):  # without either, a material for `aromm homogenize`
+    if singular and ("boundary" in data or outputs or sensors):  # without either, a material for `aromm homogenize`
         raise InputError(f"{where(path)}{singular}")
     interfaces = _interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
-    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed))
+    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed),
+                 sensors)
 
 
 def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
@@ -386,12 +396,16 @@ def _time(r: TableReader, data: Mapping[str, Any]) -> TimeGrid | None:
     return TimeGrid(end, dt)
 
 
-def _outputs(r: TableReader, data: Mapping[str, Any]) -> tuple[str, ...]:
-    out = r.table(data, "outputs", ("mean_T",))
+def _outputs(r: TableReader, data: Mapping[str, Any],
+             geometry: SceneGeometry) -> tuple[tuple[str, ...], tuple[Sensor, ...]]:
+    """``mean_T`` (face means) and the named sensors ``[outputs.<name>]`` (aromm.sensors)."""
+    out = r.table(data, "outputs", None)
     faces = out.get("mean_T", [])
     if not isinstance(faces, list) or any(f not in FACES for f in faces):
         raise r.fail("outputs.mean_T", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
-    return tuple(faces)
+    named = {k: v for k, v in out.items() if k != "mean_T"}
+    return tuple(faces), parse_sensors(named, box(geometry), faces, where(r.path),
+                                       voxels=isinstance(geometry, VoxelGeometry))
 
 
 def _interfaces(r: TableReader, data: Mapping[str, Any], names: set[str]) -> dict[tuple[str, str], float]:

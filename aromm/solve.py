@@ -323,7 +323,8 @@ def simulate(
         field = steady_field(system, values, method)
         names, e = system.observation_matrix()
         direct = _outputs_at(system, system.values(values), np.inf)
-        means = {name: np.atleast_1d(e[i] @ field + direct[i]) for i, name in enumerate(names)}
+        y = e @ field
+        means = {name: np.atleast_1d(y[i] + direct[i]) for i, name in enumerate(names)}
         return Observables(t=np.zeros(1), mean_T=means, steady=True, fields=field[None, :] if fields else None)
     return transient(system, values, times, scheme=scheme, fields=fields, method=method, progress=progress)
 

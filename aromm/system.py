@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +36,13 @@ from aromm.profiles import Profile, time_factor
 FloatArray = npt.NDArray[np.float64]
 ParamValues = Mapping[str, npt.ArrayLike]
 
+
+
+def dense(a: FloatArray | sp.csr_array) -> FloatArray:
+    """``a`` as a dense float array: an observation row or matrix, which is sparse when it holds sensors."""
+    if sp.issparse(a):
+        return np.asarray(cast(Any, a).toarray(), dtype=float)
+    return np.asarray(a, dtype=float)
 
 @dataclass(frozen=True)
 class Coefficient:
@@ -220,8 +227,9 @@ class ThermalSystem:
     """``C(p) dT/dt + K(p) T = F(p, t)`` with observation rows ``E`` (face means).
 
     ``capacity`` is empty for a steady system; ``observation`` maps an output name
-    (a face) to a row vector ``e`` with ``e @ T`` the output (e.g. the face-mean
-    temperature, so ``e`` sums to one).  ``parameters`` holds the scene's values,
+    (a face, or a sensor of aromm.sensors) to a row vector ``e`` with ``e @ T`` the output (e.g. the face-mean
+    temperature, so ``e`` sums to one); sensor rows are sparse (1, n) CSR arrays.  ``parameters`` holds the
+    scene's values,
     which callers override by name.  ``boundary`` is the boundary mass ``B = ∫_Γ φ_a φ_b`` (m²)
     of the whole outer boundary Γ, attached by the assembler (the Steklov modes need it).
 
@@ -236,7 +244,7 @@ class ThermalSystem:
     capacity: Affine = Affine()
     load: Affine = Affine()
     dirichlet: tuple[Dirichlet, ...] = ()
-    observation: Mapping[str, FloatArray] = field(default_factory=dict)
+    observation: Mapping[str, FloatArray | sp.csr_array] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
     time: TimeGrid | None = None
     geometry: Geometry | None = None
@@ -293,11 +301,15 @@ class ThermalSystem:
             owner[d.dofs] = i
         return owner
 
-    def observation_matrix(self) -> tuple[tuple[str, ...], FloatArray]:
+    def observation_matrix(self) -> tuple[tuple[str, ...], FloatArray | sp.csr_array]:
+        """Output names and their rows stacked (n_outputs, n): dense, or CSR when a row is sparse (sensors)."""
         names = tuple(self.observation)
         if not names:
             return (), np.zeros((0, self.n))
-        return names, np.vstack([self.observation[k] for k in names])
+        rows = [self.observation[k] for k in names]
+        if any(sp.issparse(r) for r in rows):
+            return names, sp.csr_array(sp.vstack([sp.csr_array(r.reshape(1, -1)) for r in rows]))
+        return names, np.vstack(rows)
 
     def fingerprint(self) -> str:
         """Content hash of every term (name, role, coefficient, operator, time function), Dirichlet set and
@@ -311,6 +323,7 @@ class ThermalSystem:
              for group in (self.capacity, self.conductance, self.load, self.initial, self.feedthrough)
              for t in group.terms],
             [(d.name, d.param, d.dofs, *timing(d.time)) for d in self.dirichlet],
-            [(name, np.asarray(row, dtype=float)) for name, row in self.observation.items()],
+            [(name, row if sp.issparse(row) else np.asarray(row, dtype=float))
+             for name, row in self.observation.items()],
             self.boundary,
         )[:20]

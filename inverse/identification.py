@@ -13,8 +13,9 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -30,6 +31,9 @@ from inverse.criterion import LeastSquares, Scenario
 from inverse.measurements import Measurements
 from inverse.residuals import offset_note
 from inverse.uncertainty import Uncertainty, linearised
+
+if TYPE_CHECKING:
+    from inverse.posterior import Posterior
 
 DEFAULT_PARTICLES = 20
 CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
@@ -70,7 +74,9 @@ class Fit:
 
 @dataclasses.dataclass(frozen=True)
 class Identification:
-    """Result of :func:`identify`; :meth:`to_json` gives the docs/design.md shape."""
+    """Result of :func:`identify`; :meth:`to_json` gives the docs/design.md shape.  ``posterior`` holds MCMC
+    samples of the unknowns when asked for (:func:`inverse.posterior.sample_posterior`, attached with
+    ``dataclasses.replace``)."""
 
     estimates: Mapping[str, float]
     criterion: float
@@ -81,9 +87,10 @@ class Identification:
     model: Mapping[str, object]
     bounds: Mapping[str, tuple[float, float]]
     fits: tuple[Fit, ...]
+    posterior: Posterior | None = None
 
     def to_json(self) -> dict[str, object]:
-        return {
+        out: dict[str, object] = {
             "estimates": {k: float(v) for k, v in self.estimates.items()},
             "criterion": float(self.criterion),
             "evaluations": int(self.evaluations),
@@ -91,24 +98,37 @@ class Identification:
             "model": dict(self.model),
             "uncertainty": self.uncertainty.to_json(),
         }
+        if self.posterior is not None:
+            out["posterior"] = self.posterior.to_json()
+        return out
 
 
 ModelInput = ForwardModel | Sequence[tuple[ForwardModel, Measurements]]
 
 
-def _scenarios(model: ModelInput, measurements: Measurements | None) -> list[Scenario]:
+def scenarios_of(model: ModelInput, measurements: Measurements | None,
+                 parameters: Iterable[str] = ()) -> list[Scenario]:
+    """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit.
+
+    When ``parameters`` (the unknown and fixed names) hold the clock offset ``time_offset``, every model that
+    does not have it is wrapped in :class:`aromm.offset.TimeShifted` (one offset shared by every scenario).
+    """
     if measurements is not None:
         if not isinstance(model, ForwardModel):
             raise InputError(f"model must be a forward model (FullModel, ReducedModel), got {type(model).__name__}")
-        return [Scenario(model, measurements)]
-    if isinstance(model, ForwardModel) or not isinstance(model, Sequence) or not model:
+        out = [Scenario(model, measurements)]
+    elif isinstance(model, ForwardModel) or not isinstance(model, Sequence) or not model:
         raise InputError("give measurements, or a non-empty list of (model, measurements) pairs for a joint fit")
-    out = []
-    for i, pair in enumerate(model, start=1):
-        if not (isinstance(pair, tuple) and len(pair) == 2 and isinstance(pair[0], ForwardModel)
-                and isinstance(pair[1], Measurements)):
-            raise InputError(f"scenario {i}: expected a (model, measurements) pair, got {type(pair).__name__}")
-        out.append(Scenario(pair[0], pair[1], str(i)))
+    else:
+        out = []
+        for i, pair in enumerate(model, start=1):
+            if not (isinstance(pair, tuple) and len(pair) == 2 and isinstance(pair[0], ForwardModel)
+                    and isinstance(pair[1], Measurements)):
+                raise InputError(f"scenario {i}: expected a (model, measurements) pair, got {type(pair).__name__}")
+            out.append(Scenario(pair[0], pair[1], str(i)))
+    if TIME_OFFSET in set(parameters):
+        out = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(sc.model))
+               for sc in out]
     return out
 
 
@@ -226,10 +246,7 @@ def identify(
     for o in chain:
         if not isinstance(o, opt.Optimiser):
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
-    scenarios = _scenarios(model, measurements)
-    if TIME_OFFSET in {*unknowns, *(fixed or {})}:  # one clock offset shared by every scenario
-        scenarios = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(
-            sc.model)) for sc in scenarios]
+    scenarios = scenarios_of(model, measurements, {*unknowns, *(fixed or {})})
     box = opt.Box.from_bounds(unknowns)
     for name, low in zip(box.names, box.lower, strict=True):
         if is_positive(name) and low <= 0:

@@ -154,7 +154,7 @@ def fail_vtu_write(mp: pytest.MonkeyPatch) -> None:
     """The disk fills up while the final field is written (after the table and observables.csv)."""
     def no_space(*args: object, **kwargs: object) -> None:
         raise OSError(28, "No space left on device")
-    mp.setattr("meshio.Mesh.write", no_space)
+    mp.setattr("meshio.vtu.write", no_space)
 
 
 def fail_plot_write(mp: pytest.MonkeyPatch) -> None:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scene_text import MESH_CELL
 
 from aromm.cli import main
 from aromm.effective.cell_fem import cell_mesh
@@ -15,23 +16,7 @@ from aromm.homogenization import mean_capacity
 from aromm.scene import assemble, load_scene
 from aromm.solve import transient
 
-SCENE = """
-[geometry]
-mesh = "cell.vtu"
-
-[phases.filler]
-label = 1
-k = 2.0
-c = 3.0e6
-
-[phases.matrix]
-label = 2
-k = 1.0
-c = 1.0e6
-
-[interfaces."filler|matrix"]
-R = {R}
-"""
+SCENE = MESH_CELL
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,6 @@ import sys
 from pathlib import Path
 
 import click
-import meshio
 import numpy as np
 
 from aromm.cell_problems import CellResult, effective_conductivity
@@ -15,14 +14,14 @@ from aromm.cli import engine as engine_cli
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, FORCE, REFINE, SEED, FiniteFloat, echo_json, write_extras
 from aromm.engines import is_root
 from aromm.errors import InputError
-from aromm.files import OutputKind, atomic_path, check_folder, check_output, signed
+from aromm.files import OutputKind, check_folder, check_output, signed
 from aromm.geometry import VoxelGeometry
 from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import DEFAULT_RTOL, METHODS
 from aromm.observables import TIME_SERIES, Observables, write_csv
 from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
+from aromm.series import write_series, write_vtu
 from aromm.solve import simulate as simulate_full
-from aromm.system import ThermalSystem
 from inverse.measurements import homogeneous_measurements, save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
@@ -41,32 +40,44 @@ def _table(obs: Observables, rows: int = 10) -> str:
     return "\n".join(lines)
 
 
-#: The final field written by ``aromm simulate --out`` (meshio names itself in the VTU header).
+#: The fields written by ``aromm simulate --out`` (meshio names itself in the VTU header) and their collection.
 FIELD = OutputKind("VTU field", signed(b"created by meshio"))
+COLLECTION = OutputKind("ParaView collection", signed(b'<VTKFile type="Collection"'))
 
 
-def _check_out(out: Path, scene: Path, outputs: tuple[str, ...], field: bool, force: bool) -> tuple[Path, Path]:
-    """The two files ``--out`` gets (observables.csv, field.vtu), checked before the simulation."""
+def _check_out(out: Path, scene: Path, outputs: tuple[str, ...], *, field: bool, series: int,
+               force: bool) -> tuple[Path, Path]:
+    """The files ``--out`` gets (observables.csv, field.vtu, ``series`` × field_<i>.vtu + field.pvd), checked
+    before the simulation."""
     if not outputs:
-        raise InputError(f"--out: {scene} has no [outputs] mean_T: nothing to write; list faces to observe")
+        raise InputError(f"--out: {scene} has no [outputs] mean_T (nor sensors): nothing to write; list faces to "
+                         "observe")
     check_folder(out, "simulation results", "--out")
     inputs = checks.scene_inputs(scene)
     csv_path = check_output(out / "observables.csv", TIME_SERIES, inputs=inputs, force=force)
     vtu_path = out / "field.vtu"
     if field:
         check_output(vtu_path, FIELD, inputs=inputs, force=force)
+    for step in range(series):
+        check_output(out / f"field_{step:04d}.vtu", FIELD, inputs=inputs, force=force)
+    if series:
+        check_output(out / "field.pvd", COLLECTION, inputs=inputs, force=force)
     return csv_path, vtu_path
 
 
-def _write_field(obs: Observables, system: ThermalSystem, path: Path) -> Path:
-    """The last temperature field (and the geometry's cell data) as VTU, atomically."""
-    geo = system.geometry
-    assert obs.fields is not None and geo is not None
-    mesh = meshio.Mesh(geo.points, [(geo.cell_type, geo.cells)], point_data={"T": obs.fields[-1]},
-                       cell_data={k: [np.asarray(v)] for k, v in geo.cell_data.items()})
-    with atomic_path(path, "field") as tmp:
-        mesh.write(tmp, file_format="vtu")
-    return path
+def parse_times(text: str | None) -> tuple[float, ...] | None:
+    """``--fields t1,t2,...``: finite, non-negative, strictly increasing times (s)."""
+    if text is None:
+        return None
+    try:
+        times = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: expected times in s separated by commas, e.g. 0.5,1,2",
+                                 param_hint="--fields") from None
+    t = np.asarray(times)
+    if not (np.all(np.isfinite(t)) and np.all(t >= 0) and np.all(np.diff(t) > 0)):
+        raise click.BadParameter(f"{text!r}: times must be finite, >= 0 and increasing", param_hint="--fields")
+    return times
 
 
 @click.command("simulate")
@@ -77,6 +88,9 @@ def _write_field(obs: Observables, system: ThermalSystem, path: Path) -> Path:
               help="Reduced-model order ñ (with --model reduced).")
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
+@click.option("--fields", "field_times", default=None, metavar="T1,T2,...",
+              help="With --model reduced and --out: the reconstructed temperature fields at these times (s) as "
+                   "field_0000.vtu, ... and field.pvd (ParaView; scipy engine).")
 @click.option("--scheme", type=click.Choice(["bdf2", "euler"]), default="bdf2", show_default=True,
               help="Time stepping of the full model: BDF2 (second order) or backward Euler.")
 @engine_cli.SOLVER
@@ -84,16 +98,21 @@ def _write_field(obs: Observables, system: ThermalSystem, path: Path) -> Path:
 @REFINE
 @JSON
 @FORCE
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, scheme: str, solver: str, engine: str,
-                 refine: int, as_json: bool, force: bool) -> None:
-    """Simulate SCENE: face-mean temperatures over time (or at steady state).
+def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field_times: str | None, scheme: str,
+                 solver: str, engine: str, refine: int, as_json: bool, force: bool) -> None:
+    """Simulate SCENE: face-mean and sensor temperatures over time (or at steady state).
 
-    The table (or JSON) is printed first; with --out, observables.csv is written next and the final field
-    (field.vtu) last, as an extra: if only the field fails, the exit code is 3."""
+    The table (or JSON) is printed first; with --out, observables.csv is written next and the fields (field.vtu,
+    or the --fields series) last, as extras: if only a field fails, the exit code is 3."""
+    times = parse_times(field_times)
+    if times is not None and (model != "reduced" or out is None or engine != "scipy"):
+        raise click.UsageError("--fields needs --model reduced, --out DIR and the scipy engine (the full model "
+                               "writes its final field to DIR/field.vtu)")
     solver = engine_cli.resolve(engine, solver)
     sc = engine_cli.load(scene, engine, refine)
     field = out is not None and model == "full" and engine == "scipy"
-    files = _check_out(out, scene, tuple(sc.outputs), field, force) if out is not None else None
+    files = (_check_out(out, scene, tuple(sc.outputs), field=field, series=len(times or ()), force=force)
+             if out is not None else None)
     if model == "reduced":
         checks.cache_folder(None)
     system = assemble(sc) if engine == "scipy" else None
@@ -101,9 +120,10 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
     if model == "reduced":
         from aromm.reduction import reduce
 
-        obs = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
+        rom = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
                      reference_values=sc.reduction.reference, progress=progress, engine=engine,
-                     solver=solver).simulate()
+                     solver=solver, fields=times is not None)
+        obs = rom.simulate()
     else:
         obs = simulate_full(system if system is not None else sc, fields="last" if field else False,
                             method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
@@ -116,8 +136,13 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, schem
     if files is not None:
         write_csv(obs, files[0], "observables file")
         click.echo(f"wrote {files[0]}", err=True)
-        if field and system is not None and system.geometry is not None:
-            write_extras(("field", lambda: _write_field(obs, system, files[1])))
+        geometry = system.geometry if system is not None else None
+        if field and geometry is not None and obs.fields is not None:
+            last = obs.fields[-1]
+            write_extras(("field", lambda: write_vtu(files[1], geometry, last)))
+        elif times is not None and geometry is not None:
+            write_extras(("field series", lambda: write_series(files[0].parent, geometry,
+                                                                rom.iter_fields(None, times))[-1]))
 
 
 @click.command("homogenize")

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import warnings
 from pathlib import Path
 
 import click
+import numpy as np
 from tqdm import tqdm
 
 from aromm.cli import checks
@@ -19,6 +21,7 @@ from aromm.solve import FullModel
 from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot
+from inverse.posterior import DEFAULT_WALKERS, Posterior, PosteriorWarning, load_emcee, sample_posterior
 from inverse.uncertainty import UncertaintyWarning
 
 
@@ -53,6 +56,25 @@ def _table(result: Identification) -> str:
         for j in range(i + 1, len(unc.names)):
             lines.append(f"correlation {a} / {unc.names[j]}: {unc.correlation[i, j]:+.3f}")
     lines.append("model: " + ", ".join(f"{k} {v}" for k, v in result.model.items() if k in ("kind", "order")))
+    if result.posterior is not None:
+        lines.append(_posterior_table(result.posterior))
+    return "\n".join(lines)
+
+
+def _posterior_table(post: Posterior) -> str:
+    lower, upper = post.interval
+    lines = ["", f"posterior (MCMC, emcee: {post.walkers} walkers × {post.steps} steps, burn-in {post.burn}, "
+                 f"noise σ {'sampled' if post.noise_std is None else f'{post.noise_std:g} °C given'})",
+             f"{'parameter':<12}{'mean':>14}{'std':>12}   {'95 % credible interval':<34}{'τ (steps)':>10}{'ESS':>9}"]
+    for i, name in enumerate(post.names):
+        ci = f"[{lower[i]:.6g}, {upper[i]:.6g}]"
+        lines.append(f"{name:<12}{post.mean[i]:>14.6g}{post.std[i]:>12.3g}   {ci:<34}{post.autocorr_time[i]:>10.3g}"
+                     f"{post.effective_samples[i]:>9.0f}")
+    for i, a in enumerate(post.names):
+        for j in range(i + 1, len(post.names)):
+            lines.append(f"posterior correlation {a} / {post.names[j]}: {post.correlation[i, j]:+.3f}")
+    lines.append(f"acceptance {post.acceptance:.3f}, {post.evaluations} evaluations, {post.seconds:.1f} s "
+                 f"({1e3 * post.seconds / max(post.evaluations, 1):.3g} ms per evaluation)")
     return "\n".join(lines)
 
 
@@ -79,29 +101,47 @@ def _table(result: Identification) -> str:
               help="Checkpoint file (.npz) rewritten after every swarm iteration.")
 @click.option("--resume", is_flag=True, help="Continue from --checkpoint when it exists.")
 @click.option("--noise-std", type=FiniteFloat(min=0.0, min_open=True), default=None, metavar="S",
-              help="Known standard deviation of the sensor noise (°C), compared with the residual.")
+              help="Known standard deviation of the sensor noise (°C): compared with the residual, and the σ of "
+                   "--posterior (sampled when not given).")
+@click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
+              help="Also sample the posterior of the unknowns: N steps of an emcee ensemble started at the estimates "
+                   "(optional extra: pip install 'aromm[posterior]'); with --plot, a corner plot FILE_posterior.png.")
+@click.option("--walkers", type=click.IntRange(min=2), default=DEFAULT_WALKERS, show_default=True,
+              help="Walkers of the --posterior ensemble (at least twice the number of sampled coordinates).")
 @FORCE
 def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, ...], kind: str, order: int, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
-                 resume: bool, noise_std: float | None, force: bool) -> None:
-    """Estimate phase properties of SCENE's material from measured face-mean temperatures.
+                 resume: bool, noise_std: float | None, posterior_steps: int | None, walkers: int,
+                 force: bool) -> None:
+    """Estimate phase properties of SCENE's material from measured face-mean and sensor temperatures.
 
     The criterion is [Chavez2020, eq. 12]; the model is evaluated at the measurement times.  Everything is
     checked before the model is built; the result is printed before the plot is written.
     """
     if resume and checkpoint is None:
         raise click.UsageError("--resume needs --checkpoint FILE")
+    if posterior_steps is not None:
+        load_emcee()  # a missing optional extra is refused first
     sc = load_scene(scene)
     bounds = checks.unknowns(unknowns, sc)
     data = checks.measurements(measurements_path, sc, kind, bounds)
     inputs = [*checks.scene_inputs(scene), (measurements_path, "the measurement file (--measurements)")]
-    distinct([(plot, "--plot"), (checkpoint, "--checkpoint")])
+    corner = plot.with_name(f"{plot.stem}_posterior{plot.suffix}") if plot is not None and posterior_steps else None
+    distinct([(plot, "--plot"), (corner, "--plot (its corner plot)"), (checkpoint, "--checkpoint")])
     if plot is not None:
         check_plot(plot, inputs=inputs, force=force)
+    if corner is not None:
+        check_plot(corner, inputs=inputs, force=force)
     if checkpoint is not None:
         check_output(checkpoint, ckpt.CHECKPOINT, inputs=inputs, force=force, option="--checkpoint")
         if resume and checkpoint.exists():
             ckpt.read(checkpoint)
+    if posterior_steps is not None:
+        sampled = len(bounds) + (noise_std is None)
+        if walkers < 2 * sampled:
+            raise click.BadParameter(f"{walkers} walkers for {sampled} sampled coordinates (the unknowns"
+                                     + (" and the noise σ" if noise_std is None else "") + f"); give at least "
+                                     f"{2 * sampled}", param_hint="--walkers")
     if kind == "reduced":
         checks.cache_folder(None)
     tty = sys.stderr.isatty()
@@ -117,6 +157,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UncertaintyWarning)
+        warnings.simplefilter("always", PosteriorWarning)
         try:
             result = identify(model, data, bounds, seed=seed, particles=particles, iterations=iterations,
                               checkpoint=checkpoint, resume=resume, progress=report, description=info,
@@ -126,6 +167,10 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
             raise Interrupted(f"resume with --resume --checkpoint {checkpoint}" if saved else "") from None
         finally:
             bar.close()
+        if posterior_steps is not None:
+            post = sample_posterior(model, data, bounds, steps=posterior_steps, walkers=walkers, noise_std=noise_std,
+                                    start=result, rng=np.random.default_rng(seed), progress=tty)
+            result = dataclasses.replace(result, posterior=post)
     for w in caught:
         click.echo(f"aromm: warning: {w.message}", err=True)
     if as_json:
@@ -133,7 +178,13 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
     else:
         click.echo(_table(result))
     if plot is not None:
-        write_extras(("plot", lambda: save_identification_plot(result, plot)))
+        extras = [("plot", lambda: save_identification_plot(result, plot))]
+        if corner is not None and result.posterior is not None:
+            from inverse.corner import save_posterior_plot
+
+            posterior = result.posterior
+            extras.append(("corner plot", lambda: save_posterior_plot(posterior, corner, result.uncertainty)))
+        write_extras(*extras)
 
 
 COMMANDS: list[click.Command] = [identify_cmd]

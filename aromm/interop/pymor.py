@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from aromm.errors import InputError
-from aromm.system import Affine, Coefficient, ThermalSystem
+from aromm.system import Affine, Coefficient, ThermalSystem, dense
 
 try:
     from pymor.models.iosys import LTIModel
@@ -85,7 +85,7 @@ def to_lti(system: ThermalSystem, time_stepper: Any = None) -> LTIModel:
     e = _lincomb(system.capacity, 1.0, "E")
     a = _lincomb(system.conductance, -1.0, "A")
     b = _lincomb(system.load, 1.0, "B", column=True)
-    c = NumpyMatrixOperator(np.asarray(rows, dtype=float), name="C")
+    c = NumpyMatrixOperator(dense(rows), name="C")
     options: dict[str, Any] = {}
     if time_stepper is not None:
         if system.time is None:

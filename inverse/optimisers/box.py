@@ -57,7 +57,8 @@ class Box:
     def to_physical(self, u: FloatArray) -> FloatArray:
         a, b = self._ends()
         s = a + np.asarray(u, dtype=float) * (b - a)
-        return np.where(np.array(self.log), np.exp(s), s)
+        lg = np.array(self.log)
+        return np.where(lg, np.exp(np.where(lg, s, 0.0)), s)  # exp only on log axes (a linear c ~ 1e6 overflows)
 
     def to_unit(self, theta: FloatArray) -> FloatArray:
         a, b = self._ends()

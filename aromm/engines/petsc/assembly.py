@@ -30,7 +30,7 @@ from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import RowLayout, SlabLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fem.voxel import assemble_voxels, face_mass
-from aromm.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid
+from aromm.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid, dense
 
 
 @dataclass(frozen=True)
@@ -228,7 +228,7 @@ def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:
         return tuple(out)
 
     dirichlet = {d.name: d.dofs[(d.dofs >= rows.lo) & (d.dofs < rows.hi)] for d in system.dirichlet}
-    observation = {k: convert.vector(np.asarray(v, dtype=float)[part], rows, comm)
+    observation = {k: convert.vector(dense(v).ravel()[part], rows, comm)
                    for k, v in system.observation.items()}
     boundary = None if system.boundary is None else convert.matrix(sp.csr_array(system.boundary)[part], rows, comm)
     return DistributedSystem(system, rows, comm, terms(system.capacity), terms(system.conductance),

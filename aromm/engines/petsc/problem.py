@@ -24,6 +24,9 @@ from aromm.scene import ReductionSettings, Scene, load_scene, read_toml, scene_f
 from aromm.system import ThermalSystem, TimeGrid
 from aromm.vocabulary import FaceSpec, PhaseSpec
 
+#: Named sensors ([outputs.<name>], aromm.sensors) are observation rows of the serial assembly only.
+SENSORS_REFUSED = "sensors are assembled by the scipy engine only; use --engine scipy (or mean_T outputs)"
+
 
 @dataclass(frozen=True)
 class VoxelProblem:
@@ -77,6 +80,8 @@ class VoxelProblem:
                              "assemble it (aromm.assemble) and pass the ThermalSystem, which is distributed by rows")
         if scene.interfaces:
             raise InputError(f"{scene.where}[interfaces]: contact resistance needs a conforming mesh")
+        if scene.sensors:
+            raise InputError(f"{scene.where}outputs.{scene.sensors[0].name}: {SENSORS_REFUSED}")
         present = tuple(sorted(geometry.present()))
         return cls(ImageSlabs.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
                    geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs,
@@ -88,6 +93,10 @@ def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     path = Path(path)
     data = read_toml(path)
     geo = data.get("geometry")
+    outputs = data.get("outputs")
+    named = [k for k in outputs if k != "mean_T"] if isinstance(outputs, dict) else []
+    if named:  # checked before the stand-in image, whose box is not the body's
+        raise InputError(f"{path}: outputs.{named[0]}: {SENSORS_REFUSED}")
     if not isinstance(geo, dict) or "image" not in geo or "generator" in geo:
         return VoxelProblem.from_scene(load_scene(path))  # generated images are made whole on every rank
     file = Path(str(geo["image"]))
