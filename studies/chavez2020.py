@@ -16,6 +16,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -103,9 +104,9 @@ class Case:
     measurements: Measurements
 
 
-def reduced(case: Case, order: int, **options: object) -> ReducedModel:
+def reduced(case: Case, order: int, **options: Any) -> ReducedModel:
     """The reduced model of a case at the scene's ``[reduction]`` reference values (:func:`aromm.reduce`)."""
-    return reduce(case.system, order, basis_values=case.scene.reduction.basis,  # type: ignore[arg-type]
+    return reduce(case.system, order, basis_values=case.scene.reduction.basis,
                   reference_values=case.scene.reduction.reference, **options)
 
 

@@ -107,7 +107,7 @@ def design_errors(name: str, model: ForwardModel, durations: Sequence[float], *,
     """σ² (JᵀJ)⁻¹ at ``truth`` for readings every ``dt`` up to each duration (every unknown of ``truth``)."""
     out = []
     for d in durations:
-        times = dt * np.arange(1, round(d / dt) + 1)
+        times = dt * np.arange(1, round(d / dt) + 1, dtype=float)
         jac = sensitivities(model, truth, times)
         cov = noise**2 * np.linalg.inv(jac.T @ jac)
         out.append(Design(name, float(d), {n: float(np.sqrt(cov[i, i])) for i, n in enumerate(truth)}))
