@@ -17,7 +17,7 @@ Every conduction/exchange term j gives one load term with the coefficient ``k_j 
 ``g_d``; every capacity term one with ``c_j τ_d`` and the piecewise-constant history ``ġ_d`` (only when
 g_d varies); the outputs gain a feedthrough.  At p = p0 the conduction loads cancel (ℓ is harmonic
 there); elsewhere they are the residual ``K(p) ℓ``, which the static correction vectors of
-:func:`aromm.modes.with_corrections` resolve exactly at their samples.
+:func:`aromm.corrections.with_corrections` resolve exactly at their samples.
 
 The basis for θ is then built on the free unknowns: the Dirichlet modes vanish on the whole boundary
 Γ as before, the Steklov modes solve ``K0_ff v = λ ζ B_ff v``, i.e. they vanish on the fixed face and

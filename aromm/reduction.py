@@ -27,12 +27,13 @@ from tqdm import tqdm
 
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
+from aromm.corrections import correction_samples, with_corrections
 from aromm.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
 from aromm.engines import check_engine
 from aromm.errors import InputError
 from aromm.greedy import PodGreedy
 from aromm.lifting import lift, liftings
-from aromm.modes import ModalBasis, boundary_of, compute_basis, correction_samples, split_modes, with_corrections
+from aromm.modes import ModalBasis, boundary_of, compute_basis, split_modes
 from aromm.pod import PodReductor
 from aromm.reductor import DetailedModel, Reductor
 from aromm.rom import ReducedModel, from_arrays, to_arrays
@@ -165,8 +166,8 @@ def reduce(
       the basis spans the free unknowns, its Steklov modes vanish on the fixed faces, and the reduced
       model adds the lifting to its outputs; every reference case fixes the same faces.
     * ``corrections``: enrich the basis with static and first-order dynamic correction modes of the
-      system's loads (:func:`aromm.modes.with_corrections`; an extension of [Chavez2020]) at the samples of
-      :func:`aromm.modes.correction_samples` (True), at given samples, or not at all (False: the method of
+      system's loads (:func:`aromm.corrections.with_corrections`; an extension of [Chavez2020]) at the samples of
+      :func:`aromm.corrections.correction_samples` (True), at given samples, or not at all (False: the method of
       the paper exactly).
     * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline, refused
       beyond the rank of its snapshots; ``"greedy"``: multi-point POD-greedy, :mod:`aromm.greedy`) or object

@@ -76,9 +76,10 @@ import numpy as np
 import scipy.linalg as sla
 
 from aromm.cache import NpzCache
+from aromm.corrections import correction_samples, with_corrections
 from aromm.errors import InputError
 from aromm.greedy import PodGreedy
-from aromm.modes import compute_basis, correction_samples, split_modes, with_corrections
+from aromm.modes import compute_basis, split_modes
 from aromm.reduction import default_modes, reduce
 from aromm.rom import ReducedModel
 from aromm.scene import assemble, load_scene

@@ -36,10 +36,10 @@ from pathlib import Path
 import numpy as np
 
 from aromm.cache import NpzCache
+from aromm.corrections import correction_samples
 from aromm.fem import assemble_voxels
 from aromm.microstructure.generators import wood
 from aromm.microstructure.io import load_image
-from aromm.modes import correction_samples
 from aromm.profiles import Profile
 from aromm.reduction import reduce
 from aromm.rom import ReducedModel

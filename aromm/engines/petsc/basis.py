@@ -1,9 +1,9 @@
 """The detailed modal basis on the petsc engine: constants + Steklov + Dirichlet modes + correction modes.
 
-Same definitions as :func:`aromm.modes.compute_basis` and :func:`aromm.modes.with_corrections` ([Chavez2020,
+Same definitions as :func:`aromm.modes.compute_basis` and :func:`aromm.corrections.with_corrections` ([Chavez2020,
 § 3.1] and the static / first-order dynamic corrections of the loads), with the operators held by PETSc and
 the vectors distributed by rows.  The small dense algebra (Gram matrices, orthonormalisation, the
-enrichment) is aromm.modes' own (:func:`aromm.modes.enrich`, :func:`aromm.modes.check_gram`) with the
+enrichment) is aromm.modes' own (:func:`aromm.corrections.enrich`, :func:`aromm.modes.check_gram`) with the
 capacity product summed over the ranks.  The returned :class:`~aromm.modes.ModalBasis` holds this rank's
 rows in ``vectors``.
 """
@@ -16,11 +16,12 @@ from collections.abc import Mapping
 import numpy as np
 import scipy.linalg as sla
 
+from aromm.corrections import enrich
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
 from aromm.engines.petsc.eigen import Reference, dirichlet_modes, steklov_modes
 from aromm.errors import InputError
-from aromm.modes import ModalBasis, check_gram, enrich, reference_operators, zero_modes
+from aromm.modes import ModalBasis, check_gram, reference_operators, zero_modes
 from aromm.system import FloatArray
 
 #: Relative residual of the correction solves K(s) x = U_j.
@@ -78,7 +79,7 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
 def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list[dict[str, float]],
                      values: Mapping[str, float] | None = None, solver: str = "gamg") -> ModalBasis:
     """The basis enriched with the static and first-order dynamic correction modes of the loads at each
-    parameter sample (aromm.modes.with_corrections), solved by PETSc."""
+    parameter sample (aromm.corrections.with_corrections), solved by PETSc."""
     template = system.template
     if not template.load.terms:
         return basis

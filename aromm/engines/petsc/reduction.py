@@ -20,13 +20,14 @@ from typing import Any
 import numpy as np
 
 from aromm.cache import NpzCache, content_key
+from aromm.corrections import correction_samples
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_slabs, distribute_system
 from aromm.engines.petsc.basis import compute_basis, with_corrections
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
 from aromm.errors import InputError
-from aromm.modes import correction_samples, split_counts
+from aromm.modes import split_counts
 from aromm.reduction import (
     ReferenceCase,
     at_reference,
