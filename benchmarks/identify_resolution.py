@@ -69,7 +69,7 @@ def homogenise_worker(n: int, r: int) -> dict[str, object]:
             "wall": time.perf_counter() - wall}
 
 
-def identify_worker(n: int, r: int, data: Path, cache: Path) -> dict[str, object]:
+def identify_worker(n: int, r: int, data: Path, cache: Path, order: int = 200) -> dict[str, object]:
     from aromm.reduction import reduce
     from aromm.scene import assemble
     from inverse.measurements import load_measurements
@@ -78,7 +78,7 @@ def identify_worker(n: int, r: int, data: Path, cache: Path) -> dict[str, object
     scene = material(n, r, "z")
     system = assemble(scene)
     wall, cpu = time.perf_counter(), time.process_time()
-    rom = reduce(system, order=200, basis_values=scene.reduction.basis, reference_values=scene.reduction.reference,
+    rom = reduce(system, order=order, basis_values=scene.reduction.basis, reference_values=scene.reduction.reference,
                  cache=cache)
     out: dict[str, object] = {"stage": "identify", "r": r, "nodes": system.n, "rom_cpu": time.process_time() - cpu,
                               "rom_wall": time.perf_counter() - wall, "rom_cached": rom.info.get("cached", 0),
@@ -123,9 +123,9 @@ def richardson(values: list[float], factors: list[int]) -> tuple[float, float]:
 
 def spawn(args: list[str]) -> dict[str, object] | None:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, __file__, *args], stdout=subprocess.PIPE, text=True, env=env, check=False)
+    done = subprocess.run([sys.executable, __file__, *args], capture_output=True, text=True, env=env, check=False)
     if done.returncode != 0:
-        print(f"worker {args} failed with exit code {done.returncode} (its messages: stderr)", flush=True)
+        print(f"worker {args} failed with exit code {done.returncode}:\n{done.stderr}", flush=True)
         return None
     return json.loads(done.stdout.strip().splitlines()[-1])  # type: ignore[no-any-return]
 
@@ -134,6 +134,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--size", type=int, default=24, help="voxels per axis at 1x")
     parser.add_argument("--factors", type=int, nargs="+", default=[1, 2, 3])
+    parser.add_argument("--order", type=int, default=200, help="reduced-model order ñ")
     parser.add_argument("--twin-cells", type=int, default=480, help="elements of the 1-D twin column")
     parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "aromm-resolution")
     parser.add_argument("--worker", nargs="+", help=argparse.SUPPRESS)
@@ -145,13 +146,13 @@ def main() -> None:
         if stage == "homogenise":
             out = homogenise_worker(args.size, r)
         else:
-            out = identify_worker(args.size, r, Path(args.worker[2]), args.cache)
+            out = identify_worker(args.size, r, Path(args.worker[2]), args.cache, args.order)
         out["peak_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
         out["load"] = os.getloadavg()[0]
         print(json.dumps(out))
         return
     factors = sorted(args.factors)
-    base = ["--size", str(args.size), "--cache", str(args.cache)]
+    base = ["--size", str(args.size), "--cache", str(args.cache), "--order", str(args.order)]
     print(f"material: small_wood({args.size}) refined {factors}; truth {TRUTH}", flush=True)
     hom = {}
     for r in factors:
