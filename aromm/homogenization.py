@@ -58,11 +58,13 @@ class ProbeScene(Protocol):
 ProbeSolver = Callable[[Any], tuple[dict[str, float], float]]
 
 
-def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto", engine: str = "scipy") -> FloatArray:
+def homogenize(scene: Scene, boundary: str | None = None, method: str = "auto",
+               engine: str = "scipy") -> FloatArray:
     """Effective conductivity tensor (3x3, W/(m K)) of the scene's material under ``boundary``.
 
-    ``boundary``: ``"periodic"`` (default), ``"flux"`` ([Chavez2020, eq. 13]) or ``"temperature"`` — their
-    meaning and bounds in :mod:`aromm.cell_problems`.  Uses the scene's geometry and phases only; it applies
+    ``boundary``: ``"periodic"``, ``"flux"`` ([Chavez2020, eq. 13]) or ``"temperature"`` — their meaning and
+    bounds in :mod:`aromm.cell_problems`; by default periodic for a voxel image on the scipy engine, flux for
+    a mesh scene and the petsc engine (as ``aromm homogenize``).  Uses the scene's geometry and phases only; it applies
     the boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a linear solver of
     aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on); with
     ``engine="petsc"`` (PETSc under MPI, aromm.engines.petsc: collective, every rank calls it and gets the
@@ -70,7 +72,8 @@ def homogenize(scene: Scene, boundary: str = "periodic", method: str = "auto", e
     (principal values, by probes on the assembled model).
     """
     if check_engine(engine) == "scipy" and isinstance(scene.geometry, VoxelGeometry):
-        return effective_conductivity(scene, boundary, method).k
+        return effective_conductivity(scene, boundary or "periodic", method).k
+    boundary = boundary or "flux"
     if boundary not in PROBE_BOUNDARIES:
         where = "the petsc engine" if engine == "petsc" else f"{scene.where}a mesh scene"
         raise InputError(f"{where} homogenises with boundary 'flux' or 'temperature' (periodic conditions need a "
