@@ -66,7 +66,7 @@ def results(comm: Any) -> dict[str, np.ndarray]:
     out["transient"] = transient.as_array()
     out["steady"] = aromm.simulate(steady_scene(), {"fibre.k": 0.5}, engine="petsc").as_array()
     scene = steady_scene()
-    out["k_flux"] = aromm.homogenize(scene, engine="petsc")
+    out["k_flux"] = aromm.homogenize(scene, "flux", engine="petsc")
     out["k_temperature"] = aromm.homogenize(scene, "temperature", method="mumps", engine="petsc")
     return out
 
@@ -94,6 +94,6 @@ def serial() -> dict[str, np.ndarray]:
         out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
     out["transient"] = aromm.simulate(assemble(reduce_scene()), PROBE).as_array()
     out["steady"] = aromm.simulate(assemble(steady_scene()), {"fibre.k": 0.5}).as_array()
-    out["k_flux"] = aromm.homogenize(steady_scene())
+    out["k_flux"] = aromm.homogenize(steady_scene(), "flux")
     out["k_temperature"] = aromm.homogenize(steady_scene(), "temperature")
     return out
