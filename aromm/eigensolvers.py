@@ -43,8 +43,12 @@ from aromm.system import FloatArray
 log = logging.getLogger(__name__)
 
 EIGENSOLVERS = ("auto", "arpack", "lobpcg")
-#: ``"auto"`` uses LOBPCG for eigenproblems with more unknowns than this, ARPACK + a sparse factorisation below
-#: (measured crossover, benchmarks/reduce_scaling.py).
+#: ``"auto"`` uses LOBPCG for eigenproblems with more unknowns than this, ARPACK + a sparse factorisation below.
+#: A memory crossover, not a speed one (benchmarks/reduce_scaling.py, wood VERs, Ñ = 320, 2026-11-30): ARPACK +
+#: CHOLMOD was faster at every size measured (CPU s 19 / 72 / 263 / 1051 at 24³ / 32³ / 46³ / 64³ against
+#: LOBPCG's 47 / 125 / 597 / 1538), but its peak memory grows with the factor's fill (4.25 GB at 64³ = 2.7e5
+#: unknowns, against LOBPCG's 3.51 GB; exponents 0.90 and 0.82 in N from 24³, the fill tending to N^4/3) and
+#: heads for 13–22 GB at 96³, where LOBPCG needs about 10 GB.
 LOBPCG_ABOVE = 200_000
 #: Relative residual at which a pair is converged (below aromm.modes.RESIDUAL_TOL, which is checked after).
 TOL = 1e-7
