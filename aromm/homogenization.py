@@ -58,22 +58,28 @@ class ProbeScene(Protocol):
 ProbeSolver = Callable[[Any], tuple[dict[str, float], float]]
 
 
+def default_boundary(scene: Scene, engine: str = "scipy") -> str:
+    """The boundary condition of :func:`homogenize` when none is named: ``"periodic"`` for a voxel image on the
+    scipy engine (the full tensor, converging to the effective property), ``"flux"`` ([Chavez2020, eq. 13]) for a
+    mesh scene or the petsc engine, which homogenise by probes."""
+    return "periodic" if engine == "scipy" and isinstance(scene.geometry, VoxelGeometry) else "flux"
+
+
 def homogenize(scene: Scene, boundary: str | None = None, method: str = "auto",
                engine: str = "scipy") -> FloatArray:
     """Effective conductivity tensor (3x3, W/(m K)) of the scene's material under ``boundary``.
 
     ``boundary``: ``"periodic"``, ``"flux"`` ([Chavez2020, eq. 13]) or ``"temperature"`` — their meaning and
-    bounds in :mod:`aromm.cell_problems`; by default periodic for a voxel image on the scipy engine, flux for
-    a mesh scene and the petsc engine (as ``aromm homogenize``).  Uses the scene's geometry and phases only; it applies
-    the boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a linear solver of
-    aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels on); with
-    ``engine="petsc"`` (PETSc under MPI, aromm.engines.petsc: collective, every rank calls it and gets the
-    tensor) ``gamg`` or ``mumps``.  A mesh scene and the petsc engine take ``"flux"`` or ``"temperature"``
+    bounds in :mod:`aromm.cell_problems`; by default :func:`default_boundary`.  Uses the scene's geometry and
+    phases only; it applies the boundary conditions itself.  ``method``: ``"mg"`` (geometric multigrid CG), a
+    linear solver of aromm.linalg, or ``"auto"`` (multigrid from aromm.cell_problems.MG_CROSSOVER_VOXELS voxels
+    on); with ``engine="petsc"`` (PETSc under MPI, aromm.engines.petsc: collective, every rank calls it and
+    gets the tensor) ``gamg`` or ``mumps``.  A mesh scene and the petsc engine take ``"flux"`` or ``"temperature"``
     (principal values, by probes on the assembled model).
     """
-    if check_engine(engine) == "scipy" and isinstance(scene.geometry, VoxelGeometry):
-        return effective_conductivity(scene, boundary or "periodic", method).k
-    boundary = boundary or "flux"
+    boundary = boundary or default_boundary(scene, check_engine(engine))
+    if engine == "scipy" and isinstance(scene.geometry, VoxelGeometry):
+        return effective_conductivity(scene, boundary, method).k
     if boundary not in PROBE_BOUNDARIES:
         where = "the petsc engine" if engine == "petsc" else f"{scene.where}a mesh scene"
         raise InputError(f"{where} homogenises with boundary 'flux' or 'temperature' (periodic conditions need a "

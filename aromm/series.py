@@ -44,6 +44,12 @@ def write_vtu(path: str | os.PathLike[str], geometry: Geometry, field: FloatArra
     return Path(path)
 
 
+def series_file(folder: str | os.PathLike[str], step: int | None, stem: str = "field") -> Path:
+    """The VTU file of the ``step``-th field of a series in ``folder`` (:func:`write_series`), or its PVD
+    collection when ``step`` is None."""
+    return Path(folder) / (f"{stem}.pvd" if step is None else f"{stem}_{step:04d}.vtu")
+
+
 def write_series(folder: str | os.PathLike[str], geometry: Geometry, fields: Iterable[tuple[float, FloatArray]],
                  stem: str = "field", name: str = "T") -> list[Path]:
     """``<stem>_0000.vtu``, ... (one per ``(t, T)`` of ``fields``, in order) and ``<stem>.pvd``; returns the paths.
@@ -62,10 +68,10 @@ def write_series(folder: str | os.PathLike[str], geometry: Geometry, fields: Ite
         if not (np.isfinite(t) and t > previous):
             raise InputError(f"{out}: field times must be finite and increasing, got {t!r} after {previous!r}")
         previous = t
-        path = write_vtu(out / f"{stem}_{step:04d}.vtu", geometry, field, name)
+        path = write_vtu(series_file(out, step, stem), geometry, field, name)
         written.append(path)
         entries.append(f'    <DataSet timestep="{float(t)!r}" part="0" file={quoteattr(path.name)}/>')
-    collection = out / f"{stem}.pvd"
+    collection = series_file(out, None, stem)
     with atomic_write(collection, "ParaView collection") as fh:
         fh.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n')
         fh.write("".join(f"{e}\n" for e in entries))

@@ -132,6 +132,17 @@ def load_emcee() -> ModuleType:
     return emcee
 
 
+def check_walkers(walkers: int, unknowns: int, *, sample_noise: bool) -> int:
+    """The number of sampled coordinates (the unknowns, plus log σ when the noise is sampled); InputError unless
+    ``walkers`` is an integer at least twice that (emcee's stretch move needs two halves of the ensemble that
+    each span the space)."""
+    ndim = unknowns + sample_noise
+    if isinstance(walkers, bool) or not isinstance(walkers, int) or walkers < 2 * ndim:
+        raise InputError(f"posterior: walkers must be an integer >= 2 × {ndim} coordinates ({unknowns} unknowns"
+                         + (" and the noise σ" if sample_noise else "") + f"), got {walkers!r}")
+    return ndim
+
+
 def sample_posterior(
     model: ModelInput,
     measurements: Measurements | None = None,
@@ -165,9 +176,7 @@ def sample_posterior(
     box = opt.Box.from_bounds(unknowns)
     criterion = LeastSquares(scenarios_of(model, measurements, {*box.names, *(fixed or {})}), box.names, fixed)
     n_obs = criterion.n_observations
-    ndim = box.dim + (noise_std is None)
-    if isinstance(walkers, bool) or not isinstance(walkers, int) or walkers < 2 * ndim:
-        raise InputError(f"posterior: walkers must be an integer >= 2 × {ndim} coordinates, got {walkers!r}")
+    ndim = check_walkers(walkers, box.dim, sample_noise=noise_std is None)
 
     def log_prob(x: FloatArray) -> FloatArray:
         theta = x[:, : box.dim]

@@ -16,11 +16,11 @@ from aromm.engines import is_root
 from aromm.errors import InputError
 from aromm.files import OutputKind, check_folder, check_output, signed
 from aromm.geometry import VoxelGeometry
-from aromm.homogenization import BOUNDARIES, fluxmetric, homogenize, mean_capacity
+from aromm.homogenization import BOUNDARIES, default_boundary, fluxmetric, homogenize, mean_capacity
 from aromm.linalg import DEFAULT_RTOL, METHODS
 from aromm.observables import TIME_SERIES, Observables, write_csv
 from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
-from aromm.series import write_series, write_vtu
+from aromm.series import series_file, write_series, write_vtu
 from aromm.solve import simulate as simulate_full
 from inverse.measurements import homogeneous_measurements, save_measurements
 
@@ -59,9 +59,9 @@ def _check_out(out: Path, scene: Path, outputs: tuple[str, ...], *, field: bool,
     if field:
         check_output(vtu_path, FIELD, inputs=inputs, force=force)
     for step in range(series):
-        check_output(out / f"field_{step:04d}.vtu", FIELD, inputs=inputs, force=force)
+        check_output(series_file(out, step), FIELD, inputs=inputs, force=force)
     if series:
-        check_output(out / "field.pvd", COLLECTION, inputs=inputs, force=force)
+        check_output(series_file(out, None), COLLECTION, inputs=inputs, force=force)
     return csv_path, vtu_path
 
 
@@ -169,18 +169,16 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     sc = engine_cli.load(scene, engine, refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
     capacities = all(ph.c is not None for ph in sc.phases)
     image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
+    boundary = boundary or default_boundary(sc, engine)
     if engine == "petsc":
         from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
 
-        boundary = boundary or "flux"
         result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
         c = mean_capacity_petsc(sc) if capacities else None
     elif image is None:
-        boundary = boundary or "flux"
         result = CellResult(homogenize(sc, boundary=boundary, method=solver), boundary, solver)
         c = mean_capacity(sc) if capacities else None
     else:
-        boundary = boundary or "periodic"
         result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
         c = mean_capacity(sc) if capacities else None
     if not is_root(engine):

@@ -14,6 +14,7 @@ from tqdm import tqdm
 
 from aromm.cli import checks
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
+from aromm.errors import InputError
 from aromm.files import check_output, distinct
 from aromm.model import ForwardModel
 from aromm.scene import Scene, assemble, load_scene
@@ -21,7 +22,14 @@ from aromm.solve import FullModel
 from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot
-from inverse.posterior import DEFAULT_WALKERS, Posterior, PosteriorWarning, load_emcee, sample_posterior
+from inverse.posterior import (
+    DEFAULT_WALKERS,
+    Posterior,
+    PosteriorWarning,
+    check_walkers,
+    load_emcee,
+    sample_posterior,
+)
 from inverse.uncertainty import UncertaintyWarning
 
 
@@ -137,11 +145,10 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
         if resume and checkpoint.exists():
             ckpt.read(checkpoint)
     if posterior_steps is not None:
-        sampled = len(bounds) + (noise_std is None)
-        if walkers < 2 * sampled:
-            raise click.BadParameter(f"{walkers} walkers for {sampled} sampled coordinates (the unknowns"
-                                     + (" and the noise σ" if noise_std is None else "") + f"); give at least "
-                                     f"{2 * sampled}", param_hint="--walkers")
+        try:
+            check_walkers(walkers, len(bounds), sample_noise=noise_std is None)
+        except InputError as err:
+            raise click.BadParameter(str(err), param_hint="--walkers") from None
     if kind == "reduced":
         checks.cache_folder(None)
     tty = sys.stderr.isatty()
