@@ -50,7 +50,7 @@ from aromm.eigensolvers import (
 )
 from aromm.errors import InputError, NumericalError
 from aromm.linalg import Factorization, factorize, resolve_method
-from aromm.system import FloatArray, ThermalSystem
+from aromm.system import FloatArray, ThermalSystem, require_free_transient
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
 DENSE_LIMIT = 1500
@@ -136,12 +136,7 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
     ``values`` (the reference properties k0, c0 of the bases) override the system's own parameters;
     ζ from [Chavez2020, eq. 8].
     """
-    if system.is_steady:
-        raise InputError("the modal bases need a transient system (a [time] section and phase capacities c)")
-    if system.dirichlet:
-        names = ", ".join(d.param for d in system.dirichlet)
-        raise InputError(f"fixed temperatures ({names}): build the bases on the lifted system of the free "
-                         "unknowns (aromm.lifting.lift; aromm.reduce does it)")
+    require_free_transient(system, "the modal bases")
     vals: dict[str, float] = {k: float(v) for k, v in system.parameters.items()}
     vals.update({k: float(v) for k, v in (values or {}).items()})
     k0 = sp.csr_array(system.conductance.with_role("conduction").evaluate(vals))

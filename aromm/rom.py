@@ -45,7 +45,7 @@ from aromm.model import one_set
 from aromm.observables import Observables
 from aromm.profiles import Profile
 from aromm.resources import FLOAT
-from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
+from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid, require_free_transient
 
 #: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
 ZERO_RATE = 1e-11
@@ -122,12 +122,7 @@ class ReducedModel:
         Fixed temperatures must have been lifted first (:func:`aromm.lifting.lift`; :func:`aromm.reduce`
         does it): the basis spans the free unknowns only.
         """
-        if system.dirichlet:
-            names = ", ".join(d.param for d in system.dirichlet)
-            raise InputError(f"fixed temperatures ({names}) must be lifted before projection "
-                             "(aromm.lifting.lift; aromm.reduce does it)")
-        if system.is_steady:
-            raise InputError("the reduced model needs a transient system (a [time] section and capacities c)")
+        require_free_transient(system, "the projection onto a basis")
         fields = [(Coefficient(("initial.T",)), np.ones(system.n), "")]
         fields += [(t.coefficient, np.asarray(t.operator, dtype=float), f"·{t.name}") for t in system.initial.terms]
         initial = Affine(tuple(

@@ -327,3 +327,21 @@ class ThermalSystem:
              for name, row in self.observation.items()],
             self.boundary,
         )[:20]
+
+
+LIFT_FIRST = "must be lifted first (aromm.lifting.lift; aromm.reduce does it)"
+PENALTY_INSTEAD = "are not supported (natural boundary conditions only); replace them by convection with a large h " \
+                  "(penalty)"
+
+
+def require_free_transient(system: ThermalSystem, purpose: str, remedy: str = LIFT_FIRST) -> None:
+    """Refuse, with :class:`~aromm.errors.InputError`, a system that ``purpose`` cannot take: a steady one (the
+    modal bases, the reduced model and the LTI export need the capacity ``C``), or one with fixed temperatures
+    (they work on the free unknowns, natural boundary conditions only, [Chavez2020, eq. 5]); ``remedy`` says
+    what to do about the fixed temperatures (:data:`LIFT_FIRST` or :data:`PENALTY_INSTEAD`).
+    """
+    if system.is_steady:
+        raise InputError(f"{purpose} needs a transient system (a [time] section and phase capacities c)")
+    if system.dirichlet:
+        names = ", ".join(d.param for d in system.dirichlet)
+        raise InputError(f"{purpose}: fixed temperatures ({names}) {remedy}")

@@ -42,7 +42,6 @@ from pathlib import Path
 import numpy as np
 
 POINT = {"fibre.k": 0.3, "fibre.c": 4e6}
-MEMORY_LIMIT_GB = 14.0  # address-space cap of a worker: a MemoryError instead of the machine's OOM killer
 
 
 def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: bool, half_step: bool) -> dict[
@@ -124,10 +123,12 @@ def main() -> None:
     parser.add_argument("--half-step", action="store_true",
                         help="also run the full model at dt/2 (its own time error; ROM against the Richardson value)")
     parser.add_argument("--json", type=Path, default=None, help="append each worker's result to this file")
+    parser.add_argument("--memory-limit-gb", type=float, default=14.0,
+                        help="address-space cap of a worker: a MemoryError instead of the machine's OOM killer")
     parser.add_argument("--worker", nargs=2, metavar=("N", "EIGENSOLVER"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        limit = int(MEMORY_LIMIT_GB * 1e9)
+        limit = int(args.memory_limit_gb * 1e9)
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
         result = worker(int(args.worker[0]), args.worker[1], args.steps, args.amg_above, float32=args.float32,
                         half_step=args.half_step)
@@ -137,7 +138,8 @@ def main() -> None:
     for solver in args.eigensolvers:
         for n in args.sizes:
             cmd = [sys.executable, __file__, "--worker", str(n), solver, "--steps", str(args.steps),
-                   "--amg-above", str(args.amg_above)] + (["--float32"] if args.float32 else []) + (
+                   "--amg-above", str(args.amg_above),
+                   "--memory-limit-gb", str(args.memory_limit_gb)] + (["--float32"] if args.float32 else []) + (
                        ["--half-step"] if args.half_step else [])
             env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
             done = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=env, check=False)  # stderr: progress

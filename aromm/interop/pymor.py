@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from aromm.errors import InputError
-from aromm.system import Affine, Coefficient, ThermalSystem, dense
+from aromm.system import PENALTY_INSTEAD, Affine, Coefficient, ThermalSystem, dense, require_free_transient
 
 try:
     from pymor.models.iosys import LTIModel
@@ -71,12 +71,7 @@ def _lincomb(affine: Affine, sign: float, name: str, column: bool = False) -> An
 def to_lti(system: ThermalSystem, time_stepper: Any = None) -> LTIModel:
     """The pyMOR ``LTIModel`` of ``system`` (module docstring); with ``time_stepper`` (e.g.
     ``ImplicitEulerTimeStepper(nt)``) it also simulates over the system's time grid, ``T = time.end``."""
-    if system.is_steady:
-        raise InputError("export to pyMOR needs a transient system (a [time] section and capacities c)")
-    if system.dirichlet:
-        names = ", ".join(d.param for d in system.dirichlet)
-        raise InputError(f"export to pyMOR: fixed temperatures ({names}) are not supported (natural boundary "
-                         "conditions only); replace them by convection with a large h (penalty)")
+    require_free_transient(system, "export to pyMOR", PENALTY_INSTEAD)
     if not system.load:
         raise InputError("export to pyMOR needs at least one load term (B)")
     outputs, rows = system.observation_matrix()

@@ -12,9 +12,8 @@ import numpy as np
 
 from aromm.engines.petsc import convert
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm
-from aromm.errors import InputError
 from aromm.rom import ReducedModel
-from aromm.system import Affine, Coefficient, FloatArray, Term, ThermalSystem
+from aromm.system import PENALTY_INSTEAD, Affine, Coefficient, FloatArray, Term, ThermalSystem, require_free_transient
 
 
 def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatArray] | None = None) -> ReducedModel:
@@ -23,12 +22,7 @@ def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatA
     ``memo`` (id of a PETSc operator → projection) shares work between systems with common terms.
     """
     template = system.template
-    if template.dirichlet:
-        fixed = ", ".join(d.param for d in template.dirichlet)
-        raise InputError(f"fixed temperatures ({fixed}) are not supported by the reduced model (natural boundary "
-                         "conditions only); replace them by convection with a large h (penalty)")
-    if system.is_steady:
-        raise InputError("the reduced model needs a transient system (a [time] section and capacities c)")
+    require_free_transient(template, "the reduced model", PENALTY_INSTEAD)
     memo = {} if memo is None else memo
     rows, comm = system.rows, system.comm
 
