@@ -8,7 +8,7 @@ whose weight falls like 1/n with the image size n [Huet1990] [Kanit2003]:
   gradient g_j = x_j (energy identity: ``k_ij |Ω| = ∫ ∇T_i · k ∇T_j``).  It is the standard for a
   representative volume: exact for laminates in every direction, equal to the effective tensor of the
   periodic medium the image tiles, and between the two values below for a random image.
-* ``flux`` — seed eq. 13 [Chavez2020, eq. 13]: uniform flux q into face i0, T = 0 on face i1, the others
+* ``flux`` — [Chavez2020, eq. 13]: uniform flux q into face i0, T = 0 on face i1, the others
   adiabatic; k_ii = q L_i / (T̄_i0 − T̄_i1).  A uniform-flux (static) face is a lower-bound type condition:
   its limit is below the effective value: on the sphere in a cube its Richardson values settle 0.53 % low,
   and along the layers of a laminate it never reaches the arithmetic mean (−35 % for half-and-half 1/10

@@ -14,7 +14,7 @@ Tables (printed, not asserted):
   Euler, factorised once) with increasing numbers of steps; error = max |T - T_ref| over particles and
   output times, T_ref = BDF2 with 3200 steps (``--reference-steps``).  Each implicit scheme stops at
   the first step count at least as accurate as the explicit run.
-* ``ct``: C_t (pair and global R_moy, periodic; pair, slab test of seed Fig. 3) and Z x C_t for Z = 6, 9,
+* ``ct``: C_t (pair and global R_moy, periodic; pair, slab test of [Hassan2019, Fig. 3]) and Z x C_t for Z = 6, 9,
   and E = k_eff/k_m of the sphere inclusion (periodic cell) at contrasts 0.01 and 100 against the exact
   simple-cubic value (aromm.effective.models.rayleigh_simple_cubic), per N.
 

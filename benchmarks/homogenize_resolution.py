@@ -3,7 +3,7 @@
 Tables:
 
 1. Sphere in a cube (κ = 10, r = L/3, exact simple-cubic 1.39573) for each boundary condition
-   (periodic, flux = seed eq. 13, temperature) against n: k_xx, its error, the error after the
+   (periodic, flux = [Chavez2020, eq. 13], temperature) against n: k_xx, its error, the error after the
    volume-fraction correction k + dk/dφ (φ − φ_n) (Maxwell's slope; the voxel sphere's fraction scatters
    around 4π/81), CPU seconds (multigrid, rtol 1e-8, three directions).  Then Richardson extrapolation
    2 k(2n) − k(n) (first order) of the corrected values for each pair (n, 2n).
