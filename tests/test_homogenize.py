@@ -42,7 +42,7 @@ def test_laminate_gives_arithmetic_along_and_harmonic_across_layers() -> None:
     k_t = homogenize(scene, boundary="temperature")
     np.testing.assert_allclose(np.diag(k_t), [arithmetic, arithmetic, harmonic], rtol=1e-10)
     np.testing.assert_allclose(homogenize(scene), np.diag([arithmetic, arithmetic, harmonic]), rtol=1e-10)  # periodic
-    k_f = homogenize(scene, boundary="flux")  # [Chavez2020, eq. 13]: exact across the layers, below the arithmetic mean along
+    k_f = homogenize(scene, boundary="flux")  # [Chavez2020, eq. 13]: exact across, low along
     assert k_f[2, 2] == pytest.approx(harmonic, rel=1e-10)
     assert harmonic < k_f[0, 0] < arithmetic
     assert mean_capacity(scene) == pytest.approx((1 - frac) * 1e6 + frac * 3e6, rel=1e-14)
