@@ -32,29 +32,29 @@ from, i.e. the floor of their error; its ñ column is the order the row belongs 
 
 The machine is shared: wall and CPU seconds and the load average are printed side by side.
 
-Measured 2026-11-30 on the generated 16³ VER (4913 DOFs; ``--size 16``, one process per method group sharing
-``--truth``) at load average 17–30 on 2 cores, so wall seconds and online milliseconds are inflated and noisy
-(trust CPU seconds).  Truth: own error 1.9e-11 °C (max face mean 27.6 °C); worst error °C over the 3×3 grid
-(always at k_F = 0.1, c_F = 1e7 from ñ = 20 on, except BT):
+Measured 2026-11-30 on the default 24³ VER (15,625 DOFs; ``nice python benchmarks/mor_peers.py``, behind other
+jobs on 2 cores: wall seconds and online milliseconds are inflated, trust CPU seconds).  Truth: own error
+4.0e-11 °C (max face mean 27.5 °C).  Worst error °C over the 3×3 grid (at k_F = 0.1, c_F = 1e7 from ñ = 20 on
+for the aromm methods), offline CPU s in brackets; bt and irka: error at the reference / worst:
 
-    ñ    aromm   +shifts  pod      greedy  greedy+shifts  detailed Φ (Ñ)  bt (at ref)       gramian-pod  irka
-    5    3.4e-1  5.9e-1   2.5e-1   7.0e-2  -              2.3e-3 (43)     2.8e-1 (1.5e-2)   1.5e+0       6.4e-1
-    10   2.3e-1  2.0e-1   1.7e-1   1.1e-3  -              1.1e-3 (51)     5.3e-2 (3.1e-4)   5.8e-1       -
-    20   2.2e-3  1.6e-1   2.0e-3   1.0e-3  2.4e-5         1.0e-3 (66)     2.7e-2 (8.3e-7)   3.7e-3       -
-    30   -       -        -        -       -              -               2.2e-2 (4.9e-9)   -            -
-    50   1.0e-3  1.7e-3   9.3e-4   9.3e-4  1.0e-5         9.3e-4 (111)    refused (a)       2.9e-4       -
-    100  1.1e-3  1.2e-3   refused  7.8e-4  9.0e-6         7.8e-4 (186)    refused (a)       9.3e-6       -
-    200  8.0e-4  6.2e-4   -        -       -              7.6e-4 (336)    refused (a)       refused (b)  -
+    ñ    aromm        +shifts      pod      greedy       greedy+shifts  detailed Φ (Ñ)  bt                gramian-pod
+    5    1.4 (4.5)    1.4 (7.9)    1.7e-1   4.7e-2 (4.5) 4.7e-2 (14)    3.1e-3 (43)     1.7e-2 / 3.1e-1   1.7 (111)
+    10   1.8e-1 (4.9) 3.4e-1       1.3e-1   1.5e-3 (5.0) 2.4e-3 (13)    1.6e-3 (51)     4.5e-4 / 5.9e-2   5.1e-1
+    20   3.0e-3 (5.3) 1.3e-1       2.7e-3   1.5e-3 (5.4) 3.3e-5 (14)    1.6e-3 (66)     1.1e-6 / (c)      4.9e-3
+    50   1.5e-3 (8.8) 4.0e-4 (12)  1.3e-3   1.3e-3 (9.4) 5.5e-6 (16)    1.3e-3 (111)    refused (a)       1.7e-4
+    100  1.2e-3 (13)  9.5e-5 (16)  refused  1.1e-3 (14)  4.4e-6 (21)    1.1e-3 (186)    refused (a)       1.0e-5
+    200  9.9e-4 (19)  6.7e-5 (22)  refused  9.6e-4 (24)  3.8e-6 (31)    9.6e-4 (336)    refused (a)       refused (b)
 
 refused: pod "POD order 100 is more than the snapshots hold: 75 available (17 kept columns + snapshot rank
-58)"; (a) pyMOR "r needs to be smaller than the sizes of Gramian factors" (its low-rank ADI stops below 50
-columns); (b) the 9 Gramian factors span rank 120.  irka: 20 iterations without convergence (crit 9.9e-3).
-Offline CPU s: aromm 1.7 / 2.2 / 2.2 / 4.1 / 17 / 36 (ñ = 5 … 200, bases included), greedy 2.6 / 4.8 / 3.9 /
-18 / 72, greedy+shifts 21 / 15 / 67 (ñ = 20, 50, 100), bt 9.4 (Gramians, every order), gramian-pod 24.
+58)"; (a) pyMOR "r needs to be smaller than the sizes of Gramian factors"; (b) the 9 Gramian factors span rank
+133; (c) the projected model grows at a grid point away from the reference (printed then as nan, now as
+"unstable at …").  bt 41 CPU s (Gramians, every order); irka (20 iterations, not converged): 9.2e-2 / 7.3e-1 at
+r = 5, 1.9e-3 / 1.2e-1 at r = 10.  Online: 0.3–2 ms per evaluation up to ñ = 20.
 
 The amalgam, POD and the greedy all stop at the error of the detailed basis Φ (1e-3 °C at the slow corner
 of the grid); the greedy gets there at ñ = 10 instead of 50.  Shifted-solve corrections at the corners of
-the training box lower that floor 40–90× (greedy+shifts).
+the training box lower that floor 250× (greedy+shifts, 3.8e-6 at ñ = 200).  The 16³ run (same day) gave the
+same picture.
 """
 
 from __future__ import annotations
