@@ -47,8 +47,8 @@ for the aromm methods), offline CPU s in brackets; bt and irka: error at the ref
 
 refused: pod "POD order 100 is more than the snapshots hold: 75 available (17 kept columns + snapshot rank
 58)"; (a) pyMOR "r needs to be smaller than the sizes of Gramian factors"; (b) the 9 Gramian factors span rank
-133; (c) the projected model grows at a grid point away from the reference (printed then as nan, now as
-"unstable at …").  bt 41 CPU s (Gramians, every order); irka (20 iterations, not converged): 9.2e-2 / 7.3e-1 at
+133; (c) the projected model grows at a grid point away from the reference (the row says "unstable
+at …").  bt 41 CPU s (Gramians, every order); irka (20 iterations, not converged): 9.2e-2 / 7.3e-1 at
 r = 5, 1.9e-3 / 1.2e-1 at r = 10.  Online: 0.3–2 ms per evaluation up to ñ = 20.
 
 The amalgam, POD and the greedy all stop at the error of the detailed basis Φ (1e-3 °C at the slow corner
