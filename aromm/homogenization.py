@@ -77,7 +77,8 @@ def homogenize(scene: Scene, boundary: str | None = None, method: str = "auto",
     gets the tensor) ``gamg`` or ``mumps``.  A mesh scene and the petsc engine take ``"flux"`` or ``"temperature"``
     (principal values, by probes on the assembled model).
     """
-    boundary = boundary or default_boundary(scene, check_engine(engine))
+    engine = check_engine(engine)
+    boundary = boundary or default_boundary(scene, engine)
     if engine == "scipy" and isinstance(scene.geometry, VoxelGeometry):
         return effective_conductivity(scene, boundary, method).k
     if boundary not in PROBE_BOUNDARIES:

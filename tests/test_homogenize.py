@@ -70,6 +70,15 @@ def test_permuting_image_axes_permutes_the_tensor() -> None:
     assert len(set(np.round(k, 6))) == 3  # the image is genuinely anisotropic
 
 
+def test_unknown_engine_is_refused_whatever_the_boundary() -> None:
+    """The engine is checked before the default boundary is chosen, and also when a boundary is named."""
+    scene = _scene({"generator": "laminate", "shape": [4, 4, 6], "axis": "z", "layer_voxels": [3, 3],
+                    "voxel_size": 1e-3}, 1.0, 5.0)
+    for boundary in (None, "flux", "periodic"):
+        with pytest.raises(InputError, match="unknown engine 'cuda'; allowed: scipy, petsc"):
+            homogenize(scene, boundary, engine="cuda")
+
+
 def test_homogeneous_twin_reproduces_the_orthotropic_tensor() -> None:
     scene = _scene({"generator": "laminate", "shape": [4, 4, 6], "axis": "z", "layer_voxels": [3, 3],
                     "voxel_size": 1e-3}, 1.0, 5.0, (1e6, 2e6))
