@@ -63,12 +63,6 @@ def test_help_text_is_complete_and_cites_by_key(path: str, command: click.Comman
     assert not re.search(r"\bseed'?s\b(?! of)|\bthe seed\b|seed[- ]00\d", text, re.IGNORECASE), text
 
 
-# Notebooks whose run at the papers' sizes did not fit the session of issue 15 on the shared machine; they are stored
-# at the tests' sizes (scripts/regenerate_notebooks.py --small). Once a full run is stored, remove its name here and
-# on docs/reproductions.md.
-STORED_SMALL: set[str] = {"accuracy_vs_cost"}
-
-
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_stored_notebook_shows_its_results_with_a_figure(path: Path) -> None:
     nb = nbformat.read(path, as_version=4)
@@ -80,9 +74,7 @@ def test_stored_notebook_shows_its_results_with_a_figure(path: Path) -> None:
     assert "aromm" in nb.metadata, f"{path.name}: not stored by scripts/regenerate_notebooks.py"
 
 
-@pytest.mark.parametrize("path", [
-    pytest.param(p, marks=pytest.mark.xfail(strict=True, reason="stored at the tests' sizes, full run pending"))
-    if p.stem in STORED_SMALL else p for p in NOTEBOOKS], ids=[p.stem for p in NOTEBOOKS])
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_stored_notebook_was_computed_at_the_papers_sizes(path: Path) -> None:
     run = nbformat.read(path, as_version=4).metadata.get("aromm", {})
     assert run.get("full") is True, f"{path.name}: not stored from an AROMM_FULL=1 run " \
