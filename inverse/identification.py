@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from aromm.core.clock import TIME_OFFSET, TimeShifted
 from aromm.core.errors import InputError
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import is_positive
 from inverse import checkpoint as ckpt

@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.core.errors import InputError
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.core.observables import Observables, read_csv, write_csv
 
 #: Measurements are the toolkit's one time-series table (times in s, one series per observed face, °C).

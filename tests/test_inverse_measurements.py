@@ -16,8 +16,8 @@ from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.full.solve import simulate
 from aromm.homogenization.properties import fluxmetric, homogenize, mean_capacity
 from aromm.homogenization.synthetic import homogeneous_measurements
-from aromm.scene.file import Scene, assemble
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, assemble
 from inverse.measurements import (
     Measurements,
     load_measurements,

@@ -19,7 +19,7 @@ from aromm.engines.petsc.layout import SlabLayout, even_split
 from aromm.fem.voxel import node_index
 from aromm.microstructure import load_image
 from aromm.microstructure.slabs import ImageSlabs
-from aromm.scene.file import scene_from_dict
+from aromm.scene.scene_file import scene_from_dict
 
 SHAPE = (3, 4, 7)
 

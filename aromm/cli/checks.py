@@ -18,7 +18,7 @@ from aromm.core.clock import TIME_OFFSET
 from aromm.core.errors import InputError
 from aromm.core.files import Input, check_folder
 from aromm.core.vocabulary import is_positive
-from aromm.scene.file import Scene, scene_files
+from aromm.scene.scene_file import Scene, scene_files
 from inverse.measurements import Measurements, load_measurements
 
 Bounds = dict[str, tuple[float, float]]

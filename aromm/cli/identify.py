@@ -16,9 +16,9 @@ from aromm.cli import checks
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
 from aromm.core.errors import InputError
 from aromm.core.files import check_output, distinct
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.full.solve import FullModel
-from aromm.scene.file import Scene, assemble, load_scene
+from aromm.scene.scene_file import Scene, assemble, load_scene
 from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot

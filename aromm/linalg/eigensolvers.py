@@ -5,7 +5,7 @@ Solves ``K v = λ N v`` for the ``count`` smallest λ, with ``N`` symmetric posi
 positive-definite for the given shift σ ≤ 0.  The iteration works on the *inverted* pencil
 ``N x = μ M x``, ``μ = 1/(λ − σ)``, whose largest μ are wanted: its inner product ``xᵀMy`` is a
 norm even when ``N`` is singular, so LOBPCG [Knyazev2001] applies to the Steklov modes without
-the interior garbage that shift-invert Lanczos leaves with a singular ``N`` (aromm.reduction.bases).  On the
+the interior garbage that shift-invert Lanczos leaves with a singular ``N`` (aromm.reduction.modal_bases).  On the
 same subspace the Ritz vectors of ``(K, N)`` and ``(N, M)`` coincide and the residuals are related
 by ``N x − μ M x = −μ (K x − λ N x)``, so converging the one converges the other.
 
@@ -50,7 +50,8 @@ EIGENSOLVERS = ("auto", "arpack", "lobpcg")
 #: unknowns, against LOBPCG's 3.51 GB; exponents 0.90 and 0.82 in N from 24³, the fill tending to N^4/3) and
 #: heads for 13–22 GB at 96³ (extrapolated), where LOBPCG measured 11.4 GB and 6,349 CPU s (9.1e5 unknowns).
 LOBPCG_ABOVE = 200_000
-#: Relative residual at which a pair is converged (below aromm.reduction.bases.RESIDUAL_TOL, which is checked after).
+#: Relative residual at which a pair is converged (below aromm.reduction.modal_bases.RESIDUAL_TOL, which is checked
+#: after).
 TOL = 1e-7
 #: Columns per chunk, and extra (guard) columns iterated with them.
 BLOCK = 40
@@ -87,7 +88,8 @@ ProgressCallback = Callable[[EigenProgress], None]
 def choose_eigensolver(name: str, n: int) -> str:
     """``"arpack"`` or ``"lobpcg"`` for an eigenproblem with ``n`` unknowns (``name`` ``"auto"`` picks by size).
 
-    ``"arpack"`` means the direct path of aromm.reduction.bases: dense ``eigh`` up to its DENSE_LIMIT unknowns, ARPACK
+    ``"arpack"`` means the direct path of aromm.reduction.modal_bases: dense ``eigh`` up to its DENSE_LIMIT unknowns,
+    ARPACK
     shift-invert on a sparse factorisation above; ``"lobpcg"`` is used at any size when asked for.
     """
     if name not in EIGENSOLVERS:
@@ -418,35 +420,3 @@ def _final_rayleigh_ritz(a: sp.csr_array, m: sp.csr_array, v: FloatArray) -> tup
         rows = slice(lo, min(lo + ROW_SLAB, v.shape[0]))
         v[rows] = v[rows] @ c
     return mu, v
-
-
-# ----------------------------------------------------------------- checks by chunks of columns (bounded memory)
-
-CHECK_COLUMNS = 32
-
-
-def relative_residuals(k: sp.csr_array, n_mat: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
-    """``||K v − λ N v|| / (||K v|| + |λ| ||N v||)`` per column (temporaries of CHECK_COLUMNS columns)."""
-    out = np.empty(v.shape[1])
-    for lo in range(0, v.shape[1], CHECK_COLUMNS):
-        cols = slice(lo, lo + CHECK_COLUMNS)
-        kv = k @ v[:, cols]
-        nv = n_mat @ v[:, cols]
-        num = np.linalg.norm(kv - nv * lam[cols], axis=0)
-        den = np.linalg.norm(kv, axis=0) + np.abs(lam[cols]) * np.linalg.norm(nv, axis=0)
-        out[cols] = num / np.maximum(den, 1e-300)
-    return out
-
-
-def column_norms(m: sp.csr_array, v: FloatArray) -> FloatArray:
-    """``sqrt(diag(vᵀ M v))`` (temporaries of CHECK_COLUMNS columns)."""
-    return np.sqrt(np.concatenate([np.einsum("ij,ij->j", v[:, lo:lo + CHECK_COLUMNS], m @ v[:, lo:lo + CHECK_COLUMNS])
-                                   for lo in range(0, v.shape[1], CHECK_COLUMNS)]))
-
-
-def chunked_gram(m: sp.csr_array, v: FloatArray) -> FloatArray:
-    """``vᵀ M v`` (temporaries of CHECK_COLUMNS columns)."""
-    out = np.empty((v.shape[1], v.shape[1]))
-    for lo in range(0, v.shape[1], CHECK_COLUMNS):
-        out[:, lo:lo + CHECK_COLUMNS] = v.T @ (m @ v[:, lo:lo + CHECK_COLUMNS])
-    return out

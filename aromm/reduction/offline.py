@@ -1,6 +1,6 @@
 """Offline reduction: detailed modal basis, reference simulations, a reductor, the reduced model [Chavez2020, § 3].
 
-1. Detailed basis Φ (:mod:`aromm.reduction.bases`): constants, Steklov and Dirichlet modes at reference properties
+1. Detailed basis Φ (:mod:`aromm.reduction.modal_bases`): constants, Steklov and Dirichlet modes at reference properties
    (``basis_values``), enriched by static and first-order correction vectors of the loads.
 2. Reference cases, simulated exactly on the detailed modal model (:class:`~aromm.reduction.rom.ReducedModel` on Φ):
    the system itself at ``reference_values``, other scenarios on the same mesh, and the relaxation of the
@@ -30,14 +30,14 @@ from aromm.core.errors import InputError
 from aromm.core.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
 from aromm.linalg.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
 from aromm.reduction.amalgam import AmalgamReductor
-from aromm.reduction.bases import ModalBasis, boundary_of, compute_basis, split_modes
 from aromm.reduction.corrections import correction_samples, with_corrections
 from aromm.reduction.greedy import PodGreedy
 from aromm.reduction.lifting import lift, liftings
+from aromm.reduction.modal_bases import ModalBasis, boundary_of, compute_basis, split_modes
 from aromm.reduction.pod import PodReductor
-from aromm.reduction.reductors import DetailedModel, Reductor
+from aromm.reduction.reductors import DetailedModel, Reductor, snapshot_times
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
-from aromm.scene.file import Scene, assemble
+from aromm.scene.scene_file import Scene, assemble
 
 log = logging.getLogger(__name__)
 
@@ -79,14 +79,6 @@ def relaxation_case(system: ThermalSystem, values: Mapping[str, float], h: float
         boundary=system.boundary,
     )
     return ReferenceCase(cooled, {**values, "relaxation.h": h, "initial.T": initial}, name="relaxation")
-
-
-def snapshot_times(grid: TimeGrid | None) -> FloatArray:
-    """The scene's output grid plus 60 log-spaced times from dt/100 (early boundary layers)."""
-    if grid is None:
-        raise InputError("the reduced model needs a time grid ([time] section)")
-    early = np.geomspace(grid.dt / 100.0, grid.end, 60)
-    return np.unique(np.concatenate([early, grid.times]))
 
 
 def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> NpzCache | None:
@@ -153,7 +145,7 @@ def reduce(
     """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3], on one process
     (:func:`aromm.api.reduce` chooses between this and the petsc engine).
 
-    * Detailed basis: constants + Steklov + Dirichlet modes (aromm.reduction.bases) at the reference properties
+    * Detailed basis: constants + Steklov + Dirichlet modes (aromm.reduction.modal_bases) at the reference properties
       ``basis_values`` (overrides of the system's parameters, default none), ``modes`` = Ñ in total
       (default :func:`default_modes`), split evenly unless ``n_dirichlet`` / ``n_steklov`` are given
       (``n_steklov`` counts the constants).
@@ -317,7 +309,7 @@ def _lifted(case: ThermalSystem | ReferenceCase, values: Mapping[str, float], so
 def mode_counts(order: int, modes: int | None, n_dirichlet: int | None, n_steklov: int | None,
                 split: Callable[[int], tuple[int, int]]) -> tuple[int, int]:
     """(n_dirichlet, n_steklov) of :func:`reduce`: Ñ = ``modes`` (default :func:`default_modes`) split by
-    ``split`` (aromm.reduction.bases.split_modes) unless one of the counts is given."""
+    ``split`` (aromm.reduction.modal_bases.split_modes) unless one of the counts is given."""
     total = int(modes) if modes is not None else default_modes(order)
     if n_dirichlet is None and n_steklov is None:
         return split(total)

@@ -21,8 +21,8 @@ from aromm.engines.petsc import runtime
 from aromm.engines.petsc.layout import SlabLayout
 from aromm.fem.voxel import assemble_voxels
 from aromm.microstructure.slabs import ImageSlabs
-from aromm.scene.file import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
 
 #: Named sensors ([outputs.<name>], aromm.scene.sensors) are observation rows of the serial assembly only.
 SENSORS_REFUSED = "sensors are assembled by the scipy engine only; use --engine scipy (or mean_T outputs)"

@@ -28,8 +28,8 @@ from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, ass
 from aromm.engines.petsc.basis import compute_basis, with_corrections
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
-from aromm.reduction.bases import split_counts
 from aromm.reduction.corrections import correction_samples
+from aromm.reduction.modal_bases import split_counts
 from aromm.reduction.offline import (
     ReferenceCase,
     at_reference,
@@ -42,7 +42,7 @@ from aromm.reduction.offline import (
 )
 from aromm.reduction.reductors import Reductor
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
-from aromm.scene.file import Scene
+from aromm.scene.scene_file import Scene
 
 _VERSION = 1
 
@@ -107,7 +107,8 @@ def reduce(
 ) -> ReducedModel:
     """AROMM reduced model of ``source`` at order ``order`` on the petsc engine (options of aromm.reduce).
 
-    ``source``: a voxel :class:`~aromm.scene.file.Scene` or slab-read :class:`VoxelProblem` (assembled by z-slabs),
+    ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or slab-read :class:`VoxelProblem` (assembled by
+    z-slabs),
     or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
     and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky).
     """

@@ -42,15 +42,8 @@ from aromm.core.cache import NpzCache, content_key
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray, ThermalSystem, require_free_transient
 from aromm.linalg.direct import Factorization, factorize, resolve_method
-from aromm.linalg.eigensolvers import (
-    ProgressCallback,
-    choose_eigensolver,
-    chunked_gram,
-    column_norms,
-    relative_residuals,
-    report_done,
-    smallest_eigenpairs,
-)
+from aromm.linalg.eigen_checks import chunked_gram, column_norms, relative_residuals
+from aromm.linalg.eigensolvers import ProgressCallback, choose_eigensolver, report_done, smallest_eigenpairs
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
 DENSE_LIMIT = 1500
