@@ -20,8 +20,10 @@ import numpy.typing as npt
 
 from aromm.errors import InputError
 from aromm.homogenization import homogeneous_twin
+from aromm.labchecks import PLAUSIBLE
+from aromm.labcsv import read_lab_csv
 from aromm.model import ForwardModel
-from aromm.observables import Observables, read_csv, write_csv
+from aromm.observables import Observables, write_csv
 from aromm.scene import Scene, assemble
 from aromm.solve import simulate
 
@@ -29,11 +31,18 @@ from aromm.solve import simulate
 Measurements = Observables
 
 
-def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None = None) -> Measurements:
-    """Read a ``t,<face>,...`` CSV (:func:`aromm.observables.read_csv`); ``faces`` (e.g. ``model.outputs``)
-    lists the allowed face names.  Every problem raises InputError naming the file, line, column and what is allowed.
+def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None = None, *,
+                      columns: Mapping[str, str] | None = None, time_unit: str | None = None,
+                      temperature_unit: str | None = None, plausible: tuple[float, float] = PLAUSIBLE) -> Measurements:
+    """Read a measurement CSV: the toolkit's ``t,<face>,...`` file or a laboratory export (comments, units row,
+    ``;`` and decimal comma, latin-1, missing cells: :func:`aromm.labcsv.read_lab_csv`, which also refuses
+    sentinels, impossible temperatures and single outliers).  ``faces`` (e.g. ``model.outputs``) lists the allowed
+    outputs, ``columns`` maps file columns onto them (``{"TC1": "z0"}``).  The conversions made are logged
+    (``logging``, logger ``aromm.labcsv``); :func:`aromm.labcsv.read_lab_csv` returns them too.  Every problem
+    raises InputError naming the file, line, column and what is allowed.
     """
-    return read_csv(path, faces)
+    return read_lab_csv(path, faces, columns=columns, time_unit=time_unit, temperature_unit=temperature_unit,
+                        plausible=plausible).table
 
 
 def save_measurements(measurements: Measurements, path: str | os.PathLike[str]) -> None:

@@ -16,6 +16,7 @@ from aromm.cli import checks
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
 from aromm.errors import InputError
 from aromm.files import check_output, distinct
+from aromm.labchecks import PLAUSIBLE
 from aromm.model import ForwardModel
 from aromm.scene import Scene, assemble, load_scene
 from aromm.solve import FullModel
@@ -90,6 +91,17 @@ def _posterior_table(post: Posterior) -> str:
 @click.argument("scene", type=click.Path(path_type=Path))
 @click.option("--measurements", "measurements_path", type=click.Path(path_type=Path), required=True,
               help="CSV t,<face>,... of measured face-mean temperatures (s, °C).")
+@click.option("--column", "columns", multiple=True, metavar="COLUMN=OUTPUT",
+              help="Read the CSV column COLUMN as the scene's output OUTPUT (a face or a sensor), e.g. TC1=z0 "
+                   "(repeat); the columns not mapped are then ignored.")
+@click.option("--time-unit", type=click.Choice(["ms", "s", "min", "h"]), default=None,
+              help="Unit of the CSV's times when the file does not state it (a units row or 't (min)'); default s.")
+@click.option("--temperature-unit", type=click.Choice(["C", "K"]), default=None,
+              help="Unit of the CSV's temperatures when the file does not state it (K is converted to °C); "
+                   "data that look like kelvin against the scene are refused until it is stated.")
+@click.option("--plausible", default=None, metavar="LOW:HIGH",
+              help="Plausible range of a measured temperature (°C); values outside it are refused as reading "
+                   "errors.  [default: -200:1500]")
 @click.option("--unknown", "unknowns", multiple=True, required=True, metavar="NAME=LOW:HIGH",
               help="An unknown parameter and its search bounds (repeat), e.g. fibre.k=0.05:1.")
 @click.option("--model", "kind", type=click.Choice(["reduced", "full"]), default="reduced", show_default=True,
@@ -117,7 +129,9 @@ def _posterior_table(post: Posterior) -> str:
 @click.option("--walkers", type=click.IntRange(min=2), default=DEFAULT_WALKERS, show_default=True,
               help="Walkers of the --posterior ensemble (at least twice the number of sampled coordinates).")
 @FORCE
-def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, ...], kind: str, order: int, seed: int,
+def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ...], time_unit: str | None,
+                 temperature_unit: str | None, plausible: str | None, unknowns: tuple[str, ...], kind: str,
+                 order: int, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
                  resume: bool, noise_std: float | None, posterior_steps: int | None, walkers: int,
                  force: bool) -> None:
@@ -132,7 +146,9 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
         load_emcee()  # a missing optional extra is refused first
     sc = load_scene(scene)
     bounds = checks.unknowns(unknowns, sc)
-    data = checks.measurements(measurements_path, sc, kind, bounds)
+    reading = checks.ReadOptions(checks.parse_columns(columns), time_unit, temperature_unit,
+                                 checks.parse_range(plausible, "--plausible", PLAUSIBLE))
+    data = checks.measurements(measurements_path, sc, kind, bounds, reading)
     inputs = [*checks.scene_inputs(scene), (measurements_path, "the measurement file (--measurements)")]
     corner = plot.with_name(f"{plot.stem}_posterior{plot.suffix}") if plot is not None and posterior_steps else None
     distinct([(plot, "--plot"), (corner, "--plot (its corner plot)"), (checkpoint, "--checkpoint")])
