@@ -226,6 +226,7 @@ def identify(
     progress: Callable[[Progress], None] | None = None,
     description: Mapping[str, object] | None = None,
     noise_std: float | None = None,
+    model_error: float = 0.0,
 ) -> Identification:
     """Estimate ``unknowns`` (name → (lower, upper) bounds, SI units) from ``measurements``.
 
@@ -239,6 +240,9 @@ def identify(
     with ``resume`` an existing one for the same problem is continued (and may be given more iterations).
     ``description`` adds entries to the result's ``model`` (e.g. ``{"kind": "reduced", "order": 200}``).
     ``noise_std`` (°C), a known sensor noise, is compared with the residual (:mod:`inverse.uncertainty`).
+    ``model_error``, a stated relative error of the model's temperature rise (e.g. 0.02 for the voxel model's
+    discretisation error), widens the intervals (:func:`inverse.uncertainty.model_error_std`); intervals of
+    positive parameters are on a log scale.
     """
     if unknowns is None:
         raise InputError("unknowns are required, e.g. {'fibre.k': (0.05, 1.0), 'fibre.c': (1e5, 1e7)}")
@@ -303,8 +307,10 @@ def identify(
                if (n := offset_note(f.t, f.measured, f.fitted, start=y0, faces=f.faces, label=f.name)) is not None]
     starts = np.cumsum([0] + [f.measured.size for f in fits])[:-1]  # rows of r: scenarios, then times × faces
     blocks = [s0 + np.arange(f.measured.size).reshape(f.measured.shape) for s0, f in zip(starts, fits, strict=True)]
+    rise = np.concatenate([(f.fitted - y0).ravel() for f, y0 in zip(fits, starts0, strict=True)])
     uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
-                             data_notes=offsets, scales=relative_scales(box, theta))
+                             data_notes=offsets, scales=relative_scales(box, theta),
+                             positive=[is_positive(n) for n in box.names], model_error=model_error, model_rise=rise)
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),
