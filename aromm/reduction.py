@@ -19,6 +19,7 @@ import logging
 import os
 import sys
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -30,7 +31,7 @@ from aromm.cache import NpzCache, content_key
 from aromm.corrections import correction_samples, with_corrections
 from aromm.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
 from aromm.engines import check_engine
-from aromm.errors import InputError
+from aromm.errors import InputError, InputWarning
 from aromm.greedy import PodGreedy
 from aromm.lifting import lift, liftings
 from aromm.modes import ModalBasis, boundary_of, compute_basis, split_modes
@@ -216,6 +217,11 @@ def reduce(
     system = lift(system, basis_values, solver)  # fixed temperatures: the free unknowns (aromm.lifting)
     references = [_lifted(r, basis_values, solver) for r in references]
     n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov, lambda total: split_modes(system, total))
+    asked = int(modes) if modes is not None else default_modes(int(order))
+    if n_dirichlet is None and n_steklov is None and n_d + n_s < asked:
+        warnings.warn(f"Ñ = {asked} modes asked{'' if modes is not None else f' (default 1.5 × order {order} + 20)'}, "
+                      f"but the mesh has {system.n} free unknowns: Ñ = {n_d + n_s} modes used ({n_d} Dirichlet, "
+                      f"{n_s} Steklov)", InputWarning, stacklevel=2)
     cases = _cases(system, reference_values or {}, references)
     store = resolve_cache(cache)
     if corrections is True:
@@ -234,6 +240,7 @@ def reduce(
             log.info("reduced model loaded from the cache %s", store.path("rom", key))
             rom = from_arrays(stored)
             rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+            _order_used(int(order), rom)
             if recipe is None:
                 return rom
             modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
@@ -262,6 +269,7 @@ def reduce(
     info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
             "lifted_faces": fixed, "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values())}
     rom = replace(rom, info=info)
+    _order_used(int(order), rom)
     log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
              rom.order, basis.size, info["offline_seconds"], err)
     if store is not None:
@@ -325,6 +333,15 @@ def _lifted(case: ThermalSystem | ReferenceCase, values: Mapping[str, float], so
     if isinstance(case, ThermalSystem):
         return lift(case, values, solver)
     return replace(case, system=lift(case.system, values, solver))
+
+
+def _order_used(order: int, rom: ReducedModel) -> None:
+    """Warn when the model's order is below the one asked: the detailed basis (modes and correction vectors) had
+    fewer vectors, and the whole of it is the model."""
+    if rom.order < order:
+        warnings.warn(f"order ñ = {order} asked, but the detailed basis has {rom.order} vectors (Ñ = "
+                      f"{rom.info.get('modes')} incl. correction vectors): order {rom.order} used (raise --modes, "
+                      "or ask for a lower order)", InputWarning, stacklevel=3)
 
 
 def mode_counts(order: int, modes: int | None, n_dirichlet: int | None, n_steklov: int | None,

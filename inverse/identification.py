@@ -11,6 +11,7 @@ the three loading directions of [Chavez2020, Table 1]) can be fitted jointly: th
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -39,6 +40,7 @@ DEFAULT_PARTICLES = 20
 CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
 DEFAULT_ITERATIONS = 30
 AT_BOUND = 1e-6  # normalised distance to a bound below which an estimate is reported as on it
+MAX_DECADES = 8  # widest search of a positive parameter: conductivities of solids and gases span 1e-3..1e3 W/(m K)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -192,6 +194,22 @@ def _signature(optimiser: opt.Optimiser) -> object:
     return optimiser.name
 
 
+def bounds_problem(name: str, low: float, high: float) -> str | None:
+    """Why ``low:high`` cannot be searched for ``name`` (None when it can): a parameter positive by nature needs
+    ``0 < low`` and at most :data:`MAX_DECADES` decades between its bounds (beyond, the model at the ends is
+    singular or overflows: 1e-300:1e300 is no physical range)."""
+    if not is_positive(name):
+        return None
+    if low <= 0:
+        return f"positive by nature, its lower bound must be > 0, got {low:g}"
+    decades = math.log10(high) - math.log10(low)
+    if decades > MAX_DECADES:
+        return (f"bounds {low:g}:{high:g} span {decades:.0f} decades, more than the {MAX_DECADES} a physical search "
+                "needs (the model is singular or overflows at such ends); give a physical range, e.g. 0.01:100 for "
+                "a conductivity in W/(m K), 1e4:1e7 for a capacity in J/(m³ K)")
+    return None
+
+
 def relative_scales(box: opt.Box, estimates: FloatArray) -> FloatArray:
     """Magnitudes of the relative sensitivities: ``|β̂|`` for a parameter searched in a positive (or negative)
     interval, the half-width of its bounds for one whose bounds reach zero (a clock offset, a temperature
@@ -252,9 +270,10 @@ def identify(
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
     scenarios = scenarios_of(model, measurements, {*unknowns, *(fixed or {})})
     box = opt.Box.from_bounds(unknowns)
-    for name, low in zip(box.names, box.lower, strict=True):
-        if is_positive(name) and low <= 0:
-            raise InputError(f"unknown {name!r}: positive by nature, its lower bound must be > 0, got {low:g}")
+    for name, low, high in zip(box.names, box.lower, box.upper, strict=True):
+        refused = bounds_problem(name, float(low), float(high))
+        if refused is not None:
+            raise InputError(f"unknown {name!r}: {refused}")
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
     problem_key = ckpt.problem_key({"format": CHECKPOINT_FORMAT, "unknowns": box.as_dict(),

@@ -22,6 +22,7 @@ from aromm.labcsv import read_lab_csv
 from aromm.offset import TIME_OFFSET
 from aromm.scene import Scene, scene_files
 from aromm.vocabulary import is_positive
+from inverse.identification import bounds_problem
 from inverse.measurements import Measurements
 
 Bounds = dict[str, tuple[float, float]]
@@ -102,6 +103,9 @@ def unknowns(texts: Sequence[str], scene: Scene) -> Bounds:
         if is_positive(name) and lo <= 0:
             raise click.BadParameter(f"{text!r}: {name} is positive by nature; give 0 < LOW < HIGH",
                                      param_hint="--unknown")
+        problem = bounds_problem(name, lo, hi)
+        if problem is not None:
+            raise click.BadParameter(f"{text!r}: {problem}", param_hint="--unknown")
         out[name] = (lo, hi)
     return out
 
