@@ -98,8 +98,8 @@ def choose_eigensolver(name: str, n: int) -> str:
 
 
 class PairsBar:
-    """Progress of the eigen-solves: a tqdm bar of converged pairs (all families), a log line whenever the
-    count of a family changes (``logging``, for batch runs), and an optional listener of every report.
+    """Progress of the eigen-solves: a tqdm bar of converged pairs (all families), a log line per 10 % of the pairs
+    of a family (``logging``, for batch runs), and an optional listener of every report.
 
     ``iterations`` holds the LOBPCG iterations reported per family (0 for a direct solve).
     """
@@ -111,7 +111,9 @@ class PairsBar:
         self.iterations: dict[str, int] = {}
 
     def __call__(self, report: EigenProgress) -> None:
-        if self.state.get(report.label, (-1, 0))[0] != report.converged:
+        before = self.state.get(report.label, (-1, 0))[0]
+        tenth = max(1, -(-report.wanted // 10))  # a log line per 10 % of the family's pairs, and at its end
+        if before < 0 or report.converged // tenth != before // tenth or (report.converged == report.wanted != before):
             log.info("%s: %d of %d pairs converged (iteration %d, residual %.1e)", report.label, report.converged,
                      report.wanted, report.iterations, report.residual)
         self.state[report.label] = (report.converged, report.wanted)

@@ -29,7 +29,7 @@ from tqdm import tqdm
 from aromm.amalgam import AmalgamReductor
 from aromm.cache import NpzCache, content_key
 from aromm.corrections import correction_samples, with_corrections
-from aromm.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
+from aromm.eigensolvers import EigenProgress, PairsBar, ProgressCallback, choose_eigensolver
 from aromm.engines import check_engine
 from aromm.errors import InputError, InputWarning
 from aromm.greedy import PodGreedy
@@ -249,7 +249,13 @@ def reduce(
 
     start = time.perf_counter()
     stages = _Stages(progress)
-    pairs = PairsBar(enabled=progress, listener=eigen_progress)
+
+    def converged(report: EigenProgress) -> None:  # the reduce bar moves with the pairs during the basis step
+        stages.within(sum(c for c, _ in pairs.state.values()) / max(n_d + n_s, 1))
+        if eigen_progress is not None:
+            eigen_progress(report)
+
+    pairs = PairsBar(enabled=progress, listener=converged)
     basis = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
                             eigensolver=eig, storage=basis_storage, store=store, stages=stages, progress=pairs)
     pairs.close()
@@ -407,11 +413,18 @@ class _Stages:
 
     def next(self, stage: str) -> None:
         if self.started:
-            self.bar.update()
+            self.bar.n = int(self.bar.n) + 1
+            self.bar.refresh()
         self.started = True
         self.bar.set_postfix_str(stage)
         log.info("reduce: %s", stage)
 
+    def within(self, fraction: float) -> None:
+        """Progress within the current stage (0 to 1): the bar moves during a long stage."""
+        self.bar.n = int(self.bar.n) + min(max(fraction, 0.0), 0.99)
+        self.bar.refresh()
+
     def close(self) -> None:
-        self.bar.update(self.bar.total - self.bar.n)
+        self.bar.n = self.bar.total
+        self.bar.refresh()
         self.bar.close()

@@ -113,14 +113,13 @@ def unknowns(texts: Sequence[str], scene: Scene) -> Bounds:
 def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
                  options: ReadOptions | None = None) -> Measurements:
     """The measurement CSV read as a laboratory export (:func:`aromm.labcsv.read_lab_csv` with ``options``: column
-    mapping, stated units, plausible range; what it converted or dropped is printed), then checked against the
-    scene before any build: enough observations for the unknowns, data in kelvin against a scene in °C (refused
-    unless the unit is stated), and the last time (plus the largest clock offset searched) within ``[time] end``."""
+    mapping, stated units, plausible range; what it converted or dropped is logged, :mod:`aromm.cli.logs`), then
+    checked against the scene before any build: enough observations for the unknowns, data in kelvin against a
+    scene in °C (refused unless the unit is stated), and the last time (plus the largest clock offset searched)
+    within ``[time] end``."""
     opts = options or ReadOptions()
     lab = read_lab_csv(path, scene.outputs, columns=opts.columns, time_unit=opts.time_unit,
                        temperature_unit=opts.temperature_unit, plausible=opts.plausible)
-    for note in lab.notes:
-        click.echo(f"aromm: {path}: {note}", err=True)
     data = lab.table
     rows, cols = len(data.t), len(data.outputs)
     if rows * cols <= len(bounds):
