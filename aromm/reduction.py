@@ -15,6 +15,7 @@ own parameters.  A scene may state other ones (``[reduction]`` section, e.g. the
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import sys
@@ -233,55 +234,56 @@ def reduce(
                       getattr(reductor, "cache_key", reductor.name), solver,
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases],
                       *([eig] if eig != "arpack" else []), *([basis_storage] if basis_storage != "float64" else []))
-    if store is not None:
-        stored = store.load("rom", key)
-        recipe = store.load("reconstruction", key) if fields and stored is not None else None
-        if stored is not None and (not fields or recipe is not None):
-            log.info("reduced model loaded from the cache %s", store.path("rom", key))
-            rom = from_arrays(stored)
-            rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
-            _order_used(int(order), rom)
-            if recipe is None:
-                return rom
-            modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
-                                    eigensolver=eig, storage=basis_storage, store=store, stages=_Stages(False))
-            return _with_fields(rom, original, modal.vectors @ recipe["coefficients"], basis_values, solver)
+    with store.lock("rom", key) if store is not None else contextlib.nullcontext():  # one build per model at a time
+        if store is not None:
+            stored = store.load("rom", key)
+            recipe = store.load("reconstruction", key) if fields and stored is not None else None
+            if stored is not None and (not fields or recipe is not None):
+                log.info("reduced model loaded from the cache %s", store.path("rom", key))
+                rom = from_arrays(stored)
+                rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+                _order_used(int(order), rom)
+                if recipe is None:
+                    return rom
+                modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
+                                        eigensolver=eig, storage=basis_storage, store=store, stages=_Stages(False))
+                return _with_fields(rom, original, modal.vectors @ recipe["coefficients"], basis_values, solver)
 
-    start = time.perf_counter()
-    stages = _Stages(progress)
+        start = time.perf_counter()
+        stages = _Stages(progress)
 
-    def converged(report: EigenProgress) -> None:  # the reduce bar moves with the pairs during the basis step
-        stages.within(sum(c for c, _ in pairs.state.values()) / max(n_d + n_s, 1))
-        if eigen_progress is not None:
-            eigen_progress(report)
+        def converged(report: EigenProgress) -> None:  # the reduce bar moves with the pairs during the basis step
+            stages.within(sum(c for c, _ in pairs.state.values()) / max(n_d + n_s, 1))
+            if eigen_progress is not None:
+                eigen_progress(report)
 
-    pairs = PairsBar(enabled=progress, listener=converged)
-    basis = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
-                            eigensolver=eig, storage=basis_storage, store=store, stages=stages, progress=pairs)
-    pairs.close()
-    stages.next("projection and reference cases")
-    memo: dict[int, FloatArray] = {}
-    model = ReducedModel.from_system(system, basis.vectors, memo)
-    if relaxation:
-        cases.append(relaxation_case(system, cases[0].values))
-    projected = [(model if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
-                  case) for case in cases]
-    stages.next(f"{reductor.name} to order {order}")
-    tracked = replace(model, basis=np.eye(basis.size))  # transform() carries Ψ's coefficients A (Ψ = Φ A)
-    rom, err = reduce_detailed(tracked, projected, basis, int(order), reductor, check_values=cases[0].values)
-    coefficients, rom = rom.basis, replace(rom, basis=None)
-    assert coefficients is not None
-    stages.close()
-    info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
-            "lifted_faces": fixed, "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values())}
-    rom = replace(rom, info=info)
-    _order_used(int(order), rom)
-    log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
-             rom.order, basis.size, info["offline_seconds"], err)
-    if store is not None:
-        store.save("rom", key, to_arrays(rom))
-        store.save("reconstruction", key, {"coefficients": coefficients})
-    return _with_fields(rom, original, basis.vectors @ coefficients, basis_values, solver) if fields else rom
+        pairs = PairsBar(enabled=progress, listener=converged)
+        basis = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
+                                eigensolver=eig, storage=basis_storage, store=store, stages=stages, progress=pairs)
+        pairs.close()
+        stages.next("projection and reference cases")
+        memo: dict[int, FloatArray] = {}
+        model = ReducedModel.from_system(system, basis.vectors, memo)
+        if relaxation:
+            cases.append(relaxation_case(system, cases[0].values))
+        projected = [(model if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
+                      case) for case in cases]
+        stages.next(f"{reductor.name} to order {order}")
+        tracked = replace(model, basis=np.eye(basis.size))  # transform() carries Ψ's coefficients A (Ψ = Φ A)
+        rom, err = reduce_detailed(tracked, projected, basis, int(order), reductor, check_values=cases[0].values)
+        coefficients, rom = rom.basis, replace(rom, basis=None)
+        assert coefficients is not None
+        stages.close()
+        info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
+                "lifted_faces": fixed, "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values())}
+        rom = replace(rom, info=info)
+        _order_used(int(order), rom)
+        log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
+                 rom.order, basis.size, info["offline_seconds"], err)
+        if store is not None:
+            store.save("rom", key, to_arrays(rom))
+            store.save("reconstruction", key, {"coefficients": coefficients})
+        return _with_fields(rom, original, basis.vectors @ coefficients, basis_values, solver) if fields else rom
 
 
 def _detailed_basis(system: ThermalSystem, n_d: int, n_s: int, *, basis_values: Mapping[str, float],
