@@ -36,14 +36,14 @@ ENV_VAR = "AROMM_CACHE_DIR"
 KIND_ENTRY = "cache_kind"  # the array naming an entry's kind
 #: The kinds of entry: what each holds (docs/guide/cache.md lists them from here) and the arrays it needs.
 KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "basis": ("the Dirichlet and Steklov modes and eigenvalues ({mod}`aromm.modes`)",
+    "basis": ("the Dirichlet and Steklov modes and eigenvalues (aromm.modes)",
               ("vectors", "eigenvalues", "kinds", "zeta", "gram", "gram_condition")),
-    "corrections": ("the static and first-order correction vectors of the loads ({mod}`aromm.corrections`)",
+    "corrections": ("the static and first-order correction vectors of the loads (aromm.corrections)",
                     ("vectors", "coefficients")),
     "rom": ("the reduced model itself (projected operators, initial state, info)",
             ("capacity.names", "conductance.names")),
     "reconstruction": ("the coefficients of the reduced basis Ψ on the detailed basis, for temperature fields "
-                       "({mod}`aromm.reduction`)", ("coefficients",)),
+                       "(aromm.reduction)", ("coefficients",)),
 }
 
 log = logging.getLogger(__name__)

@@ -21,6 +21,7 @@ from aromm.labchecks import PLAUSIBLE, kelvin_suspect
 from aromm.labcsv import read_lab_csv
 from aromm.offset import TIME_OFFSET
 from aromm.scene import Scene, scene_files
+from aromm.sensors import output_names
 from aromm.vocabulary import is_positive
 from inverse.identification import bounds_problem
 from inverse.measurements import Measurements
@@ -118,8 +119,8 @@ def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
     scene in °C (refused unless the unit is stated), and the last time (plus the largest clock offset searched)
     within ``[time] end``."""
     opts = options or ReadOptions()
-    lab = read_lab_csv(path, scene.outputs, columns=opts.columns, time_unit=opts.time_unit,
-                       temperature_unit=opts.temperature_unit, plausible=opts.plausible)
+    lab = read_lab_csv(path, (*scene.outputs, *output_names(scene.sensors)), columns=opts.columns,
+                       time_unit=opts.time_unit, temperature_unit=opts.temperature_unit, plausible=opts.plausible)
     data = lab.table
     rows, cols = len(data.t), len(data.outputs)
     if rows * cols <= len(bounds):
