@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.errors import InputError
+from aromm.labchecks import OVERFLOW
 from aromm.model import ForwardModel
 from aromm.offset import TIME_OFFSET, TimeShifted
 from aromm.system import FloatArray
@@ -269,6 +270,13 @@ def identify(
         if not isinstance(o, opt.Optimiser):
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
     scenarios = scenarios_of(model, measurements, {*unknowns, *(fixed or {})})
+    for sc in scenarios:  # a logger's overflow code must never reach the optimiser (aromm.labchecks)
+        bad = np.abs(sc.measurements.as_array()) >= OVERFLOW
+        if np.any(bad):
+            i, j = np.argwhere(bad)[0]
+            raise InputError(f"measurements {sc.measurements.source or sc.name}: {sc.measurements.faces[j]} at t = "
+                             f"{sc.measurements.t[i]:g} s is {sc.measurements.as_array()[i, j]:g}, a logger's "
+                             "overflow code, not a reading")
     box = opt.Box.from_bounds(unknowns)
     for name, low, high in zip(box.names, box.lower, box.upper, strict=True):
         refused = bounds_problem(name, float(low), float(high))

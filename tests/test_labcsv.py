@@ -121,3 +121,23 @@ def test_kelvin_is_suspected_against_the_scene_start_only_when_far() -> None:
     assert kelvin_suspect(np.array([293.2, 294.0]), 20.0)
     assert not kelvin_suspect(np.array([20.2, 21.0]), 20.0)
     assert not kelvin_suspect(np.array([293.2, 294.0]), 290.0)  # a scene that starts hot
+
+
+def test_an_overflow_code_in_python_measurements_never_reaches_the_optimiser() -> None:
+    """Measurements built in Python (no CSV) with a 9.9e37 cell are refused by identify before any evaluation."""
+    from aromm.observables import Observables
+    from inverse.identification import identify
+
+    class Never:  # a forward model that must not be evaluated
+        outputs = ("z0",)
+        parameter_names = frozenset({"fibre.k"})
+        default_times = np.array([1.0])
+
+        def simulate(self, *args: object, **kwargs: object) -> None:
+            raise AssertionError("evaluated")
+
+        simulate_batch = simulate
+
+    data = Observables(np.array([1.0, 2.0, 3.0]), {"z0": np.array([20.0, 9.9e37, 21.0])}, source="lab")
+    with pytest.raises(InputError, match=r"z0 at t = 2 s is 9.9e\+37, a logger's overflow code"):
+        identify(Never(), data, {"fibre.k": (0.1, 1.0)})  # type: ignore[arg-type]
