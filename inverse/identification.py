@@ -21,12 +21,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
-from aromm.labchecks import OVERFLOW
-from aromm.model import ForwardModel
-from aromm.offset import TIME_OFFSET, TimeShifted
-from aromm.system import FloatArray
-from aromm.vocabulary import is_positive
+from aromm.core.clock import TIME_OFFSET, TimeShifted
+from aromm.core.errors import InputError
+from aromm.core.forward_model import ForwardModel
+from aromm.core.labchecks import OVERFLOW
+from aromm.core.system import FloatArray
+from aromm.core.vocabulary import is_positive
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
@@ -114,7 +114,7 @@ def scenarios_of(model: ModelInput, measurements: Measurements | None,
     """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit.
 
     When ``parameters`` (the unknown and fixed names) hold the clock offset ``time_offset``, every model that
-    does not have it is wrapped in :class:`aromm.offset.TimeShifted` (one offset shared by every scenario).
+    does not have it is wrapped in :class:`aromm.core.clock.TimeShifted` (one offset shared by every scenario).
     """
     if measurements is not None:
         if not isinstance(model, ForwardModel):
@@ -270,7 +270,7 @@ def identify(
         if not isinstance(o, opt.Optimiser):
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
     scenarios = scenarios_of(model, measurements, {*unknowns, *(fixed or {})})
-    for sc in scenarios:  # a logger's overflow code must never reach the optimiser (aromm.labchecks)
+    for sc in scenarios:  # a logger's overflow code must never reach the optimiser (aromm.core.labchecks)
         bad = np.abs(sc.measurements.as_array()) >= OVERFLOW
         if np.any(bad):
             i, j = np.argwhere(bad)[0]

@@ -1,6 +1,6 @@
 """Measurements: face-mean temperatures Y_ij at times t_i on observed faces j [Chavez2020, eq. 4, 12].
 
-Measurements are an :class:`aromm.observables.Observables` table; a measurement file is its CSV (a header
+Measurements are an :class:`aromm.core.observables.Observables` table; a measurement file is its CSV (a header
 ``t,<face>,...``, times in s, temperatures in °C, one row per time, times strictly increasing).  Synthetic
 measurements come from any forward model; the paper's measurements (§ 4.2) come from the *homogeneous
 orthotropic* twin of the sample: one phase of conductivity diag(k̄_xx, k̄_yy, k̄_zz) (eq. 13) and capacity c̄ (eq. 14)
@@ -18,14 +18,14 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
-from aromm.homogenization import homogeneous_twin
-from aromm.labchecks import PLAUSIBLE
-from aromm.labcsv import read_lab_csv
-from aromm.model import ForwardModel
-from aromm.observables import Observables, write_csv
-from aromm.scene import Scene, assemble
-from aromm.solve import simulate
+from aromm.core.errors import InputError
+from aromm.core.forward_model import ForwardModel
+from aromm.core.labchecks import PLAUSIBLE
+from aromm.core.labcsv import read_lab_csv
+from aromm.core.observables import Observables, write_csv
+from aromm.full.solve import simulate
+from aromm.homogenization.properties import homogeneous_twin
+from aromm.scene.scene_file import Scene, assemble
 
 #: Measurements are the toolkit's one time-series table (times in s, one series per observed face, °C).
 Measurements = Observables
@@ -35,10 +35,10 @@ def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None 
                       columns: Mapping[str, str] | None = None, time_unit: str | None = None,
                       temperature_unit: str | None = None, plausible: tuple[float, float] = PLAUSIBLE) -> Measurements:
     """Read a measurement CSV: the toolkit's ``t,<face>,...`` file or a laboratory export (comments, units row,
-    ``;`` and decimal comma, latin-1, missing cells: :func:`aromm.labcsv.read_lab_csv`, which also refuses
+    ``;`` and decimal comma, latin-1, missing cells: :func:`aromm.core.labcsv.read_lab_csv`, which also refuses
     sentinels, impossible temperatures and single outliers).  ``faces`` (e.g. ``model.outputs``) lists the allowed
     outputs, ``columns`` maps file columns onto them (``{"TC1": "z0"}``).  The conversions made are logged
-    (``logging``, logger ``aromm.labcsv``); :func:`aromm.labcsv.read_lab_csv` returns them too.  Every problem
+    (``logging``, logger ``aromm.core.labcsv``); :func:`aromm.core.labcsv.read_lab_csv` returns them too.  Every problem
     raises InputError naming the file, line, column and what is allowed.
     """
     return read_lab_csv(path, faces, columns=columns, time_unit=time_unit, temperature_unit=temperature_unit,
@@ -46,7 +46,7 @@ def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None 
 
 
 def save_measurements(measurements: Measurements, path: str | os.PathLike[str]) -> None:
-    """Write the ``t,<face>,...`` CSV atomically (:func:`aromm.observables.write_csv`)."""
+    """Write the ``t,<face>,...`` CSV atomically (:func:`aromm.core.observables.write_csv`)."""
     write_csv(measurements, path, "measurement file")
 
 

@@ -11,11 +11,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import aromm
-from aromm.geometry import VoxelGeometry
-from aromm.modes import reference_operators, zero_modes
-from aromm.scene import Scene, assemble
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.reduction.modal_bases import reference_operators, zero_modes
+from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, assemble
 
 PHASES = (PhaseSpec("fibre", 1, 0.3, 4.0e6), PhaseSpec("gas", 0, 0.025, 1.2e3))
 SCENARIO = (FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0, T_ext=0.0))
@@ -72,7 +72,8 @@ def results(comm: Any) -> dict[str, np.ndarray]:
 
 
 def arpack() -> dict[str, np.ndarray]:
-    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.modes' problems."""
+    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.reduction.modal_bases'
+    problems."""
     ops = reference_operators(assemble(basis_scene()))
     inner = ops.interior
     k_ii = sp.csc_array(ops.stiffness[inner][:, inner])

@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 from fault_cases import make_template
 
-from aromm.cache import KINDS, CacheWarning, NpzCache
 from aromm.cli import main
+from aromm.core.cache import KINDS, CacheWarning, NpzCache
 
 HOLD = """
 import sys, time
-from aromm.cache import NpzCache
+from aromm.core.cache import NpzCache
 with NpzCache(sys.argv[1]).lock("rom", "k"):
     print("locked", flush=True)
     time.sleep(float(sys.argv[2]))

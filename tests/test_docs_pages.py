@@ -1,6 +1,6 @@
 """The scene and cache pages against the code (issue 23 item 7): every TOML example of docs/guide/scene.md loads
 with aromm.load_scene (beside the shipped data it names), the outputs it documents are the ones the parser builds,
-and the cache page's table of kinds is aromm.cache.KINDS."""
+and the cache page's table of kinds is aromm.core.cache.KINDS."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from aromm.cache import KINDS
-from aromm.scene import load_scene
-from aromm.sensors import output_names
+from aromm.core.cache import KINDS
+from aromm.scene.scene_file import load_scene
+from aromm.scene.sensors import output_names
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_PAGE = ROOT / "docs" / "guide" / "scene.md"

@@ -20,7 +20,7 @@ from fault_cases import Case, make_template, prepared, run
 from fault_cases_lab import CASES
 
 from aromm.cli import main
-from aromm.observables import Observables, write_csv
+from aromm.core.observables import Observables, write_csv
 
 REPO = Path(__file__).resolve().parent.parent
 COMMANDS = {"simulate", "homogenize", "measure", "reduce", "identify", "bounds", "dem pack", "dem calibrate",

@@ -10,13 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from inverse_cases import scenario_model
 
-from aromm.errors import InputError
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import fluxmetric, homogenize, mean_capacity
-from aromm.scene import Scene, assemble
-from aromm.solve import simulate
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.core.errors import InputError
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import simulate
+from aromm.homogenization.properties import fluxmetric, homogenize, mean_capacity
+from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, assemble
 from inverse.measurements import (
     Measurements,
     homogeneous_measurements,
@@ -25,7 +25,7 @@ from inverse.measurements import (
     simulate_measurements,
 )
 
-# plausible temperatures (°C), sorted below: a monotone series has no single outlier (aromm.labchecks)
+# plausible temperatures (°C), sorted below: a monotone series has no single outlier (aromm.core.labchecks)
 finite = st.floats(min_value=-150.0, max_value=1200.0, allow_nan=False, allow_infinity=False)
 
 

@@ -1,5 +1,5 @@
 """Laboratory CSVs (issue 22 item 6, issue 23 item 1): every logger quirk read from a small file written here, and
-every impossible value refused naming the file, line and column (aromm.labcsv, aromm.labchecks).
+every impossible value refused naming the file, line and column (aromm.core.labcsv, aromm.core.labchecks).
 
 The truths are the numbers written into each file (converted by hand: 0.5 min = 30 s, 293.65 K = 20.5 °C).
 """
@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aromm.errors import InputError
-from aromm.labchecks import kelvin_suspect, single_outlier
-from aromm.labcsv import read_lab_csv
+from aromm.core.errors import InputError
+from aromm.core.labchecks import kelvin_suspect, single_outlier
+from aromm.core.labcsv import read_lab_csv
 from inverse.measurements import load_measurements
 
 OUT = ("z0", "z1", "tc1")
@@ -125,7 +125,7 @@ def test_kelvin_is_suspected_against_the_scene_start_only_when_far() -> None:
 
 def test_an_overflow_code_in_python_measurements_never_reaches_the_optimiser() -> None:
     """Measurements built in Python (no CSV) with a 9.9e37 cell are refused by identify before any evaluation."""
-    from aromm.observables import Observables
+    from aromm.core.observables import Observables
     from inverse.identification import identify
 
     class Never:  # a forward model that must not be evaluated

@@ -13,7 +13,7 @@ import pytest
 from fault_cases import make_template
 
 from aromm.cli import main
-from aromm.eigensolvers import EigenProgress, PairsBar
+from aromm.linalg.eigensolvers import EigenProgress, PairsBar
 
 
 def test_a_redirected_build_logs_every_stage_with_its_elapsed_time(tmp_path: Path,
@@ -35,7 +35,7 @@ def test_a_redirected_build_logs_every_stage_with_its_elapsed_time(tmp_path: Pat
 
 def test_eigen_progress_is_logged_per_tenth_of_the_pairs(caplog: pytest.LogCaptureFixture) -> None:
     bar = PairsBar(enabled=False)
-    with caplog.at_level(logging.INFO, logger="aromm.eigensolvers"):
+    with caplog.at_level(logging.INFO, logger="aromm.linalg.eigensolvers"):
         for converged in range(41):
             bar(EigenProgress("Dirichlet modes", converged, 40, converged, 1e-3))
     bar.close()

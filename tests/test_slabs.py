@@ -13,13 +13,13 @@ import tifffile
 from hypothesis import given
 from hypothesis import strategies as st
 
+from aromm.core.errors import InputError
 from aromm.engines import check_engine, petsc_available
 from aromm.engines.petsc.layout import SlabLayout, even_split
-from aromm.errors import InputError
 from aromm.fem.voxel import node_index
 from aromm.microstructure import load_image
 from aromm.microstructure.slabs import ImageSlabs
-from aromm.scene import scene_from_dict
+from aromm.scene.scene_file import scene_from_dict
 
 SHAPE = (3, 4, 7)
 

@@ -14,15 +14,15 @@ from pathlib import Path
 
 import click
 
-from aromm.cache import ENV_VAR, NpzCache
-from aromm.errors import InputError
-from aromm.files import Input, check_folder
-from aromm.labchecks import PLAUSIBLE, kelvin_suspect
-from aromm.labcsv import read_lab_csv
-from aromm.offset import TIME_OFFSET
-from aromm.scene import Scene, scene_files
-from aromm.sensors import output_names
-from aromm.vocabulary import is_positive
+from aromm.core.cache import ENV_VAR, NpzCache
+from aromm.core.clock import TIME_OFFSET
+from aromm.core.errors import InputError
+from aromm.core.files import Input, check_folder
+from aromm.core.labchecks import PLAUSIBLE, kelvin_suspect
+from aromm.core.labcsv import read_lab_csv
+from aromm.core.vocabulary import is_positive
+from aromm.scene.scene_file import Scene, scene_files
+from aromm.scene.sensors import output_names
 from inverse.identification import bounds_problem
 from inverse.measurements import Measurements
 
@@ -113,7 +113,7 @@ def unknowns(texts: Sequence[str], scene: Scene) -> Bounds:
 
 def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
                  options: ReadOptions | None = None) -> Measurements:
-    """The measurement CSV read as a laboratory export (:func:`aromm.labcsv.read_lab_csv` with ``options``: column
+    """The measurement CSV read as a laboratory export (:func:`aromm.core.labcsv.read_lab_csv` with ``options``: column
     mapping, stated units, plausible range; what it converted or dropped is logged, :mod:`aromm.cli.logs`), then
     checked against the scene before any build: enough observations for the unknowns, data in kelvin against a
     scene in °C (refused unless the unit is stated), and the last time (plus the largest clock offset searched)

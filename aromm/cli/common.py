@@ -20,8 +20,8 @@ import click
 import numpy as np
 from tqdm import tqdm
 
-from aromm.errors import InputError, NumericalError
-from aromm.scene import Scene
+from aromm.core.errors import InputError, NumericalError
+from aromm.scene.scene_file import Scene
 
 # Peak memory per voxel of the direct (CHOLMOD) path, measured at 80³: 5.5 GB for 5.2e5 nodes (issue 12)
 DIRECT_BYTES_PER_VOXEL = 1.1e4

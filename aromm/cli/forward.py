@@ -8,20 +8,20 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aromm.cell_problems import CellResult, effective_conductivity
 from aromm.cli import checks
-from aromm.cli import engine as engine_cli
+from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, FORCE, REFINE, SEED, FiniteFloat, echo_json, write_extras
+from aromm.core.errors import InputError
+from aromm.core.files import OutputKind, check_folder, check_output, signed
+from aromm.core.observables import TIME_SERIES, Observables, write_csv
+from aromm.core.series import series_file, write_series, write_vtu
 from aromm.engines import is_root
-from aromm.errors import InputError
-from aromm.files import OutputKind, check_folder, check_output, signed
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import BOUNDARIES, default_boundary, fluxmetric, homogenize, mean_capacity
-from aromm.linalg import DEFAULT_RTOL, METHODS
-from aromm.observables import TIME_SERIES, Observables, write_csv
-from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
-from aromm.series import series_file, write_series, write_vtu
-from aromm.solve import simulate as simulate_full
+from aromm.full.solve import simulate as simulate_full
+from aromm.homogenization.cell_problems import CellResult, effective_conductivity
+from aromm.homogenization.properties import BOUNDARIES, default_boundary, fluxmetric, homogenize, mean_capacity
+from aromm.linalg.direct import DEFAULT_RTOL, METHODS
+from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from inverse.measurements import homogeneous_measurements, save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
@@ -118,7 +118,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
     system = assemble(sc) if engine == "scipy" else None
     progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
-        from aromm.reduction import reduce
+        from aromm.reduction.offline import reduce
 
         rom = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
                      reference_values=sc.reduction.reference, progress=progress, engine=engine,

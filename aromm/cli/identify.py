@@ -14,12 +14,12 @@ from tqdm import tqdm
 
 from aromm.cli import checks
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
-from aromm.errors import InputError
-from aromm.files import check_output, distinct
-from aromm.labchecks import PLAUSIBLE
-from aromm.model import ForwardModel
-from aromm.scene import Scene, assemble, load_scene
-from aromm.solve import FullModel
+from aromm.core.errors import InputError
+from aromm.core.files import check_output, distinct
+from aromm.core.forward_model import ForwardModel
+from aromm.core.labchecks import PLAUSIBLE
+from aromm.full.solve import FullModel
+from aromm.scene.scene_file import Scene, assemble, load_scene
 from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot
@@ -38,7 +38,7 @@ def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[Fo
     system = assemble(sc)
     if kind == "full":
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
-    from aromm.reduction import reduce
+    from aromm.reduction.offline import reduce
 
     rom = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
                  progress=tty)

@@ -12,7 +12,7 @@ import glob
 import importlib.util
 import os
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 
 ENGINES = ("scipy", "petsc")
 

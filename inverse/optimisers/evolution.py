@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize as so
 
-from aromm.system import FloatArray
-from inverse.optimisers.base import Outcome, Problem, State, Step
+from aromm.core.system import FloatArray
+from inverse.optimisers.interface import Outcome, Problem, State, Step
 
 
 @dataclass(frozen=True)

@@ -25,17 +25,17 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from aromm.cache import content_key
+from aromm.core.cache import content_key
+from aromm.core.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid, dense
 from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import RowLayout, SlabLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fem.voxel import assemble_voxels, face_mass
-from aromm.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid, dense
 
 
 @dataclass(frozen=True)
 class DistributedTerm:
-    """``coefficient(p) * operator`` with a PETSc matrix (MPIAIJ) or vector; ``role`` as aromm.system.Term's."""
+    """``coefficient(p) * operator`` with a PETSc matrix (MPIAIJ) or vector; ``role`` as aromm.core.system.Term's."""
 
     name: str
     coefficient: Coefficient
@@ -182,7 +182,7 @@ def assemble_slabs(problem: VoxelProblem, comm: Any) -> DistributedSystem:
     for face in faces:
         surface = surface + face_mass(shape, problem.voxel_size, face)
     observation = {}
-    for face in problem.outputs:  # e_f = B_f 1 / |f| (aromm.vocabulary.face_means), |f| summed over the slabs
+    for face in problem.outputs:  # e_f = B_f 1 / |f| (aromm.core.vocabulary.face_means), |f| summed over the slabs
         local = _owned_entries(face_mass(shape, problem.voxel_size, face) @ np.ones(m) if face in faces
                                else np.zeros(m), layout, comm)
         observation[face] = convert.vector(local / runtime.allsum([local.sum()], comm)[0], rows, comm)

@@ -12,9 +12,9 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.core.system import FloatArray
 from aromm.engines.petsc import runtime
 from aromm.engines.petsc.layout import RowLayout
-from aromm.system import FloatArray
 
 
 def matrix(block: sp.csr_array, rows: RowLayout, comm: Any) -> Any:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 
 
 def even_split(count: int, parts: int) -> tuple[int, ...]:
