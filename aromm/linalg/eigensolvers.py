@@ -26,6 +26,7 @@ by ``N x − μ M x = −μ (K x − λ N x)``, so converging the one converges 
 from __future__ import annotations
 
 import logging
+import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -100,8 +101,8 @@ def choose_eigensolver(name: str, n: int) -> str:
 
 
 class PairsBar:
-    """Progress of the eigen-solves: a tqdm bar of converged pairs (all families), a log line whenever the
-    count of a family changes (``logging``, for batch runs), and an optional listener of every report.
+    """Progress of the eigen-solves: a tqdm bar of converged pairs (all families), a log line per 10 % of the pairs
+    of a family (``logging``, for batch runs), and an optional listener of every report.
 
     ``iterations`` holds the LOBPCG iterations reported per family (0 for a direct solve).
     """
@@ -113,7 +114,11 @@ class PairsBar:
         self.iterations: dict[str, int] = {}
 
     def __call__(self, report: EigenProgress) -> None:
-        if self.state.get(report.label, (-1, 0))[0] != report.converged:
+        before = self.state.get(report.label, (-1, 0))[0]
+        tenth = max(1, -(-report.wanted // 10))  # a log line per 10 % of the family's pairs, and at its end
+        if math.isnan(report.residual):  # a one-call solve starting (report_done)
+            log.info("%s: %d pairs wanted, solving", report.label, report.wanted)
+        elif before < 0 or report.converged // tenth != before // tenth or report.converged == report.wanted != before:
             log.info("%s: %d of %d pairs converged (iteration %d, residual %.1e)", report.label, report.converged,
                      report.wanted, report.iterations, report.residual)
         self.state[report.label] = (report.converged, report.wanted)
@@ -130,10 +135,11 @@ class PairsBar:
         self.bar.close()
 
 
-def report_done(progress: ProgressCallback | None, label: str, count: int) -> None:
-    """Report a family solved in one call (dense or ARPACK: no intermediate progress)."""
+def report_done(progress: ProgressCallback | None, label: str, count: int, *, started: bool = False) -> None:
+    """Report a family solved in one call (dense or ARPACK: no intermediate progress): when it starts
+    (``started``: 0 pairs yet, so that the log and the bars know it is under way) and when it is done."""
     if progress is not None:
-        progress(EigenProgress(label, count, count, 0, 0.0))
+        progress(EigenProgress(label, 0 if started else count, count, 0, math.nan if started else 0.0))
 
 
 @dataclass(frozen=True)
