@@ -402,7 +402,7 @@ class _Stages:
 
     def within(self, fraction: float) -> None:
         """Progress within the current stage (0 to 1): the bar moves during a long stage."""
-        self.bar.n = int(self.bar.n) + min(max(fraction, 0.0), 0.99)
+        self.bar.n = int(self.bar.n) + round(min(max(fraction, 0.0), 0.99), 2)
         self.bar.refresh()
 
     def close(self) -> None:
