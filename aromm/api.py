@@ -81,6 +81,8 @@ def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "sc
 
         if options.pop("fields", False):
             raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
+        if options.get("method") == "krylov":
+            raise InputError("reduce: method 'krylov' runs on the scipy engine only (so far)")
         if options.pop("eigensolver", "auto") != "auto" or options.pop("basis_storage", "float64") != "float64":
             raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
         for name in ("progress", "eigen_progress"):

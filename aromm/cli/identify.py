@@ -40,7 +40,7 @@ def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[Fo
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
     from aromm.api import reduce
 
-    rom = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
+    rom = reduce(system, order=order, **sc.reduction.options(),
                  progress=tty)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene)}
     info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})

@@ -27,6 +27,7 @@ from aromm.microstructure.generators import GENERATORS
 from aromm.microstructure.segmentation import SegmentationReport, prepare_image
 from aromm.scene.contact_resistances import parse_interfaces
 from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
+from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.scene.toml import TableReader, where
 
@@ -35,15 +36,6 @@ PHASE_KEYS = ("label", "k", "c", *FIBRE_KEYS)
 FACE_KEYS = ("flux", "h", "T_ext", "T")
 IMAGE_KEYS = ("image", "voxel_size", "shape", "dtype", "segment", "crop", "downsample")
 REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
-
-
-@dataclass(frozen=True)
-class ReductionSettings:
-    """``[reduction]``: reference properties of the modal bases (``basis``) and of the reference simulation
-    (``reference``), as overrides of the scene's parameters (e.g. ``{"fibre.k": 0.53}``; [Chavez2020, § 3])."""
-
-    basis: Mapping[str, float] = field(default_factory=dict)
-    reference: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,7 +52,7 @@ class Scene:
     outputs: tuple[str, ...] = ()
     interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
     path: Path | None = None
-    reduction: ReductionSettings = ReductionSettings()
+    reduction: ReductionSettings = field(default_factory=ReductionSettings)
     sensors: tuple[Sensor, ...] = ()
     segmentation: SegmentationReport | None = None  # a grey image's (aromm.microstructure.segmentation)
 
@@ -219,8 +211,8 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     interfaces = parse_interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
-    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed),
-                 sensors, report)
+    reduction = parse_reduction(r, data, allowed)
+    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report)
 
 
 def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
@@ -431,17 +423,3 @@ def _outputs(r: TableReader, data: Mapping[str, Any],
     named = {k: v for k, v in out.items() if k != "mean_T"}
     return tuple(faces), parse_sensors(named, box(geometry), faces, where(r.path),
                                        voxels=isinstance(geometry, VoxelGeometry))
-
-
-def _reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
-    """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers)."""
-    table = r.table(data, "reduction", ("basis", "reference"))
-    out: dict[str, dict[str, float]] = {}
-    for part in ("basis", "reference"):
-        given = r.table(table, f"reduction.{part}", None, part)
-        unknown = sorted(set(given) - set(parameters))
-        if unknown:
-            raise r.fail(f"reduction.{part}", f"unknown parameter(s) {unknown}; the scene has "
-                                              f"{', '.join(sorted(parameters))}")
-        out[part] = {k: r.number(v, f"reduction.{part}.{k}", positive=True) for k, v in given.items()}
-    return ReductionSettings(out["basis"], out["reference"])
