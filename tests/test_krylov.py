@@ -193,7 +193,7 @@ def test_bad_options_are_refused_before_any_solve() -> None:
 
 def test_the_reductor_sees_only_the_engine_protocol() -> None:
     """aromm.reduction.krylov imports no engine implementation and no sparse algebra (a PETSc engine can plug in)."""
-    tree = ast.parse(Path(__file__).resolve().parents[1].joinpath("aromm", "krylov.py").read_text())
+    tree = ast.parse(Path(__file__).resolve().parents[1].joinpath("aromm", "reduction", "krylov.py").read_text())
     names = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)} | \
         {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
     assert "aromm.reduction.engine_protocol" in names
