@@ -1,7 +1,7 @@
 """Computational engines behind the public API: ``"scipy"`` (one process, today's path) or ``"petsc"``.
 
 ``engine="petsc"`` (``--engine petsc`` on the command line) runs the assembly, the eigenbases and the
-steady solves on PETSc/SLEPc under MPI (``mpiexec -n P``): each rank holds a z-slab of the voxel image
+steady solves on PETSc/SLEPc under MPI (``mpiexec -n P``): each rank holds a 3-D box of the voxel image
 and its rows of the operators (aromm.engines.petsc).  The petsc engine is an optional extra: nothing
 here imports petsc4py; :func:`check_engine` refuses ``"petsc"`` with the install routes when it is absent.
 """

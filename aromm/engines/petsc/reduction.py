@@ -22,7 +22,7 @@ import numpy as np
 from aromm.cache import NpzCache, content_key
 from aromm.corrections import correction_samples
 from aromm.engines.petsc import convert, linear, runtime
-from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_slabs, distribute_system
+from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_boxes, distribute_system
 from aromm.engines.petsc.basis import compute_basis, with_corrections
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
@@ -43,19 +43,19 @@ from aromm.rom import ReducedModel, from_arrays, to_arrays
 from aromm.scene import Scene
 from aromm.system import ThermalSystem
 
-_VERSION = 1
+_VERSION = 2  # 2: image digest independent of the cut (boxes)
 
 Source = ThermalSystem | Scene | VoxelProblem | DistributedSystem
 
 
 def distributed(source: Source, comm: Any) -> DistributedSystem:
-    """A voxel scene or problem assembled by z-slabs; a ThermalSystem (held by every rank) split by rows."""
+    """A voxel scene or problem assembled by boxes; a ThermalSystem (held by every rank) split by rows."""
     if isinstance(source, DistributedSystem):
         return source
     if isinstance(source, ThermalSystem):
         return distribute_system(source, comm)
     problem = source if isinstance(source, VoxelProblem) else VoxelProblem.from_scene(source)
-    return assemble_slabs(problem, comm)
+    return assemble_boxes(problem, comm)
 
 
 def relaxed(system: DistributedSystem, values: Mapping[str, float]) -> tuple[DistributedSystem, ReferenceCase]:
@@ -105,7 +105,7 @@ def reduce(
 ) -> ReducedModel:
     """AROMM reduced model of ``source`` at order ``order`` on the petsc engine (options of aromm.reduce).
 
-    ``source``: a voxel :class:`~aromm.scene.Scene` or slab-read :class:`VoxelProblem` (assembled by z-slabs),
+    ``source``: a voxel :class:`~aromm.scene.Scene` or box-read :class:`VoxelProblem` (assembled by boxes),
     or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
     and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky).
     """

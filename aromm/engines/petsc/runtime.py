@@ -77,6 +77,7 @@ def union(items: set[int], comm: Any) -> set[int]:
     return out
 
 
-def gather_strings(text: str, comm: Any) -> list[str]:
-    """Every rank's string, in rank order, on every rank (content hashes of the slabs)."""
-    return list(mpi(comm).allgather(text))
+def processors() -> tuple[int, int, int]:
+    """Process-grid sizes fixed by the PETSc options ``-aromm_da_processors_x/y/z`` (0: not fixed)."""
+    options = petsc().Options("aromm_da_")
+    return (options.getInt("processors_x", 0), options.getInt("processors_y", 0), options.getInt("processors_z", 0))
