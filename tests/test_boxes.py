@@ -3,6 +3,7 @@ only the box, and the box layout owns every node exactly once, in contiguous row
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import tracemalloc
@@ -187,3 +188,32 @@ def test_unknown_engine_and_missing_petsc_are_input_errors() -> None:
     else:
         with pytest.raises(InputError, match="apt-get install python3-petsc4py"):
             check_engine("petsc")
+
+
+def test_debian_petsc_is_found_without_hand_set_variables(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A Python that sees Debian's site directory gets PETSC_DIR / SLEPC_DIR set to the newest installed version
+    (3.18 after 3.9: numbers compared as numbers) and their modules on sys.path; a variable set by hand, or a
+    Python that does not see the site directory, is left alone."""
+    from aromm import engines
+
+    site = tmp_path / "dist-packages"
+    site.mkdir()
+    layout = []
+    for var, name in (("PETSC_DIR", "petsc"), ("SLEPC_DIR", "slepc")):
+        (site / f"{name}4py.pth").write_text("", encoding="utf-8")
+        for version in ("3.9", "3.18"):
+            (tmp_path / f"{name}dir" / f"{name}{version}" / "x86_64-linux-gnu-real").mkdir(parents=True)
+        layout.append((var, str(tmp_path / f"{name}dir" / f"{name}3.*" / "*-real"), str(tmp_path / "absent"),
+                       f"{name}4py.pth"))
+        monkeypatch.delenv(var, raising=False)
+    monkeypatch.setattr(engines, "DEBIAN_SITE", str(site))
+    monkeypatch.setattr(engines, "DEBIAN_LAYOUT", tuple(layout))
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p != str(site)])
+    assert engines.find_debian_petsc() == {}  # the site directory is not on sys.path
+    monkeypatch.setattr(sys, "path", [*sys.path, str(site)])
+    monkeypatch.setenv("SLEPC_DIR", "/by/hand")
+    newest = str(tmp_path / "petscdir" / "petsc3.18" / "x86_64-linux-gnu-real")
+    assert engines.find_debian_petsc() == {"PETSC_DIR": newest}
+    assert os.environ["PETSC_DIR"] == newest and os.environ["SLEPC_DIR"] == "/by/hand"
+    assert sys.path[-1] == os.path.join(newest, "lib", "python3", "dist-packages")
+    assert engines.find_debian_petsc() == {}  # set once

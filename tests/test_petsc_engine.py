@@ -133,16 +133,20 @@ def test_homogenised_conductivity_equals_serial(serial: dict[str, np.ndarray], o
             np.testing.assert_allclose(np.diag(found[f"k_{boundary}"]), np.diag(serial[f"k_{boundary}"]), rtol=1e-7)
 
 
-def test_cli_reduce_two_ranks_prints_once_and_caches(tmp_path: Path) -> None:
+def test_cli_reduce_two_ranks_prints_once_and_caches(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """`mpiexec -n 2 aromm reduce --engine petsc` on an .npz image (converted once by rank 0 to a .npy that both
     ranks read by z-slabs, the grid's choice for 2 ranks): one JSON document from rank 0, the model built by 2
-    ranks, then loaded from the cache rank 0 wrote (the conversion is not redone)."""
+    ranks, then loaded from the cache rank 0 wrote (the conversion is not redone).  Debian's PETSC_DIR and
+    SLEPC_DIR are not passed: the engine finds them itself (aromm.engines.find_debian_petsc)."""
+    for var in ("PETSC_DIR", "SLEPC_DIR"):
+        if os.environ.get(var, "").startswith(("/usr/lib/petscdir/", "/usr/lib/slepcdir/")):
+            monkeypatch.delenv(var)
     np.savez_compressed(tmp_path / "img.npz", labels=petsc_cases.labels((6, 7, 8), 3).astype(np.uint8))
     scene = tmp_path / "s.toml"
     scene.write_text(scenario_1("img.npz", "1e-4", "2.0", "0.1"), encoding="utf-8")
     args = ["aromm", "reduce", str(scene), "--order", "10", "--modes", "24", "--engine", "petsc", "--solver", "mumps",
             "--json", "--cache-dir", str(tmp_path / "cache")]
-    os.environ["AROMM_CACHE_DIR"] = str(tmp_path / "images")
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path / "images"))
     first = mpiexec(*args)
     assert first.returncode == 0, first.stderr[-3000:]
     lines = [line for line in first.stdout.splitlines() if line.strip()]

@@ -12,8 +12,9 @@ means) and writes results and caches.
 
 Modules: ``runtime`` (imports, communicator helpers), ``layout`` (who owns what), ``images`` (opening
 the image for box reading), ``problem`` (a voxel scene whose image is read by boxes), ``assembly`` (the
-distributed ThermalSystem), ``linear`` (KSP solvers), ``eigen`` (SLEPc bases), ``basis`` (the detailed modal basis and its correction modes),
-``projection`` (Galerkin projection onto a distributed basis), ``reduction`` (``reduce``), ``steady``
-and ``transient`` (full-order solves), ``homogenization`` (eq. 13 probes).
+distributed ThermalSystem), ``linear`` (KSP solvers), ``eigen`` (SLEPc bases), ``basis`` (the detailed
+modal basis and its correction modes), ``projection`` (Galerkin projection onto a distributed basis),
+``reduction`` (``reduce``), ``steady`` and ``transient`` (full-order solves), ``homogenization`` (eq. 13
+probes).
 Importing :mod:`aromm` never imports this package (petsc4py is an optional extra).
 """
