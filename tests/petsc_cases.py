@@ -40,6 +40,12 @@ def reduce_scene() -> Scene:
                  ("z0", "z1"))
 
 
+def memory_scene() -> Scene:
+    """24³ voxels (15,625 nodes), transient: the per-stage memory of the projection."""
+    return Scene(VoxelGeometry(labels((24, 24, 24), 5), (1e-4, 1e-4, 1e-4)), PHASES, SCENARIO, 0.0, TimeGrid(2.0, 0.2),
+                 ("z0", "z1"))
+
+
 def steady_scene() -> Scene:
     """Steady, one fixed-temperature face (Dirichlet elimination) and convection: the full-model solves."""
     return Scene(VoxelGeometry(labels((7, 6, 8), 4), (1e-4, 1.2e-4, 0.9e-4)), PHASES,

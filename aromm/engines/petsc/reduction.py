@@ -23,7 +23,8 @@ from aromm.cache import NpzCache, content_key
 from aromm.corrections import correction_samples
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_boxes, distribute_system
-from aromm.engines.petsc.basis import compute_basis, with_corrections
+from aromm.engines.petsc.basis import compute_basis, correction_count, with_corrections
+from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
 from aromm.errors import InputError
@@ -115,6 +116,8 @@ def reduce(
     solver = linear.check_solver(solver)
     comm = comm if comm is not None else runtime.world()
     start = time.perf_counter()
+    memory = StageMemory(comm)
+    memory.start("assembly")
     system = distributed(source, comm)
     others = [distributed(r.system if isinstance(r, ReferenceCase) else r, comm) for r in references]
     stages = {"assembly_seconds": time.perf_counter() - start}
@@ -135,12 +138,15 @@ def reduce(
     if found is not None:
         return found
 
-    basis = compute_basis(system, n_d, n_s, basis_values, solver)
+    memory.start("basis")
+    basis = compute_basis(system, n_d, n_s, basis_values, solver, reserve=correction_count(system, samples))
     clock = time.perf_counter()
+    memory.start("corrections")
     if samples:
         basis = with_corrections(system, basis, samples, basis_values, solver)
     stages["corrections_seconds"] = time.perf_counter() - clock
     clock = time.perf_counter()
+    memory.start("projection")
     memo: dict[int, np.ndarray] = {}
     detailed = project(system, basis.vectors, memo)
     cases = [(detailed, ReferenceCase(template, ref_vals, name="system"))]
@@ -155,10 +161,12 @@ def reduce(
         cases.append((project(cooled, basis.vectors, memo), relax))
     stages["projection_seconds"] = time.perf_counter() - clock
     clock = time.perf_counter()
+    memory.start("amalgam")
     rom, err = reduce_detailed(detailed, cases, basis, int(order), reductor, check_values=ref_vals)
     stages["amalgam_seconds"] = time.perf_counter() - clock
     info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
-            **stages, "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
+            **stages, **memory.record(), "basis_bytes": runtime.allmax(basis.vectors.nbytes, comm),
+            "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
     rom = replace(rom, info=info)
     if store is not None and runtime.is_root(comm):
         store.save("rom", key, to_arrays(rom))

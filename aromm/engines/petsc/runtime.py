@@ -63,6 +63,16 @@ def allsum(values: npt.ArrayLike, comm: Any) -> np.ndarray:
     return total
 
 
+def allmax_array(values: npt.ArrayLike, comm: Any) -> np.ndarray:
+    """Element-wise maximum over the ranks (per-stage peak memory)."""
+    from mpi4py import MPI
+
+    local = np.ascontiguousarray(np.asarray(values, dtype=float))
+    total = np.empty_like(local)
+    mpi(comm).Allreduce(local, total, op=MPI.MAX)
+    return total
+
+
 def allmax(value: float, comm: Any) -> float:
     from mpi4py import MPI
 
