@@ -136,11 +136,21 @@ class _BoxRows:
     owner: np.ndarray
 
     def matrix(self, block: sp.sparray, comm: Any) -> sp.csr_array:
-        """This rank's complete rows of a matrix assembled by boxes, in global columns."""
-        coo = sp.coo_array(block)
+        """This rank's complete rows of a matrix assembled by boxes, in global columns.  The rows of the nodes it
+        owns are taken as they are (in the box's order, which is the order of its rows); only the rows of the
+        upper node planes go through triplets, to their owners."""
+        csr = sp.csr_array(block)
+        mine = self.owner == self.layout.rank
+        own = csr if mine.all() else csr[np.flatnonzero(mine)]
+        own = sp.csr_array((own.data, self.global_row[own.indices], own.indptr), shape=(self.rows.local, self.rows.n))
+        ghosts = np.flatnonzero(~mine)
+        ghost = sp.coo_array(csr[ghosts]) if ghosts.size else sp.coo_array((0, csr.shape[1]))
         g = self.global_row
-        r, c, v = _to_owners(self.owner[coo.row], (g[coo.row], g[coo.col], coo.data), self.layout, comm)
-        return sp.csr_array((v, (r - self.rows.lo, c)), shape=(self.rows.local, self.rows.n))
+        r, c, v = _to_owners(self.owner[ghosts][ghost.row], (g[ghosts][ghost.row], g[ghost.col], ghost.data),
+                             self.layout, comm)
+        if r.size:
+            own = sp.csr_array(own + sp.csr_array((v, (r - self.rows.lo, c)), shape=own.shape))
+        return own
 
     def vector(self, values: np.ndarray, comm: Any) -> np.ndarray:
         """This rank's complete entries of a vector assembled by boxes."""
@@ -148,10 +158,10 @@ class _BoxRows:
         return np.bincount(r - self.rows.lo, weights=v, minlength=self.rows.local)
 
 
-def _term_operator(group: Affine, name: str, size: int, vector: bool) -> Any:
-    for t in group.terms:
-        if t.name == name:
-            return t.operator
+def _take(operators: dict[str, Any], name: str, size: int, vector: bool) -> Any:
+    """The box's operator ``name``, dropped from ``operators`` (freed once converted: one term's copy at a time)."""
+    if name in operators:
+        return operators.pop(name)
     return np.zeros(size) if vector else sp.csr_array((size, size))  # the box has none of this phase / face
 
 
@@ -183,17 +193,20 @@ def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
                           tuple(f for f in problem.boundary if f.face in faces), time=problem.time,
                           initial_T=problem.initial_T)
     m = box.n
+    fixed = {s.name: s.dofs for s in box.dirichlet}
+    operators = {t.name: t.operator for group in (box.capacity, box.conductance, box.load) for t in group.terms}
+    del box  # its matrices are now held by ``operators`` alone, and freed one by one as they are converted
     owned = _BoxRows(layout, rows, *layout.box_rows())
 
-    def matrices(group: Affine, own: Affine) -> tuple[DistributedTerm, ...]:
+    def matrices(group: Affine) -> tuple[DistributedTerm, ...]:
         return tuple(DistributedTerm(t.name, t.coefficient,
-                                     convert.matrix(owned.matrix(_term_operator(own, t.name, m, False), comm),
-                                                    rows, comm), t.role) for t in group.terms)
+                                     convert.matrix(owned.matrix(_take(operators, t.name, m, False), comm), rows, comm),
+                                     t.role) for t in group.terms)
 
-    def vectors(group: Affine, own: Affine) -> tuple[DistributedTerm, ...]:
+    def vectors(group: Affine) -> tuple[DistributedTerm, ...]:
         return tuple(DistributedTerm(t.name, t.coefficient,
-                                     convert.vector(owned.vector(_term_operator(own, t.name, m, True), comm),
-                                                    rows, comm), t.role) for t in group.terms)
+                                     convert.vector(owned.vector(_take(operators, t.name, m, True), comm), rows, comm),
+                                     t.role) for t in group.terms)
 
     shape = layout.box_shape
     surface = sp.csr_array((m, m))
@@ -206,14 +219,14 @@ def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
         observation[face] = convert.vector(local / runtime.allsum([local.sum()], comm)[0], rows, comm)
     dirichlet = {}
     for d in template.dirichlet:
-        own = next((s.dofs for s in box.dirichlet if s.name == d.name), np.zeros(0, dtype=np.int64))
+        own = fixed.get(d.name, np.zeros(0, dtype=np.int64))
         dirichlet[d.name] = np.unique(owned.global_row[own[owned.owner[own] == layout.rank]])
     m_, n_, p_ = layout.grid
     return DistributedSystem(
         template, rows, comm,
-        capacity=matrices(template.capacity, box.capacity),
-        conductance=matrices(template.conductance, box.conductance),
-        load=vectors(template.load, box.load),
+        capacity=matrices(template.capacity),
+        conductance=matrices(template.conductance),
+        load=vectors(template.load),
         dirichlet=dirichlet, observation=observation,
         boundary=convert.matrix(owned.matrix(surface, comm), rows, comm),
         fingerprint=problem_key(problem, labels, layout, comm),

@@ -32,7 +32,7 @@ def matrix(block: sp.csr_array, rows: RowLayout, comm: Any) -> Any:
     csr.sort_indices()
     index = PETSc.IntType
     mat = PETSc.Mat().createAIJ(size=((rows.local, rows.n), (rows.local, rows.n)),
-                                csr=(csr.indptr.astype(index), csr.indices.astype(index),
+                                csr=(csr.indptr.astype(index, copy=False), csr.indices.astype(index, copy=False),
                                      np.asarray(csr.data, dtype=float)), comm=comm)
     mat.assemble()
     return mat

@@ -174,7 +174,8 @@ class BoxLayout:
         rows = start[qx, qy, qz] + lx + cx * (ly + cy * lz)
         m, n, _ = self.grid
         owner = qx + m * (qy + n * qz)
-        return rows.ravel(order="F"), np.broadcast_to(owner, rows.shape).ravel(order="F")
+        kind = np.int32 if self.rows.n < 2**31 else np.int64  # PETSc's default index type where it suffices
+        return rows.ravel(order="F").astype(kind), np.broadcast_to(owner, rows.shape).ravel(order="F")
 
     def box_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`global_rows` of this rank's box (its nodes, including the upper planes owned by neighbours)."""
