@@ -10,14 +10,14 @@ Public API::
     rom = aromm.reduce(system, order=200)           # AROMM ReducedModel (cached bases)
 """
 
-from aromm.errors import InputError, NumericalError
-from aromm.homogenization import fluxmetric, homogeneous_twin, homogenize, mean_capacity
-from aromm.observables import Observables
-from aromm.reduction import reduce
-from aromm.rom import ReducedModel
-from aromm.scene import Scene, assemble, load_scene
-from aromm.solve import FullModel, simulate
-from aromm.system import ThermalSystem
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.observables import Observables
+from aromm.core.system import ThermalSystem
+from aromm.full.solve import FullModel
+from aromm.homogenization.properties import fluxmetric, homogeneous_twin
+from aromm.homogenization.synthetic import homogeneous_measurements
+from aromm.reduction.rom import ReducedModel
+from aromm.scene.file import Scene, assemble, load_scene
 
 __all__ = [
     "FullModel",
@@ -29,6 +29,7 @@ __all__ = [
     "ThermalSystem",
     "assemble",
     "fluxmetric",
+    "homogeneous_measurements",
     "homogeneous_twin",
     "homogenize",
     "load_scene",

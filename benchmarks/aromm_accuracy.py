@@ -28,15 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.cache import NpzCache
-from aromm.errors import InputError
+from aromm.core.cache import NpzCache
+from aromm.core.errors import InputError
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.full.solve import simulate
 from aromm.microstructure.generators import wood
-from aromm.modes import compute_basis, split_modes
-from aromm.reduction import reduce
-from aromm.scene import assemble, load_scene
-from aromm.solve import simulate
-from aromm.system import ThermalSystem, TimeGrid
-from studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES
+from aromm.reduction.bases import compute_basis, split_modes
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble, load_scene
+from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "data" / "scenes"

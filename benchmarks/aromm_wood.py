@@ -33,11 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.reduction import reduce
-from aromm.scene import assemble, load_scene
-from aromm.solve import simulate
-from aromm.system import ThermalSystem, TimeGrid
-from studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.full.solve import simulate
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble, load_scene
+from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES
 
 SCENES = Path(__file__).resolve().parents[1] / "data" / "scenes"
 POINT = {"fibre.k": 0.3, "fibre.c": 4e6}

@@ -8,7 +8,7 @@ discrete defect is printed too.
 
 Run: ``python benchmarks/bounds_fem.py`` (a few minutes; ``AROMM_SIZE=large`` adds finer meshes).
 Both element orders are measured on the same gmsh meshes: P1 and P2 (the default of
-aromm.effective.cell_fem).  h is the element size in units of the sphere radius (graded to h/4
+aromm.bounds.cell_fem).  h is the element size in units of the sphere radius (graded to h/4
 on the sphere); N is the number of unknowns of the split (contact-resistance) system; rates
 are measured against h (the meshes are scaled copies of each other).
 """
@@ -20,8 +20,8 @@ import time
 
 import numpy as np
 
-from aromm.effective.cell_fem import CellModel
-from aromm.effective.models import rayleigh_simple_cubic
+from aromm.bounds.cell_fem import CellModel
+from aromm.bounds.models import rayleigh_simple_cubic
 
 B, KAPPA = 0.5, 10.0
 PHI = np.pi / (6 * (1 + B) ** 3)

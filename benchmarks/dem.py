@@ -10,13 +10,13 @@ Tables (printed, not asserted):
 * ``pack``: wall and CPU seconds and peak resident memory of ``pack_spheres`` per size, each size in
   a fresh process (peak RSS is per process).  Wall time depends on the machine's load; CPU time less so.
 * ``steps``: the slab of [Hassan2019, § 3.1] (c = 0.9 J/(kg K)) integrated to 0.05, 0.1, 0.2 s by forward Euler
-  (eq. 5, 0.9 x the exact stability limit) and by the implicit solvers of aromm.solve (BDF2 and backward
+  (eq. 5, 0.9 x the exact stability limit) and by the implicit solvers of aromm.full.solve (BDF2 and backward
   Euler, factorised once) with increasing numbers of steps; error = max |T - T_ref| over particles and
   output times, T_ref = BDF2 with 3200 steps (``--reference-steps``).  Each implicit scheme stops at
   the first step count at least as accurate as the explicit run.
 * ``ct``: C_t (pair and global R_moy, periodic; pair, slab test of [Hassan2019, Fig. 3]) and Z x C_t for Z = 6, 9,
   and E = k_eff/k_m of the sphere inclusion (periodic cell) at contrasts 0.01 and 100 against the exact
-  simple-cubic value (aromm.effective.models.rayleigh_simple_cubic), per N.
+  simple-cubic value (aromm.bounds.models.rayleigh_simple_cubic), per N.
 
 ``--cache DIR`` keeps packings as ``DIR/pack_<N>_seed<S>.npz`` so that tables can reuse them.
 """
@@ -32,16 +32,16 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from aromm.analytic import slab_dirichlet_series
+from aromm.bounds.models import rayleigh_simple_cubic
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec
 from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate, inclusion_network, inclusion_ratios
 from aromm.dem.explicit import simulate_explicit, stability_limit
 from aromm.dem.network import Network
 from aromm.dem.packing import Packing, load_packing, pack_spheres
-from aromm.effective.models import rayleigh_simple_cubic
-from aromm.solve import simulate
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec
+from aromm.full.analytic import slab_dirichlet_series
+from aromm.full.solve import simulate
 
 L = 0.1  # m, [Hassan2019, § 3.1]
 TIMES = np.array([0.05, 0.1, 0.2])

@@ -31,12 +31,12 @@ EXACT_SC = 1.39573  # kappa = 10, phi = 4 pi / 81, simple-cubic array (docs/note
 
 
 def one_size(n: int, solver: str, steps: int, amd: bool) -> dict[str, float]:
+    from aromm.core.system import Affine, TimeGrid
+    from aromm.core.vocabulary import FaceSpec, PhaseSpec
     from aromm.fem import assemble_voxels
-    from aromm.linalg import factorize
+    from aromm.full.solve import steady_field, transient
+    from aromm.linalg.direct import factorize
     from aromm.microstructure import wood
-    from aromm.solve import steady_field, transient
-    from aromm.system import Affine, TimeGrid
-    from aromm.vocabulary import FaceSpec, PhaseSpec
 
     labels = wood((n, n, n), 5e-6, np.random.default_rng(0))
     phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
@@ -71,8 +71,8 @@ def one_size(n: int, solver: str, steps: int, amd: bool) -> dict[str, float]:
 
 
 def sphere_convergence(sizes: list[int], solver: str) -> list[tuple[int, float, float, float]]:
-    from aromm.homogenization import homogenize
-    from aromm.scene import scene_from_dict
+    from aromm.homogenization.properties import homogenize
+    from aromm.scene.file import scene_from_dict
 
     rows = []
     for n in sizes:

@@ -74,10 +74,10 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
                "wall_per_direction": time.perf_counter() - wall, "iterations": [solver.iter],
                "threads": torch.get_num_threads()}
     else:
-        from aromm.cell_problems import effective_conductivity
-        from aromm.geometry import VoxelGeometry
-        from aromm.scene import Scene
-        from aromm.vocabulary import PhaseSpec
+        from aromm.core.vocabulary import PhaseSpec
+        from aromm.homogenization.cell_problems import effective_conductivity
+        from aromm.scene.file import Scene
+        from aromm.scene.geometry import VoxelGeometry
 
         scene = Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)))
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

@@ -42,9 +42,9 @@ SLOPE = (maxwell(PHI + 1e-6) - maxwell(PHI - 1e-6)) / 2e-6
 
 
 def _scene(labels: np.ndarray, k1: float = 10.0):  # type: ignore[no-untyped-def]
-    from aromm.geometry import VoxelGeometry
-    from aromm.scene import Scene
-    from aromm.vocabulary import PhaseSpec
+    from aromm.core.vocabulary import PhaseSpec
+    from aromm.scene.file import Scene
+    from aromm.scene.geometry import VoxelGeometry
 
     n = labels.shape[0]
     return Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, 1.0), PhaseSpec("i", 1, k1)))
@@ -57,7 +57,7 @@ def sphere(n: int) -> np.ndarray:
 
 
 def sphere_table(sizes: tuple[int, ...]) -> None:
-    from aromm.cell_problems import BOUNDARIES, effective_conductivity
+    from aromm.homogenization.cell_problems import BOUNDARIES, effective_conductivity
 
     print("\n1. sphere in a cube, κ = 10, exact 1.39573: error against n for each boundary condition")
     print(f"{'boundary':<12}{'n':>5}{'φ_n':>9}{'k_xx':>11}{'error %':>10}{'φ-corrected %':>15}{'n × corr. %':>13}"
@@ -85,7 +85,7 @@ def sphere_table(sizes: tuple[int, ...]) -> None:
 
 
 def laminate_table(sizes: tuple[int, ...]) -> None:
-    from aromm.cell_problems import BOUNDARIES, effective_conductivity
+    from aromm.homogenization.cell_problems import BOUNDARIES, effective_conductivity
 
     print("\n2. laminate (layers normal to z, k 1 / 10, half and half): k_xx along the layers, exact 5.5")
     print(f"{'n':>5}" + "".join(f"{b + ' error %':>22}" for b in BOUNDARIES))
@@ -97,8 +97,8 @@ def laminate_table(sizes: tuple[int, ...]) -> None:
 
 
 def refine_worker(factor: int) -> dict[str, object]:
-    from aromm.cell_problems import effective_conductivity
-    from aromm.scene import load_scene
+    from aromm.homogenization.cell_problems import effective_conductivity
+    from aromm.scene.file import load_scene
 
     scene = load_scene(ROOT / "data" / "scenes" / "wood_homogenize.toml").refined(factor)
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

@@ -29,15 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.geometry import VoxelGeometry
-from aromm.model import ForwardModel
-from aromm.solve import FullModel
-from aromm.system import ThermalSystem, TimeGrid
-from inverse.farm import FARMS, Farm
-from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
-from inverse.measurements import Measurements, load_measurements, save_measurements, simulate_measurements
-from inverse.uncertainty import UncertaintyWarning
-from studies.chavez2020 import (
+from aromm.core.model import ForwardModel
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.full.solve import FullModel
+from aromm.scene.geometry import VoxelGeometry
+from aromm.studies.chavez2020 import (
     AXES,
     PAPER_PERTURBED,
     PAPER_TABLE2,
@@ -55,6 +51,10 @@ from studies.chavez2020 import (
     small_wood,
     twin_cases,
 )
+from inverse.farm import FARMS, Farm
+from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
+from inverse.measurements import Measurements, load_measurements, save_measurements, simulate_measurements
+from inverse.uncertainty import UncertaintyWarning
 
 ROOT = Path(__file__).resolve().parents[1]
 # swarm of the full-model identifications (each evaluation is a full simulation): the refinement does the work

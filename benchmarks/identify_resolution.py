@@ -1,19 +1,19 @@
 """What resolution costs for identification (issue 12, item 3): the same material at 1×, 2× and 3×.
 
-Material: ``studies.chavez2020.small_wood(n)`` (default n = 24 over the paper's 230 µm box), refined R× by
+Material: ``aromm.studies.chavez2020.small_wood(n)`` (default n = 24 over the paper's 230 µm box), refined R× by
 splitting every voxel into R³ elements (``Scene.refined``, as ``--refine R``): the same geometry, finer Q1
 elements.  benchmarks/homogenize_resolution.py does the same for the periodic k̄ tensor of the shipped VER.
 Each stage runs in its own process (seconds and peak memory per stage):
 
 1. at every R: k̄_xx, k̄_yy, k̄_zz by eq. 13 under the three Table 1 scenarios
-   (aromm.homogenization.fluxmetric, the k̄ an identification uses) and c̄ (eq. 14);
+   (aromm.homogenization.properties.fluxmetric, the k̄ an identification uses) and c̄ (eq. 14);
 2. Richardson extrapolation of each k̄ to zero voxel size with the observed order p from the three
    resolutions (f(h) = f∞ + C h^p, h = 1, 1/2, 1/3 of the coarse voxel);
 3. fixed "experimental" data for scenario 1 (flux into z0): the homogeneous twin [Chavez2020, eq. 1] with the
    extrapolated k̄_zz and c̄, solved on a fine 1-D column (``--twin-cells`` elements, dt / 10, sampled
    every 0.1 s): the same data for every R, as an experiment would give;
 4. at every R: the reduced model of scenario 1 (ñ = 200, eigensolver by size) and the identification of
-   (k_F, c_F) from those data (swarm + least squares, studies.chavez2020.run): estimates and seconds;
+   (k_F, c_F) from those data (swarm + least squares, aromm.studies.chavez2020.run): estimates and seconds;
 5. Richardson extrapolation of the identified k_F and c_F.  As R → ∞ they should tend to the values the
    material was built with (0.3 W/(m K), 4e6 J/(m³ K)); their distance at 1× is the part of the
    identification error due to discretisation.
@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 from homogenize_resolution import observed_order  # the same folder (run as a script)
 
-from aromm.scene import Scene
+from aromm.scene.file import Scene
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4e6}
 MEMORY_LIMIT_GB = 14.0
@@ -49,7 +49,7 @@ AXES = ("x", "y", "z")
 
 def material(n: int, r: int, axis: str) -> Scene:
     """``small_wood(n)`` with every voxel split into r³ elements (Scene.refined), under scenario ``axis``."""
-    from studies.chavez2020 import loading, small_wood
+    from aromm.studies.chavez2020 import loading, small_wood
 
     return loading(small_wood(n).refined(r), axis)
 
@@ -59,7 +59,7 @@ def solver_for(nodes: int) -> str:
 
 
 def homogenise_worker(n: int, r: int) -> dict[str, object]:
-    from aromm.homogenization import fluxmetric, mean_capacity
+    from aromm.homogenization.properties import fluxmetric, mean_capacity
 
     wall, cpu = time.perf_counter(), time.process_time()
     nodes = (n * r + 1) ** 3
@@ -70,10 +70,10 @@ def homogenise_worker(n: int, r: int) -> dict[str, object]:
 
 
 def identify_worker(n: int, r: int, data: Path, cache: Path, order: int = 200) -> dict[str, object]:
-    from aromm.reduction import reduce
-    from aromm.scene import assemble
+    from aromm.reduction.offline import reduce
+    from aromm.scene.file import assemble
+    from aromm.studies.chavez2020 import run
     from inverse.measurements import load_measurements
-    from studies.chavez2020 import run
 
     scene = material(n, r, "z")
     system = assemble(scene)
@@ -94,9 +94,10 @@ def identify_worker(n: int, r: int, data: Path, cache: Path, order: int = 200) -
 
 def twin_data(n: int, k_zz: float, c: float, cells: int, path: Path) -> None:
     """Fixed data: the homogeneous twin of scenario 1 on a 1-D column of ``cells`` elements, dt / 10."""
-    from aromm.geometry import VoxelGeometry
-    from aromm.system import TimeGrid
-    from inverse.measurements import Measurements, homogeneous_measurements, save_measurements
+    from aromm.core.system import TimeGrid
+    from aromm.homogenization.synthetic import homogeneous_measurements
+    from aromm.scene.geometry import VoxelGeometry
+    from inverse.measurements import Measurements, save_measurements
 
     scene = material(n, 1, "z")
     grid = scene.time

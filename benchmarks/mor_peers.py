@@ -1,7 +1,7 @@
 """AROMM against pyMOR's reductors on one wood VER and scenario, every reduced model exact in time.
 
 Scenario 1 of [Chavez2020, Table 1] (500 W/m² into z0, h = 20 W/(m² K) on z1, 60 s, outputs every 0.1 s)
-on the spruce-like 24³ VER of ``studies.chavez2020.small_wood`` (default) or the shipped 46³ VER
+on the spruce-like 24³ VER of ``aromm.studies.chavez2020.small_wood`` (default) or the shipped 46³ VER
 (``--shipped``: data/scenes/wood_s1.toml) [Milk2016].  For each method and order ñ the table gives:
 
 * offline wall / CPU seconds (stages shared by the aromm methods — Dirichlet/Steklov bases and the
@@ -16,8 +16,8 @@ on the spruce-like 24³ VER of ``studies.chavez2020.small_wood`` (default) or th
   (benchmarks/mor_truth.py: rational Krylov Galerkin, its own error printed).
 
 Methods: ``aromm`` (amalgam, the papers' method, with the default correction vectors), ``aromm+shifts``
-(plus shifted-solve corrections at 4 shifts from 1/t_end to 1/t_first, aromm.shifts), ``pod`` (POD of the
-amalgam's reference snapshots; refused beyond their rank), ``greedy`` (aromm.greedy POD-greedy on the 3×3
+(plus shifted-solve corrections at 4 shifts from 1/t_end to 1/t_first, aromm.reduction.shifted), ``pod`` (POD of the
+amalgam's reference snapshots; refused beyond their rank), ``greedy`` (aromm.reduction.greedy POD-greedy on the 3×3
 training grid k_F ∈ {0.05, 0.22, 1} × c_F ∈ {1e5, 1e6, 1e7}, the identification bounds), ``greedy+shifts``
 (the same with shifted-solve corrections at the 4 corners of the training box), ``bt`` (pyMOR
 balanced truncation [Moore1981] at the reference; parametric ROM by projecting the affine operators with its V, W),
@@ -75,17 +75,17 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg as sla
 
-from aromm.cache import NpzCache
-from aromm.corrections import correction_samples, with_corrections
-from aromm.errors import InputError
-from aromm.greedy import PodGreedy
-from aromm.modes import compute_basis, split_modes
-from aromm.reduction import default_modes, reduce
-from aromm.rom import ReducedModel
-from aromm.scene import assemble, load_scene
-from aromm.shifts import default_shifts, shifted_samples
-from aromm.system import FloatArray, Term, ThermalSystem
-from studies.chavez2020 import loading, small_wood
+from aromm.core.cache import NpzCache
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray, Term, ThermalSystem
+from aromm.reduction.bases import compute_basis, split_modes
+from aromm.reduction.corrections import correction_samples, with_corrections
+from aromm.reduction.greedy import PodGreedy
+from aromm.reduction.offline import default_modes, reduce
+from aromm.reduction.rom import ReducedModel
+from aromm.reduction.shifted import default_shifts, shifted_samples
+from aromm.scene.file import assemble, load_scene
+from aromm.studies.chavez2020 import loading, small_wood
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mor_truth import krylov_outputs

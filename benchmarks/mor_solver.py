@@ -1,4 +1,4 @@
-"""A pyMOR linear solver backed by aromm.linalg, so that pyMOR's reductors get the same sparse direct solver
+"""A pyMOR linear solver backed by aromm.linalg.direct, so that pyMOR's reductors get the same sparse direct solver
 as aromm (CHOLMOD with geometric nested dissection) instead of SuperLU with COLAMD.
 
 pyMOR factorises a new matrix ``A + pE`` for every shift p of its low-rank ADI (Gramians) and IRKA.  With
@@ -17,10 +17,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from pymor.bindings.scipy import ScipyLinearSolver
 
-from aromm.errors import NumericalError
-from aromm.linalg import factorize
-from aromm.ordering import nested_dissection
-from aromm.system import FloatArray
+from aromm.core.errors import NumericalError
+from aromm.core.system import FloatArray
+from aromm.linalg.direct import factorize
+from aromm.linalg.orderings import nested_dissection
 
 _KEEP = 2
 

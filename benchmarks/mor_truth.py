@@ -23,9 +23,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from aromm.linalg import factorize
-from aromm.rom import ReducedModel
-from aromm.system import FloatArray, ThermalSystem
+from aromm.core.system import FloatArray, ThermalSystem
+from aromm.linalg.direct import factorize
+from aromm.reduction.rom import ReducedModel
 
 
 def krylov_basis(system: ThermalSystem, values: Mapping[str, float], size: int,

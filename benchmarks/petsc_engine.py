@@ -1,6 +1,7 @@
 """The petsc engine against the scipy engine: reduced-model build and one steady solve on growing wood VERs.
 
-For each size n (n³ voxels of 5 µm, the spruce-like image of studies.chavez2020.small_wood, [Chavez2020] scenario 1)
+For each size n (n³ voxels of 5 µm, the spruce-like image of aromm.studies.chavez2020.small_wood, [Chavez2020]
+scenario 1)
 and each engine / rank count, one fresh process (or ``mpiexec -n P``) builds the AROMM reduced model of order
 ``--order`` (Ñ = 1.5 ñ + 20 modes, correction modes on) and solves one steady state; it prints, side by side:
 wall seconds, CPU seconds per rank (``time.process_time``), peak resident memory per rank (``ru_maxrss``),
@@ -35,7 +36,7 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
 
 
 def scene(n: int):  # type: ignore[no-untyped-def]
-    from studies.chavez2020 import loading, small_wood
+    from aromm.studies.chavez2020 import loading, small_wood
 
     return loading(small_wood(n, box=n * 5e-6), "z", end=60.0, dt=0.5)
 
@@ -43,7 +44,7 @@ def scene(n: int):  # type: ignore[no-untyped-def]
 def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
     """One measurement in this process (all ranks under mpiexec); the record is complete on rank 0."""
     import aromm
-    from aromm.scene import assemble
+    from aromm.scene.file import assemble
 
     load_before = os.getloadavg()[0]
     cpu0, wall0 = time.process_time(), time.perf_counter()

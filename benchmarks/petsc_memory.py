@@ -3,7 +3,7 @@ cores measure memory, not speed).
 
 Two kinds of run, each ``mpiexec -n P`` of this file in worker mode, one fresh process per rank:
 
-* ``--kind reduce``: the whole reduced-model build (``aromm.reduce(..., engine="petsc")``, order ``--order``,
+* ``--kind reduce``: the whole reduced-model build (``api.reduce(..., engine="petsc")``, order ``--order``,
   correction modes on): the per-stage peaks the engine records (aromm.engines.petsc.memory: assembly, basis =
   SLEPc eigensolves, corrections, projection, amalgam);
 * ``--kind operators``: what every build holds apart from the eigensolver's workspace, without the hours of the
@@ -38,7 +38,7 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
 def worker(n: int, kind: str, order: int, modes: int, solver: str) -> dict[str, object] | None:
     import numpy as np
 
-    import aromm
+    from aromm import api
     from aromm.engines.petsc import runtime
     from aromm.engines.petsc.memory import StageMemory, _status_bytes
     from aromm.engines.petsc.projection import project
@@ -51,7 +51,7 @@ def worker(n: int, kind: str, order: int, modes: int, solver: str) -> dict[str, 
     fixed = runtime.allmax(float(_status_bytes("VmRSS") or 0), comm)
     start = time.perf_counter()
     if kind == "reduce":
-        rom = aromm.reduce(scene, order, cache=False, engine="petsc", solver=solver)
+        rom = api.reduce(scene, order, cache=False, engine="petsc", solver=solver)
         record = {k: float(v) for k, v in rom.info.items() if str(k).endswith(("_peak_bytes", "_rise_bytes"))}
         used_modes = int(rom.info["modes"])
     else:

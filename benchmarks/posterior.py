@@ -1,6 +1,6 @@
 """MCMC posterior against the linearised intervals, and what the sampling costs with the reduced model.
 
-[Chavez2020]'s scenario 1 (500 W/m² into z0, h = 20 W/(m² K) on z1) on a spruce-like VER (studies.chavez2020.
+[Chavez2020]'s scenario 1 (500 W/m² into z0, h = 20 W/(m² K) on z1) on a spruce-like VER (aromm.studies.chavez2020.
 small_wood, n³ voxels); twin data: the reduced model itself at k_F = 0.3 W/(m K), c_F = 4e6 J/(m³ K) plus
 Gaussian noise of 0.02 °C (so the model is exact and only the statistics are compared).  For each
 experiment (the full 60 s, and a short 3 s one observing z0 only, where the data constrain the unknowns
@@ -30,13 +30,13 @@ from pathlib import Path
 import numpy as np
 import scipy.stats as st
 
-from aromm.reduction import reduce
-from aromm.scene import assemble
-from aromm.solve import simulate
+from aromm.full.solve import simulate
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble
+from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES, loading, small_wood
 from inverse.identification import identify
 from inverse.measurements import Measurements
 from inverse.posterior import sample_posterior
-from studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES, loading, small_wood
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4e6}
 BOUNDS = {"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}

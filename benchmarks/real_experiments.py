@@ -11,7 +11,7 @@ with ``--shipped``), under [Chavez2020]'s scenario 1 turned into a laboratory ex
 2. ``h``: the same reduced models at h × 0.7 and h × 1.3 (bases built at h), with the default correction
    vectors and with h samples added to them (``z1.h`` × 0.7, 1.3): is anything gained?
 3. ``fixed``: z1 held at a fixed temperature (constant 20 °C from T0 = 20 °C, and a ramp 20 → 25 °C over
-   5 s), lifted into the reduced model (aromm.lifting), against the full model, at the reference values
+   5 s), lifted into the reduced model (aromm.reduction.lifting), against the full model, at the reference values
    and at k_F = 0.1 W/(m K).
 
 Every row prints wall seconds; the header prints CPU seconds, peak memory, bytes per voxel of the
@@ -35,17 +35,17 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.cache import NpzCache
-from aromm.corrections import correction_samples
+from aromm.core.cache import NpzCache
+from aromm.core.profiles import Profile
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
+from aromm.full.solve import transient
 from aromm.microstructure.generators import wood
 from aromm.microstructure.io import load_image
-from aromm.profiles import Profile
-from aromm.reduction import reduce
-from aromm.rom import ReducedModel
-from aromm.solve import transient
-from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.reduction.corrections import correction_samples
+from aromm.reduction.offline import reduce
+from aromm.reduction.rom import ReducedModel
 
 ROOT = Path(__file__).resolve().parents[1]
 PHASES = (PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4.0e6))

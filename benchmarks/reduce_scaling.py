@@ -1,6 +1,6 @@
 """Reduced-model build on wood-like VERs from 24³ to 96³ voxels: seconds, memory, error (issue 12, item 2).
 
-Each size runs in its own process (peak memory per size).  The VER is ``studies.chavez2020.small_wood(n)``: the
+Each size runs in its own process (peak memory per size).  The VER is ``aromm.studies.chavez2020.small_wood(n)``: the
 paper's 230 µm box with tracheid walls one voxel thick (so finer images hold more, thinner cells), loaded by
 scenario 1 of [Chavez2020, Table 1] (500 W/m² into z0, h = 20 W/(m² K) on z1, 60 s, dt = 0.1 s).  Per size:
 
@@ -46,11 +46,11 @@ POINT = {"fibre.k": 0.3, "fibre.c": 4e6}
 
 def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: bool, half_step: bool) -> dict[
         str, object]:
-    from aromm.reduction import reduce
-    from aromm.scene import assemble
-    from aromm.solve import steady_field, transient
-    from aromm.system import TimeGrid
-    from studies.chavez2020 import loading, small_wood
+    from aromm.core.system import TimeGrid
+    from aromm.full.solve import steady_field, transient
+    from aromm.reduction.offline import reduce
+    from aromm.scene.file import assemble
+    from aromm.studies.chavez2020 import loading, small_wood
 
     out: dict[str, object] = {"n": n, "eigensolver": eigensolver, "load_start": os.getloadavg()[0]}
     wall, cpu = time.perf_counter(), time.process_time()

@@ -1,6 +1,6 @@
 """Temperature fields from the reduced model: what the basis Ψ costs (bytes, seconds) and the error it buys.
 
-For [Chavez2020]'s scenario 1 on a spruce-like VER (studies.chavez2020.small_wood, n³ voxels, 60 s at
+For [Chavez2020]'s scenario 1 on a spruce-like VER (aromm.studies.chavez2020.small_wood, n³ voxels, 60 s at
 dt = 0.1 s) it prints, per size:
 
 * the cache: bytes of the light model entry (``rom``), of Ψ's coefficients on the detailed basis
@@ -33,14 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.cache import NpzCache
-from aromm.observables import Observables
-from aromm.reduction import reduce
-from aromm.scene import assemble
-from aromm.sensors import FaceSensor, voxel_rows
-from aromm.solve import simulate
-from aromm.system import ThermalSystem, TimeGrid
-from studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES, loading, small_wood
+from aromm.core.cache import NpzCache
+from aromm.core.observables import Observables
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.full.solve import simulate
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble
+from aromm.scene.sensors import FaceSensor, voxel_rows
+from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES, loading, small_wood
 
 TIMES = np.array([1.0, 10.0, 60.0])
 PARAMS = {"fibre.k": 0.3, "fibre.c": 4e6}

@@ -29,7 +29,7 @@ SIZES = (256, 512, 1024)
 
 
 def modes(order: int) -> int:
-    """Ñ of aromm.reduction.default_modes."""
+    """Ñ of aromm.reduction.offline.default_modes."""
     return int(1.5 * order) + 20
 
 

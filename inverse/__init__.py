@@ -11,7 +11,6 @@ Usage::
 from inverse.identification import Identification, identify
 from inverse.measurements import (
     Measurements,
-    homogeneous_measurements,
     load_measurements,
     save_measurements,
     simulate_measurements,
@@ -25,7 +24,6 @@ __all__ = [
     "ResidualWarning",
     "Uncertainty",
     "UncertaintyWarning",
-    "homogeneous_measurements",
     "identify",
     "load_measurements",
     "save_measurements",

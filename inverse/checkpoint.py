@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.errors import InputError
-from aromm.files import OutputKind, atomic_write, npz_with, read_npz
+from aromm.core.errors import InputError
+from aromm.core.files import OutputKind, atomic_write, npz_with, read_npz
 from inverse.measurements import Measurements
 
 #: What ``--checkpoint`` writes: an ``.npz`` archive with a ``problem`` entry.
@@ -41,7 +41,7 @@ def problem_key(description: Mapping[str, object]) -> str:
 
 
 def save(path: str | os.PathLike[str], problem: str, arrays: Mapping[str, np.ndarray]) -> None:
-    """Write ``arrays`` and the ``problem`` key to ``path``, atomically (:func:`aromm.files.atomic_write`)."""
+    """Write ``arrays`` and the ``problem`` key to ``path``, atomically (:func:`aromm.core.files.atomic_write`)."""
     with atomic_write(path, "identification checkpoint", binary=True) as fh:
         payload = {"problem": np.asarray(problem), **{k: np.asarray(v) for k, v in arrays.items()}}
         np.savez(fh, **payload)  # type: ignore[arg-type]  # numpy's stub confuses **arrays with allow_pickle

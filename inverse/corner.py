@@ -16,7 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from aromm.files import output_path
+from aromm.core.files import output_path
 from inverse.posterior import LEVEL, Posterior
 from inverse.uncertainty import Uncertainty
 

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aromm.errors import InputError, NumericalError
-from aromm.model import ForwardModel
-from aromm.system import FloatArray
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.model import ForwardModel
+from aromm.core.system import FloatArray
 from inverse.measurements import Measurements
 
 

@@ -23,7 +23,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import TypeVar
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 
 FARMS = ("serial", "processes", "mpi")
 

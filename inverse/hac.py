@@ -35,7 +35,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from aromm.system import FloatArray
+from aromm.core.system import FloatArray
 
 ANDREWS_BARTLETT = 1.1447  # [Andrews1991, eq. 6.2], Bartlett kernel
 RHO_CAP = 1.0 - 1e-12  # an AR(1) coefficient this close to ±1 means a window over the whole record

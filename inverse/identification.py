@@ -20,11 +20,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
-from aromm.model import ForwardModel
-from aromm.offset import TIME_OFFSET, TimeShifted
-from aromm.system import FloatArray
-from aromm.vocabulary import is_positive
+from aromm.core.clock import TIME_OFFSET, TimeShifted
+from aromm.core.errors import InputError
+from aromm.core.model import ForwardModel
+from aromm.core.system import FloatArray
+from aromm.core.vocabulary import is_positive
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
@@ -111,7 +111,7 @@ def scenarios_of(model: ModelInput, measurements: Measurements | None,
     """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit.
 
     When ``parameters`` (the unknown and fixed names) hold the clock offset ``time_offset``, every model that
-    does not have it is wrapped in :class:`aromm.offset.TimeShifted` (one offset shared by every scenario).
+    does not have it is wrapped in :class:`aromm.core.clock.TimeShifted` (one offset shared by every scenario).
     """
     if measurements is not None:
         if not isinstance(model, ForwardModel):

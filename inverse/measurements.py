@@ -1,43 +1,39 @@
 """Measurements: face-mean temperatures Y_ij at times t_i on observed faces j [Chavez2020, eq. 4, 12].
 
-Measurements are an :class:`aromm.observables.Observables` table; a measurement file is its CSV (a header
+Measurements are an :class:`aromm.core.observables.Observables` table; a measurement file is its CSV (a header
 ``t,<face>,...``, times in s, temperatures in °C, one row per time, times strictly increasing).  Synthetic
 measurements come from any forward model; the paper's measurements (§ 4.2) come from the *homogeneous
 orthotropic* twin of the sample: one phase of conductivity diag(k̄_xx, k̄_yy, k̄_zz) (eq. 13) and capacity c̄ (eq. 14)
-on the same box under the same scenario, see :func:`homogeneous_measurements`.  As in § 4.2, k̄ along
+on the same box under the same scenario, see :func:`aromm.homogeneous_measurements`.  As in § 4.2, k̄ along
 the loaded axis is best taken from the heterogeneous sample under that same scenario
 (:func:`aromm.fluxmetric`): the twin then has the sample's steady face means exactly.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
-from aromm.homogenization import homogeneous_twin
-from aromm.model import ForwardModel
-from aromm.observables import Observables, read_csv, write_csv
-from aromm.scene import Scene, assemble
-from aromm.solve import simulate
+from aromm.core.errors import InputError
+from aromm.core.model import ForwardModel
+from aromm.core.observables import Observables, read_csv, write_csv
 
 #: Measurements are the toolkit's one time-series table (times in s, one series per observed face, °C).
 Measurements = Observables
 
 
 def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None = None) -> Measurements:
-    """Read a ``t,<face>,...`` CSV (:func:`aromm.observables.read_csv`); ``faces`` (e.g. ``model.outputs``)
+    """Read a ``t,<face>,...`` CSV (:func:`aromm.core.observables.read_csv`); ``faces`` (e.g. ``model.outputs``)
     lists the allowed face names.  Every problem raises InputError naming the file, line, column and what is allowed.
     """
     return read_csv(path, faces)
 
 
 def save_measurements(measurements: Measurements, path: str | os.PathLike[str]) -> None:
-    """Write the ``t,<face>,...`` CSV atomically (:func:`aromm.observables.write_csv`)."""
+    """Write the ``t,<face>,...`` CSV atomically (:func:`aromm.core.observables.write_csv`)."""
     write_csv(measurements, path, "measurement file")
 
 
@@ -67,26 +63,3 @@ def simulate_measurements(
             raise InputError("noisy measurements need an rng (np.random.Generator)")
         out = out.with_noise(noise, rng)
     return out
-
-
-def homogeneous_measurements(scene: Scene, k: npt.ArrayLike, c: float, *, perturbation: float = 0.0,
-                             method: str = "auto") -> Measurements:
-    """Face means of the homogeneous orthotropic twin of ``scene`` [Chavez2020, eq. 1, § 4.2].
-
-    ``k`` is the effective conductivity (W/(m K)): a 3x3 tensor (``aromm.homogenize``) or, for a
-    scenario loaded along one axis, the scalar ``aromm.fluxmetric(scene).k`` ([Chavez2020]
-    § 4.2; the unloaded axes carry no heat); ``c`` the mean capacity (J/(m^3 K);
-    ``aromm.mean_capacity(scene)``, eq. 14).  Every homogeneous property is multiplied by
-    ``1 + perturbation`` (§ 4.3 studies +2 %: 0.02).  The twin (``aromm.homogeneous_twin``) has the
-    scene's box, face conditions, time grid and outputs; it is simulated by the full model
-    with the linear solver ``method``.
-    """
-    if scene.time is None:
-        raise InputError(f"{scene.where}measurements need a transient scene ([time] with end and dt)")
-    if not (math.isfinite(perturbation) and perturbation > -1):
-        raise InputError(f"perturbation must be a finite fraction > -1, got {perturbation!r}")
-    scale = 1.0 + perturbation
-    twin = homogeneous_twin(scene, scale * np.asarray(k, dtype=float), scale * float(c))
-    obs = simulate(assemble(twin), method=method)
-    return Measurements(np.asarray(obs.t, dtype=float), {f: np.asarray(v, dtype=float) for f, v in obs.mean_T.items()},
-                        source=f"homogeneous twin of {scene.path or 'scene'}")

@@ -15,8 +15,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from aromm.errors import InputError
-from aromm.files import Input, OutputKind, atomic_path, check_output, signed
+from aromm.core.errors import InputError
+from aromm.core.files import Input, OutputKind, atomic_path, check_output, signed
 from inverse.identification import Identification
 
 #: A figure written by matplotlib: its PNG, PDF, SVG, PS and EPS files name it as their producer; the other
@@ -26,7 +26,7 @@ PLOT = OutputKind("figure", signed(b"matplotlib"))
 
 def check_plot(path: str | os.PathLike[str], *, inputs: Sequence[Input] = (), force: bool = False,
                option: str = "--plot") -> Path:
-    """``path`` if a figure can be written there (:func:`aromm.files.check_output`) in a format matplotlib
+    """``path`` if a figure can be written there (:func:`aromm.core.files.check_output`) in a format matplotlib
     knows from its suffix; InputError naming ``option`` and the supported formats otherwise."""
     p = Path(path)
     formats = sorted(FigureCanvasAgg(Figure()).get_supported_filetypes())

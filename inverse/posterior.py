@@ -35,8 +35,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aromm.errors import InputError
-from aromm.system import FloatArray
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares
 from inverse.measurements import Measurements

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.stats as st
 
-from aromm.system import FloatArray
+from aromm.core.system import FloatArray
 
 ALPHA = 0.01  # level of each whiteness test (runs, lag-1 autocorrelation)
 KELVIN = 273.15  # K at 0 °C

@@ -36,8 +36,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.stats as st
 
-from aromm.errors import InputError
-from aromm.system import FloatArray
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
 from inverse import hac
 from inverse.residuals import ResidualDiagnostics, diagnose
 

@@ -20,12 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import fluxmetric
+from aromm.core.vocabulary import PhaseSpec
+from aromm.homogenization.properties import fluxmetric
 from aromm.microstructure import save_image, wood
-from aromm.scene import Scene
-from aromm.vocabulary import PhaseSpec
-from studies.chavez2020 import loading
+from aromm.scene.file import Scene
+from aromm.scene.geometry import VoxelGeometry
+from aromm.studies.chavez2020 import loading
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "data" / "wood_ver.npz"
@@ -134,8 +134,8 @@ def main() -> None:
           f" c̄ = {capacity(labels):.4e} J/(m^3 K) (target {TARGET_C:.4e})")
     report("eq. 13 under the scenarios (aromm.fluxmetric)", scenario_k, labels)
     if args.homogenize:
-        from aromm.homogenization import homogenize, mean_capacity
-        from aromm.scene import load_scene
+        from aromm.homogenization.properties import homogenize, mean_capacity
+        from aromm.scene.file import load_scene
 
         start = time.perf_counter()
         scene = load_scene(ROOT / "data" / "scenes" / "wood_homogenize.toml")

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from aromm.solve import FullModel
+from aromm.full.solve import FullModel
+from aromm.studies.chavez2020 import noisy_repetitions
 from inverse.farm import Farm
 from inverse.measurements import simulate_measurements
-from studies.chavez2020 import noisy_repetitions
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
 

@@ -26,8 +26,8 @@ from inverse_cases import tracheids
 from scene_text import scenario_1
 
 from aromm.cli import main
+from aromm.core.observables import Observables, write_csv
 from aromm.dem.packing import cubic_lattice
-from aromm.observables import Observables, write_csv
 
 Setup = Callable[[Path], None]
 Patch = Callable[[pytest.MonkeyPatch], None]

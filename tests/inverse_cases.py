@@ -7,11 +7,11 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
+from aromm.core.observables import Observables
+from aromm.core.system import FloatArray, ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.observables import Observables
-from aromm.solve import FullModel
-from aromm.system import FloatArray, ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import FullModel
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
 PHASES = (PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4.0e6))

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 from slab1d import Slab, solve
 
+from aromm.core.profiles import Profile
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.profiles import Profile
-from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
 
 LAYERS = np.array([1, 1, 0, 0, 1, 0, 1, 1, 0, 1, 0, 0])
 DZ = 2e-5

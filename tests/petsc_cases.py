@@ -10,12 +10,12 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-import aromm
-from aromm.geometry import VoxelGeometry
-from aromm.modes import reference_operators, zero_modes
-from aromm.scene import Scene, assemble
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm import api
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.reduction.bases import reference_operators, zero_modes
+from aromm.scene.file import Scene, assemble
+from aromm.scene.geometry import VoxelGeometry
 
 PHASES = (PhaseSpec("fibre", 1, 0.3, 4.0e6), PhaseSpec("gas", 0, 0.025, 1.2e3))
 SCENARIO = (FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0, T_ext=0.0))
@@ -88,20 +88,21 @@ def results(comm: Any) -> dict[str, np.ndarray]:
         out[f"dirichlet_{solver}"] = basis.eigenvalues[basis.kinds == "dirichlet"]
         out[f"steklov_{solver}"] = basis.eigenvalues[basis.kinds == "steklov"]
     for corrections in (True, False):
-        rom = aromm.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False, engine="petsc",
+        rom = api.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False, engine="petsc",
                            solver="mumps")
         out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
-    transient = aromm.simulate(reduce_scene(), PROBE, engine="petsc", method="mumps")
+    transient = api.simulate(reduce_scene(), PROBE, engine="petsc", method="mumps")
     out["transient"] = transient.as_array()
-    out["steady"] = aromm.simulate(steady_scene(), {"fibre.k": 0.5}, engine="petsc").as_array()
+    out["steady"] = api.simulate(steady_scene(), {"fibre.k": 0.5}, engine="petsc").as_array()
     scene = steady_scene()
-    out["k_flux"] = aromm.homogenize(scene, "flux", engine="petsc")
-    out["k_temperature"] = aromm.homogenize(scene, "temperature", method="mumps", engine="petsc")
+    out["k_flux"] = api.homogenize(scene, "flux", engine="petsc")
+    out["k_temperature"] = api.homogenize(scene, "temperature", method="mumps", engine="petsc")
     return out
 
 
 def arpack() -> dict[str, np.ndarray]:
-    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.modes' problems."""
+    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.reduction.bases'
+    problems."""
     ops = reference_operators(assemble(basis_scene()))
     inner = ops.interior
     k_ii = sp.csc_array(ops.stiffness[inner][:, inner])
@@ -119,10 +120,10 @@ def serial() -> dict[str, np.ndarray]:
     """The keys of :func:`results` that the serial (scipy) engine computes, by the serial engine."""
     out = {}
     for corrections in (True, False):
-        rom = aromm.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False)
+        rom = api.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False)
         out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
-    out["transient"] = aromm.simulate(assemble(reduce_scene()), PROBE).as_array()
-    out["steady"] = aromm.simulate(assemble(steady_scene()), {"fibre.k": 0.5}).as_array()
-    out["k_flux"] = aromm.homogenize(steady_scene(), "flux")
-    out["k_temperature"] = aromm.homogenize(steady_scene(), "temperature")
+    out["transient"] = api.simulate(assemble(reduce_scene()), PROBE).as_array()
+    out["steady"] = api.simulate(assemble(steady_scene()), {"fibre.k": 0.5}).as_array()
+    out["k_flux"] = api.homogenize(steady_scene(), "flux")
+    out["k_temperature"] = api.homogenize(steady_scene(), "temperature")
     return out

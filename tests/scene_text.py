@@ -47,7 +47,7 @@ mean_T = ["z0", "z1"]
 """
 
 
-#: A filler octant in a matrix cell (``aromm.effective.cell_mesh`` written to cell.vtu), contact resistance R.
+#: A filler octant in a matrix cell (``aromm.bounds.cell_mesh`` written to cell.vtu), contact resistance R.
 MESH_CELL = """
 [geometry]
 mesh = "cell.vtu"

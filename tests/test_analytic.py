@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aromm.analytic import slab_dirichlet_series
-from aromm.errors import InputError
+from aromm.core.errors import InputError
+from aromm.full.analytic import slab_dirichlet_series
 
 L, ALPHA = 0.1, 33.0 / (7800 * 0.9)
 

@@ -15,13 +15,13 @@ import tifffile
 from hypothesis import given
 from hypothesis import strategies as st
 
+from aromm.core.errors import InputError
 from aromm.engines import check_engine, petsc_available
 from aromm.engines.petsc.layout import BoxLayout, even_split, process_grid
-from aromm.errors import InputError
 from aromm.fem.voxel import node_index
 from aromm.microstructure import load_image
 from aromm.microstructure.boxes import ImageBoxes, readable_by_parts
-from aromm.scene import scene_from_dict
+from aromm.scene.file import scene_from_dict
 
 SHAPE = (3, 4, 7)
 

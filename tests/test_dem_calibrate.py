@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from aromm.core.errors import InputError
 from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate, inclusion_network, inclusion_ratio, periodic_conductivity
 from aromm.dem.network import Network, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
-from aromm.errors import InputError
 
 
 @pytest.fixture(scope="module")

@@ -7,14 +7,14 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from aromm.analytic import slab_dirichlet_series
+from aromm.core.errors import InputError
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec
 from aromm.dem.bonds import build_bonds
 from aromm.dem.explicit import simulate_explicit, stability_bound, stability_limit
 from aromm.dem.network import Network
 from aromm.dem.packing import cubic_lattice, pack_spheres
-from aromm.errors import InputError
-from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec
+from aromm.full.analytic import slab_dirichlet_series
 
 VALUES = {"matrix.k": 33.0, "matrix.c": 7800 * 0.9, "initial.T": 25.0}
 FIXED = (FaceSpec("y0", T=25.0), FaceSpec("y1", T=100.0))

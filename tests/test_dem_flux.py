@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from aromm.core.vocabulary import FaceSpec
 from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate, periodic_conductivity, periodic_field
 from aromm.dem.flux import neighbourhood_mean, particle_flux
 from aromm.dem.network import Network, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
-from aromm.solve import reaction_heat_flow, steady_field
-from aromm.vocabulary import FaceSpec
+from aromm.full.solve import reaction_heat_flow, steady_field
 
 
 @pytest.fixture(scope="module")

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from aromm.core.errors import InputError
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec
 from aromm.dem.bonds import build_bonds
 from aromm.dem.network import Network, face_particles, laplacian, sphere_inclusion, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
-from aromm.errors import InputError
-from aromm.solve import simulate, steady_field
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec
+from aromm.full.solve import simulate, steady_field
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +74,7 @@ def test_faces_are_particles_cutting_the_plane(inclusion_net: Network) -> None:
 
 
 def test_shared_steady_solver_on_lattice_gives_linear_profile() -> None:
-    """aromm.solve.steady_field unchanged on a DEM network: a cut cubic lattice is a 1-D chain per row."""
+    """aromm.full.solve.steady_field unchanged on a DEM network: a cut cubic lattice is a 1-D chain per row."""
     lat = cubic_lattice(6, 1e-3)
     cut = lat.cut(lat.lower, lat.lower + lat.box)
     net = Network(cut, build_bonds(cut, gap=0.1), 4 / np.pi, np.zeros(cut.n, dtype=np.int64))
@@ -102,7 +102,7 @@ def test_shared_transient_solver_matches_explicit(inclusion_net: Network) -> Non
 
 def test_aromm_reducer_on_network() -> None:
     """aromm.reduce works unchanged on a DEM network (flux on z0, convection on z1)."""
-    from aromm.reduction import reduce
+    from aromm.reduction.offline import reduce
 
     p = pack_spheres(600, np.random.default_rng(3), box=0.01)
     cut = p.cut(p.lower, p.lower + p.box)

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from aromm.core.errors import InputError
 from aromm.dem.packing import Packing, cubic_lattice, gaussian_radii, load_packing, pack_spheres
-from aromm.errors import InputError
 
 
 @pytest.fixture(scope="module")

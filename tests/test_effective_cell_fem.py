@@ -6,14 +6,14 @@ import meshio
 import numpy as np
 import pytest
 
-from aromm.effective.cell_fem import CellModel, cell_mesh, conductance_from_reaction
-from aromm.effective.domain import cell_phi
-from aromm.effective.models import hasselman_johnson, rayleigh_simple_cubic
-from aromm.errors import InputError
+from aromm.bounds.cell_fem import CellModel, cell_mesh, conductance_from_reaction
+from aromm.bounds.domain import cell_phi
+from aromm.bounds.models import hasselman_johnson, rayleigh_simple_cubic
+from aromm.core.errors import InputError
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem.mesh import assemble_mesh, split_dofs
-from aromm.solve import simulate
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import simulate
 
 
 def kuhn_box(n: int, labels_of_z) -> meshio.Mesh:  # type: ignore[no-untyped-def]
@@ -147,7 +147,7 @@ def test_cell_value_converges_to_the_exact_simple_cubic_value(order: int, bound:
 
 
 def test_sub_cells_order_the_single_wall_bounds(coarse_cell: CellModel) -> None:
-    from aromm.effective.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
+    from aromm.bounds.wall import wall_1a, wall_1b, wall_inf_a, wall_inf_b
 
     b, c, d = 0.5, 0.1, 0.1
     e_c = coarse_cell.E(c, d)

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
+from aromm.bounds import models as m
+from aromm.bounds.summary import MODEL_KEYS
+from aromm.bounds.wall import wall_inf_a, wall_inf_b
 from aromm.cli import main
-from aromm.effective import models as m
-from aromm.effective.summary import MODEL_KEYS
-from aromm.effective.wall import wall_inf_a, wall_inf_b
 
 DESIGN_KEYS = {"maxwell_eucken", "hasselman_johnson", "hashin_shtrikman_lower", "hashin_shtrikman_upper",
                "wiener_parallel", "wiener_series", "torquato_rintoul_lower", "torquato_rintoul_upper", "wall_1a",

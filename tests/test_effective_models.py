@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aromm.effective import models as m
-from aromm.effective.domain import PHI_MAX_SC, cell_B, cell_phi
-from aromm.errors import InputError
+from aromm.bounds import models as m
+from aromm.bounds.domain import PHI_MAX_SC, cell_B, cell_phi
+from aromm.core.errors import InputError
 
 PHI = st.floats(1e-6, PHI_MAX_SC)
 KAPPA = st.floats(-4.0, 4.0).map(lambda e: 10.0**e)

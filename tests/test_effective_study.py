@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from studies.garnier_danes import (
+from aromm.studies.garnier_danes import (
     LOWER,
     SEED_PREFERENCE,
     UPPER,

@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad
 
-from aromm.effective.domain import cell_B, cell_phi
-from aromm.effective.models import rayleigh_simple_cubic
-from aromm.effective.wall import (
+from aromm.bounds.domain import cell_B, cell_phi
+from aromm.bounds.models import rayleigh_simple_cubic
+from aromm.bounds.wall import (
     BVP_TOL,
     wall_1a,
     wall_1b,
@@ -22,7 +22,7 @@ from aromm.effective.wall import (
     wall_inf_b_perfect,
     wall_inf_b_profile,
 )
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 
 B_ANY = st.floats(0.0, 20.0)
 C_ANY = st.one_of(st.just(0.0), st.floats(-8.0, 3.0).map(lambda e: 10.0**e))

@@ -1,4 +1,4 @@
-"""Chunked LOBPCG (aromm.eigensolvers) and its block multigrid preconditioner against independent truths:
+"""Chunked LOBPCG (aromm.linalg.eigensolvers) and its block multigrid preconditioner against independent truths:
 the separable discrete spectrum of a homogeneous box, ARPACK shift-invert on heterogeneous images, the exact
 trilinear Steklov mode of a cube, and the symmetry and mesh-independence of the preconditioner."""
 
@@ -13,17 +13,17 @@ import scipy.sparse.linalg as spla
 from scene_text import scenario_1
 from test_reduced import exact_outputs
 
-from aromm import eigensolvers
-from aromm.block_multigrid import BlockMultigrid
-from aromm.eigensolvers import EigenProgress, choose_eigensolver, smallest_eigenpairs
-from aromm.errors import InputError, NumericalError
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.modes import RESIDUAL_TOL, dirichlet_modes, reference_operators, steklov_modes, zero_modes
-from aromm.reduction import reduce
-from aromm.scene import assemble
-from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
-from studies.chavez2020 import loading, small_wood
+from aromm.linalg import eigensolvers
+from aromm.linalg.block_multigrid import BlockMultigrid
+from aromm.linalg.eigensolvers import EigenProgress, choose_eigensolver, smallest_eigenpairs
+from aromm.reduction.bases import RESIDUAL_TOL, dirichlet_modes, reference_operators, steklov_modes, zero_modes
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble
+from aromm.studies.chavez2020 import loading, small_wood
 
 K, C = 2.0, 3.0e6  # W/(m K), J/(m3 K)
 
@@ -146,7 +146,7 @@ def test_block_multigrid_is_symmetric_and_mesh_independent() -> None:
 
 
 def test_reduced_model_from_lobpcg_bases_agrees_with_direct_bases_within_its_own_error(tmp_path) -> None:
-    # A wood-like VER (studies.chavez2020.small_wood), scenario 1 of [Chavez2020] over 6 s, bases and reference
+    # A wood-like VER (aromm.studies.chavez2020.small_wood), scenario 1 of [Chavez2020] over 6 s, bases and reference
     # case at the paper's properties: the reduced model built from LOBPCG bases must agree with the one from
     # ARPACK bases closer than either is to the exact full model.
     scene = loading(small_wood(9), "z", end=6.0, dt=0.3)

@@ -12,7 +12,7 @@ import farm_cases
 import numpy as np
 import pytest
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 from inverse.farm import Farm
 
 

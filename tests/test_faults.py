@@ -19,7 +19,7 @@ import pytest
 from fault_cases import CASES, Case, make_template, prepared, run
 
 from aromm.cli import main
-from aromm.observables import Observables, write_csv
+from aromm.core.observables import Observables, write_csv
 
 REPO = Path(__file__).resolve().parent.parent
 COMMANDS = {"simulate", "homogenize", "measure", "reduce", "identify", "bounds", "dem pack", "dem calibrate",

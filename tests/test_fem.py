@@ -8,9 +8,9 @@ import scipy.sparse as sp
 import skfem
 from skfem.helpers import dot, grad
 
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels, face_mass
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
 
 VOXEL = (1.0e-3, 1.5e-3, 0.7e-3)
 

@@ -1,4 +1,4 @@
-"""Output files: folders created, unwritable paths named, atomic replacement (aromm.files)."""
+"""Output files: folders created, unwritable paths named, atomic replacement (aromm.core.files)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from aromm.errors import InputError
-from aromm.files import atomic_write, check_output, output_path, read_npz
-from aromm.observables import TIME_SERIES, Observables, read_csv, write_csv, written_by_write_csv
-from aromm.vocabulary import FACES
+from aromm.core.errors import InputError
+from aromm.core.files import atomic_write, check_output, output_path, read_npz
+from aromm.core.observables import TIME_SERIES, Observables, read_csv, write_csv, written_by_write_csv
+from aromm.core.vocabulary import FACES
 
 
 def test_output_path_creates_folders_and_names_a_blocked_path(tmp_path: Path) -> None:

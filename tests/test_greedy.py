@@ -1,4 +1,4 @@
-"""POD-greedy reductor (aromm.greedy) and shifted-solve corrections (aromm.shifts).
+"""POD-greedy reductor (aromm.reduction.greedy) and shifted-solve corrections (aromm.reduction.shifted).
 
 Independent truths: the exact outputs of the full FE system by dense generalised eigendecomposition
 (tests/test_reduced.exact_outputs) and, for the shifts, the transfer function e (K + sC)⁻¹ F by a sparse solve.
@@ -12,11 +12,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from test_reduced import exact_outputs, random_labels, system_of
 
-from aromm.errors import InputError
-from aromm.greedy import PodGreedy, pod_greedy, training_grid
-from aromm.reduction import reduce, snapshot_times
-from aromm.rom import ReducedModel
-from aromm.shifts import SHIFT, default_shifts, shifted_samples
+from aromm.core.errors import InputError
+from aromm.reduction.greedy import PodGreedy, pod_greedy, training_grid
+from aromm.reduction.offline import reduce, snapshot_times
+from aromm.reduction.rom import ReducedModel
+from aromm.reduction.shifted import SHIFT, default_shifts, shifted_samples
 
 TRAINING = [{"fibre.k": k, "fibre.c": c} for k in (0.05, 1.0) for c in (1e5, 1e7)]
 TARGET = 1e-6  # °C, on face means of about 1 °C

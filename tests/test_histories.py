@@ -16,14 +16,14 @@ from layered import TIMES, H, layered_reference, layered_system
 from scene_text import scenario_1
 
 from aromm.cli import main
-from aromm.errors import InputError
-from aromm.modal import phi1, phi2, propagate
-from aromm.profiles import Profile
-from aromm.reduction import reduce
-from aromm.rom import from_arrays, to_arrays
-from aromm.scene import assemble, load_scene
-from aromm.solve import transient
-from aromm.vocabulary import FaceSpec
+from aromm.core.errors import InputError
+from aromm.core.profiles import Profile
+from aromm.core.vocabulary import FaceSpec
+from aromm.full.solve import transient
+from aromm.reduction.modal_integration import phi1, phi2, propagate
+from aromm.reduction.offline import reduce
+from aromm.reduction.rom import from_arrays, to_arrays
+from aromm.scene.file import assemble, load_scene
 
 # ----------------------------------------------------------------------------- profiles and φ functions
 

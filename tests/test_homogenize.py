@@ -7,11 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from aromm.errors import InputError
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import fluxmetric, homogeneous_twin, homogenize, mean_capacity
-from aromm.scene import Scene, scene_from_dict
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.api import homogenize
+from aromm.core.errors import InputError
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.homogenization.properties import fluxmetric, homogeneous_twin, mean_capacity
+from aromm.scene.file import Scene, scene_from_dict
+from aromm.scene.geometry import VoxelGeometry
 
 PHI_SPHERE = 4.0 * np.pi / 81.0  # sphere of radius L/3 in a cube of side L
 

@@ -11,8 +11,8 @@ from inverse_cases import TRUTH, tracheids
 from scene_text import scenario_1
 
 from aromm.cli import main
-from aromm.scene import assemble, load_scene
-from aromm.solve import FullModel
+from aromm.full.solve import FullModel
+from aromm.scene.file import assemble, load_scene
 from inverse.measurements import save_measurements, simulate_measurements
 
 

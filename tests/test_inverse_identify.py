@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from inverse_cases import TRUTH, scenario_model
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 from inverse.identification import Progress, identify
 from inverse.measurements import simulate_measurements
 

@@ -10,16 +10,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from inverse_cases import scenario_model
 
-from aromm.errors import InputError
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import fluxmetric, homogenize, mean_capacity
-from aromm.scene import Scene, assemble
-from aromm.solve import simulate
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.core.errors import InputError
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import simulate
+from aromm.homogenization.properties import fluxmetric, homogenize, mean_capacity
+from aromm.homogenization.synthetic import homogeneous_measurements
+from aromm.scene.file import Scene, assemble
+from aromm.scene.geometry import VoxelGeometry
 from inverse.measurements import (
     Measurements,
-    homogeneous_measurements,
     load_measurements,
     save_measurements,
     simulate_measurements,

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 from inverse.optimisers import Box, jacobian, pso, refine
 
 ROOT = Path(__file__).resolve().parents[1]

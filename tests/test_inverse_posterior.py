@@ -21,8 +21,8 @@ from scene_text import scenario_1
 from scipy.special import gammaln
 
 from aromm.cli import main
-from aromm.errors import InputError
-from aromm.observables import Observables
+from aromm.core.errors import InputError
+from aromm.core.observables import Observables
 from inverse.posterior import NOISE, PosteriorWarning, sample_posterior
 
 T = np.arange(1.0, 41.0)
@@ -169,7 +169,7 @@ def test_posterior_of_a_transient_model_agrees_with_the_linearised_intervals(tmp
     mode —, unknowns k_F and c_F, noise 0.01 °C on 40 × 2 face means): the posterior mean is the least-squares
     estimate and its standard deviations are the linearised ones, each within 4 Monte Carlo errors plus 5 % for
     the model's curvature over ±2 sd (the relative change of the sensitivities there, measured < 3 %)."""
-    from aromm.reduction import reduce
+    from aromm.reduction.offline import reduce
     from inverse.identification import identify
 
     system = scenario_system(n=2, end=40.0, dt=1.0)

@@ -15,15 +15,16 @@ import pytest
 from inverse_cases import PHASES, TRUTH, LinearModel, scenario_model, tracheids
 from scipy.signal import lfilter
 
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import fluxmetric, mean_capacity
-from aromm.scene import Scene, assemble
-from aromm.solve import FullModel
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec
+from aromm.full.solve import FullModel
+from aromm.homogenization.properties import fluxmetric, mean_capacity
+from aromm.homogenization.synthetic import homogeneous_measurements
+from aromm.scene.file import Scene, assemble
+from aromm.scene.geometry import VoxelGeometry
 from inverse import hac
 from inverse.identification import identify
-from inverse.measurements import Measurements, homogeneous_measurements, simulate_measurements
+from inverse.measurements import Measurements, simulate_measurements
 from inverse.residuals import ALPHA, _runs, diagnose
 from inverse.uncertainty import ResidualWarning, linearised
 

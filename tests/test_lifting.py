@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 from slab1d import Slab, solve
 
-from aromm.analytic import slab_dirichlet_series
-from aromm.errors import InputError
+from aromm.core.errors import InputError
+from aromm.core.profiles import Profile
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.lifting import lift
-from aromm.modes import compute_basis
-from aromm.profiles import Profile
-from aromm.reduction import reduce
-from aromm.rom import from_arrays, to_arrays
-from aromm.solve import transient
-from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.analytic import slab_dirichlet_series
+from aromm.full.solve import transient
+from aromm.reduction.bases import compute_basis
+from aromm.reduction.lifting import lift
+from aromm.reduction.offline import reduce
+from aromm.reduction.rom import from_arrays, to_arrays
 
 L, K, C = 0.1, 33.0, 7800.0 * 900.0  # [Hassan2019]'s steel slab: 0.1 m, 33 W/(m K), rho c = 7.02e6 J/(m3 K)
 ALPHA = K / C

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scene_text import MESH_CELL
 
+from aromm.bounds.cell_fem import cell_mesh
 from aromm.cli import main
-from aromm.effective.cell_fem import cell_mesh
-from aromm.errors import InputError
-from aromm.homogenization import mean_capacity
-from aromm.scene import assemble, load_scene
-from aromm.solve import transient
+from aromm.core.errors import InputError
+from aromm.full.solve import transient
+from aromm.homogenization.properties import mean_capacity
+from aromm.scene.file import assemble, load_scene
 
 SCENE = MESH_CELL
 

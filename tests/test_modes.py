@@ -1,4 +1,4 @@
-"""Dirichlet and Steklov eigenbases (aromm.modes) against analytic eigenvalues and exact identities."""
+"""Dirichlet and Steklov eigenbases (aromm.reduction.bases) against analytic eigenvalues and exact identities."""
 
 from __future__ import annotations
 
@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from aromm import modes
-from aromm.cache import NpzCache, default_cache_dir
-from aromm.errors import InputError, NumericalError
+from aromm.core.cache import NpzCache, default_cache_dir
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.system import Affine, Coefficient, Term, ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.modes import compute_basis, dirichlet_modes, reference_operators, steklov_modes, zero_modes
-from aromm.system import Affine, Coefficient, Term, ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.reduction import bases as modes
+from aromm.reduction.bases import compute_basis, dirichlet_modes, reference_operators, steklov_modes, zero_modes
 
 K, C = 2.0, 3.0e6  # W/(m K), J/(m3 K): a "solid" phase (not named fibre/gas: no seed override)
 

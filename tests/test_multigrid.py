@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.linalg import factorize
-from aromm.solve import _partition, _points, _split, steady_field
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import _partition, _points, _split, steady_field
+from aromm.linalg.direct import factorize
 
 RTOL = 1e-10
 

@@ -15,12 +15,12 @@ from scene_text import scenario_1
 from slab1d import Slab, solve
 
 from aromm.cli import main
-from aromm.errors import InputError
-from aromm.observables import Observables, write_csv
-from aromm.offset import TIME_OFFSET, TimeShifted
-from aromm.reduction import reduce
-from aromm.scene import assemble, load_scene
-from aromm.solve import FullModel
+from aromm.core.clock import TIME_OFFSET, TimeShifted
+from aromm.core.errors import InputError
+from aromm.core.observables import Observables, write_csv
+from aromm.full.solve import FullModel
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble, load_scene
 from inverse.identification import identify
 from inverse.uncertainty import IdentifiabilityWarning
 

@@ -7,10 +7,10 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.linalg import factorize
-from aromm.ordering import nested_dissection
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.linalg.direct import factorize
+from aromm.linalg.orderings import nested_dissection
 
 
 def _voxel_system(n: int):  # type: ignore[no-untyped-def]

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from test_reduced import random_labels, system_of
 
-from aromm.errors import InputError
-from aromm.pod import pod_coefficients
-from aromm.reduction import reduce
+from aromm.core.errors import InputError
+from aromm.reduction.offline import reduce
+from aromm.reduction.pod import pod_coefficients
 
 
 def test_order_beyond_the_snapshot_rank_is_refused() -> None:

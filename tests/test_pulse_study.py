@@ -1,4 +1,5 @@
-"""The shipped pulse scene (data/scenes/wood_pulse.toml, the CLI's form) is the experiment of studies.pulse_experiment
+"""The shipped pulse scene (data/scenes/wood_pulse.toml, the CLI's form) is the experiment of
+aromm.studies.pulse_experiment
 (the notebook's form)."""
 
 from __future__ import annotations
@@ -8,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aromm.scene import load_scene
-from aromm.sensors import FaceSensor, PointSensor
-from studies.pulse_experiment import PULSE, experiment
+from aromm.scene.file import load_scene
+from aromm.scene.sensors import FaceSensor, PointSensor
+from aromm.studies.pulse_experiment import PULSE, experiment
 
 SCENES = Path(__file__).resolve().parents[1] / "data" / "scenes"
 

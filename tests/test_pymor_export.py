@@ -1,6 +1,6 @@
 """Export of a ThermalSystem to a pyMOR LTIModel (aromm.interop.pymor; skipped without the ``mor`` extra).
 
-Independent truth: aromm's own full model (aromm.solve, sparse direct solver) on the same system — backward
+Independent truth: aromm's own full model (aromm.full.solve, sparse direct solver) on the same system — backward
 Euler on the same grid in time, the steady state, and the transfer function e (K + sC)⁻¹ F.
 """
 
@@ -12,11 +12,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from test_reduced import PHASES, random_labels
 
+from aromm.core.system import Coefficient, TimeGrid
+from aromm.core.vocabulary import FaceSpec
 from aromm.fem import assemble_voxels
-from aromm.linalg import DEFAULT_RTOL
-from aromm.solve import simulate, steady_field
-from aromm.system import Coefficient, TimeGrid
-from aromm.vocabulary import FaceSpec
+from aromm.full.solve import simulate, steady_field
+from aromm.linalg.direct import DEFAULT_RTOL
 
 pytest.importorskip("pymor")
 

@@ -1,4 +1,5 @@
-"""The reduced model (aromm.reduction, aromm.rom, aromm.amalgam, aromm.pod) against exact solutions and conservation.
+"""The reduced model (aromm.reduction.offline, aromm.reduction.rom, aromm.reduction.amalgam, aromm.reduction.pod)
+against exact solutions and conservation.
 
 The reference ("truth") is the exact solution of the full semi-discrete system ``C dT/dt + K T = F`` computed
 here independently with a dense generalised eigendecomposition of the full matrices (small images).
@@ -13,15 +14,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scene_text import scenario_1
 
-from aromm.amalgam import amalgam
-from aromm.errors import InputError
+from aromm.core.errors import InputError
+from aromm.core.model import ForwardModel
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.model import ForwardModel
-from aromm.reduction import reduce
-from aromm.rom import ReducedModel
-from aromm.solve import steady_field
-from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import steady_field
+from aromm.reduction.amalgam import amalgam
+from aromm.reduction.offline import reduce
+from aromm.reduction.rom import ReducedModel
 
 H = 5e-6  # voxel size, m
 PHASES = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]

@@ -17,13 +17,13 @@ import scipy.linalg as sla
 from scene_text import SLAB_L, SLAB_TAU, scenario_1, steel_slab
 
 from aromm.cli import main
-from aromm.errors import InputError
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray, ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.reduction import reduce
-from aromm.scene import assemble, load_scene
-from aromm.solve import transient
-from aromm.system import FloatArray, ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import transient
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble, load_scene
 
 PHASES = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
 FAR = {"fibre.k": 0.3, "fibre.c": 4e6}
@@ -115,7 +115,8 @@ def test_cli_writes_a_paraview_series_of_reduced_fields(tmp_path: Path, capsys: 
 
 
 def test_fields_with_fixed_temperatures_hold_them_and_converge_to_the_full_model(tmp_path: Path) -> None:
-    """A slab between faces at 25 and 100 °C: the reduced model carries them by lifting (aromm.lifting), so its
+    """A slab between faces at 25 and 100 °C: the reduced model carries them by lifting (aromm.reduction.lifting), so
+    its
     field is Ψ X + Σ τ_d ℓ_d.  The fixed nodes hold their temperatures exactly; the field converges to the full
     model's (BDF2 at dt and dt/4, Richardson-extrapolated) with the order, and stays within 10× the error of a
     mid-depth thermocouple's reading (measured 2× at order 40, 4× at order 80; the face means are exact here)."""

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-FOLDERS = ("aromm", "inverse", "studies", "tests", "benchmarks", "scripts", "notebooks", "data", "docs")
+FOLDERS = ("aromm", "inverse", "tests", "benchmarks", "scripts", "notebooks", "data", "docs")
 SOURCES = [p for folder in FOLDERS
            for p in sorted((ROOT / folder).rglob("*")) if p.suffix in (".py", ".ipynb", ".md", ".toml")]
 SOURCES = [p for p in SOURCES if p != Path(__file__).resolve()] + [ROOT / "README.md"]  # not this checker

@@ -11,12 +11,12 @@ import pytest
 from scene_text import scenario_1
 
 from aromm.cli import main
-from aromm.errors import InputError
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import homogenize
-from aromm.scene import Scene, assemble
-from aromm.solve import steady_field
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.core.errors import InputError
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import steady_field
+from aromm.homogenization.properties import homogenize
+from aromm.scene.file import Scene, assemble
+from aromm.scene.geometry import VoxelGeometry
 
 PHASES = (PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6))
 

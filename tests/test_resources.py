@@ -9,10 +9,10 @@ import pytest
 from inverse_cases import scenario_system, tracheids
 from scene_text import scenario_1
 
-from aromm import resources
 from aromm.cli import main
-from aromm.errors import InputError
-from aromm.solve import interpolate_rows, transient
+from aromm.core import resources
+from aromm.core.errors import InputError
+from aromm.full.solve import interpolate_rows, transient
 
 
 def test_fields_between_steps_equal_interpolation_of_the_stored_steps() -> None:
@@ -75,8 +75,8 @@ def test_cli_simulate_refuses_what_cannot_fit_with_exit_2(tmp_path: Path, monkey
 
 def test_reduced_model_refuses_a_batch_that_cannot_fit(monkeypatch: pytest.MonkeyPatch,
                                                        tmp_path: Path) -> None:
-    from aromm.reduction import reduce
-    from aromm.rom import MODAL_WORK
+    from aromm.reduction.offline import reduce
+    from aromm.reduction.rom import MODAL_WORK
 
     monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path))
     rom = reduce(scenario_system("z", n=4, end=10.0, dt=1.0), order=6)

@@ -10,8 +10,8 @@ import pytest
 from scene_text import scenario_1
 
 from aromm.cli import main
-from aromm.errors import InputError
-from aromm.scene import load_scene
+from aromm.core.errors import InputError
+from aromm.scene.file import load_scene
 
 GOOD = scenario_1("img.npy", "1.0e-4", "1.0", "0.1")
 
@@ -121,10 +121,10 @@ def test_material_scene_loads_for_homogenize_but_is_not_simulated(scene_dir: Pat
 
 def test_singular_system_built_in_python_is_a_numerical_failure() -> None:
     """Below the scene checks, the solver still names a singular steady system instead of returning NaN."""
-    from aromm.errors import NumericalError
+    from aromm.core.errors import NumericalError
+    from aromm.core.vocabulary import FaceSpec, PhaseSpec
     from aromm.fem import assemble_voxels
-    from aromm.solve import steady_field
-    from aromm.vocabulary import FaceSpec, PhaseSpec
+    from aromm.full.solve import steady_field
 
     system = assemble_voxels(np.ones((3, 3, 3), dtype=np.int32), (1e-3,) * 3, (PhaseSpec("a", 1, 1.0),),
                              [FaceSpec("z0", flux=10.0)])

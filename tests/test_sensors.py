@@ -1,4 +1,4 @@
-"""Named sensors (aromm.sensors): point, face patch, IR camera — against analytic slabs and face means."""
+"""Named sensors (aromm.scene.sensors): point, face patch, IR camera — against analytic slabs and face means."""
 
 from __future__ import annotations
 
@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 from scene_text import MESH_CELL, SLAB_ALPHA, SLAB_L, SLAB_TAU, scenario_1, steel_slab
 
-from aromm.analytic import slab_dirichlet_series
+from aromm.bounds.cell_fem import cell_mesh
 from aromm.cli import main
-from aromm.effective.cell_fem import cell_mesh
-from aromm.errors import InputError
-from aromm.observables import read_csv
-from aromm.reduction import reduce
-from aromm.scene import assemble, load_scene
-from aromm.sensors import hat_means, hat_values
-from aromm.solve import transient
+from aromm.core.errors import InputError
+from aromm.core.observables import read_csv
+from aromm.full.analytic import slab_dirichlet_series
+from aromm.full.solve import transient
+from aromm.reduction.offline import reduce
+from aromm.scene.file import assemble, load_scene
+from aromm.scene.sensors import hat_means, hat_values
 
 # one third of an element past a node plane on every grid below (s = z/dz = 7/3, 14/3, 28/3): the interpolation
 # error ½ f (1 − f) dz² T'' keeps its factor f (1 − f) = 2/9, so the reading's error converges cleanly at order 2
@@ -42,8 +42,8 @@ def test_point_sensor_in_a_slab_converges_to_the_analytic_temperature_at_its_dep
 
 
 def test_a_patch_over_the_whole_face_is_the_face_mean_and_rows_sum_to_one(tmp_path: Path) -> None:
-    """Two independent constructions of ∫_f φ_a / |f|: the face mass matrix (aromm.vocabulary) and the tensor
-    product of 1-D hat integrals (aromm.sensors); a camera's pixels tile the face, so their area-weighted
+    """Two independent constructions of ∫_f φ_a / |f|: the face mass matrix (aromm.core.vocabulary) and the tensor
+    product of 1-D hat integrals (aromm.scene.sensors); a camera's pixels tile the face, so their area-weighted
     mean is the face mean too."""
     rng = np.random.default_rng(3)
     np.save(tmp_path / "img.npy", (rng.random((5, 4, 6)) < 0.4).astype(np.int32))
@@ -141,7 +141,7 @@ pixels = [2, 2]
     for dt in (0.02, 0.005):
         from dataclasses import replace
 
-        from aromm.system import TimeGrid
+        from aromm.core.system import TimeGrid
         full = transient(replace(system, time=TimeGrid(4.0, dt)), times=t).as_array()
         gaps.append(np.abs(full - reduced).max())
     assert gaps[1] < gaps[0] / 8, gaps

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from aromm.analytic import slab_dirichlet_series
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.solve import transient
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.analytic import slab_dirichlet_series
+from aromm.full.solve import transient
 
 L, K, C = 0.1, 33.0, 7800.0 * 900.0  # [Hassan2019]'s steel slab: 0.1 m, 33 W/(m K), rho c = 7.02e6 J/(m3 K)
 ALPHA = K / C

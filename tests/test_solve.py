@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from aromm.errors import InputError, NumericalError
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.solve import FullModel, simulate, steady_field, transient
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.full.solve import FullModel, simulate, steady_field, transient
 
 TWO_PHASES = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4.0e6)]
 SCENARIO_1 = [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0, T_ext=0.0)]

@@ -2,7 +2,7 @@
 
 Exit codes (docs/design.md, :mod:`aromm.cli.common`): 0 success, 1 numerical failure, 2 bad input (message on
 stderr), 3 result printed but an optional extra (plot, field) not written, 130 interrupted.  Outputs are checked
-before the work and never replace an input or a file aromm did not write without ``--force`` (:mod:`aromm.files`).
+before the work and never replace an input or a file aromm did not write without ``--force`` (:mod:`aromm.core.files`).
 Each group of subcommands lives in its own module and is registered below.
 """
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import click
 
+from aromm.bounds.domain import PHI_MAX_SC, checked
+from aromm.bounds.summary import MODEL_KEYS, ROLE, every_model, material
 from aromm.cli.common import echo_json
-from aromm.effective.domain import PHI_MAX_SC, checked
-from aromm.effective.summary import MODEL_KEYS, ROLE, every_model, material
 
 
 @click.command("bounds")

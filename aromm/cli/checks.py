@@ -13,12 +13,12 @@ from pathlib import Path
 
 import click
 
-from aromm.cache import ENV_VAR, NpzCache
-from aromm.errors import InputError
-from aromm.files import Input, check_folder
-from aromm.offset import TIME_OFFSET
-from aromm.scene import Scene, scene_files
-from aromm.vocabulary import is_positive
+from aromm.core.cache import ENV_VAR, NpzCache
+from aromm.core.clock import TIME_OFFSET
+from aromm.core.errors import InputError
+from aromm.core.files import Input, check_folder
+from aromm.core.vocabulary import is_positive
+from aromm.scene.file import Scene, scene_files
 from inverse.measurements import Measurements, load_measurements
 
 Bounds = dict[str, tuple[float, float]]

@@ -19,8 +19,8 @@ import click
 import numpy as np
 from tqdm import tqdm
 
-from aromm.errors import InputError, NumericalError
-from aromm.scene import Scene
+from aromm.core.errors import InputError, NumericalError
+from aromm.scene.file import Scene
 
 # Peak memory per voxel of the direct (CHOLMOD) path, measured at 80³: 5.5 GB for 5.2e5 nodes (issue 12)
 DIRECT_BYTES_PER_VOXEL = 1.1e4

@@ -17,6 +17,10 @@ from tqdm import tqdm
 
 from aromm.cli.common import FORCE, FiniteFloat, echo_json
 from aromm.cli.common import SEED as SEED_RANGE
+from aromm.core.errors import InputError
+from aromm.core.files import check_output
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec
 from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate as calibrate_ct
 from aromm.dem.calibration import inclusion_network, inclusion_ratio
@@ -24,11 +28,7 @@ from aromm.dem.explicit import simulate_explicit
 from aromm.dem.network import Network
 from aromm.dem.packing import PACKING as PACKING_FILE
 from aromm.dem.packing import Packing, load_packing, pack_spheres
-from aromm.errors import InputError
-from aromm.files import check_output
-from aromm.solve import simulate as simulate_implicit
-from aromm.system import TimeGrid
-from aromm.vocabulary import FaceSpec
+from aromm.full.solve import simulate as simulate_implicit
 
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 PARTICLES = click.option("--particles", type=click.IntRange(min=50), default=10000, show_default=True,

@@ -8,21 +8,22 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aromm.cell_problems import CellResult, effective_conductivity
+from aromm.api import default_boundary, homogenize, mean_capacity, reduce, simulate
 from aromm.cli import checks
 from aromm.cli import engine as engine_cli
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, FORCE, REFINE, SEED, FiniteFloat, echo_json, write_extras
+from aromm.core.errors import InputError
+from aromm.core.files import OutputKind, check_folder, check_output, signed
+from aromm.core.observables import TIME_SERIES, Observables, write_csv
+from aromm.core.series import series_file, write_series, write_vtu
 from aromm.engines import is_root
-from aromm.errors import InputError
-from aromm.files import OutputKind, check_folder, check_output, signed
-from aromm.geometry import VoxelGeometry
-from aromm.homogenization import BOUNDARIES, default_boundary, fluxmetric, homogenize, mean_capacity
-from aromm.linalg import DEFAULT_RTOL, METHODS
-from aromm.observables import TIME_SERIES, Observables, write_csv
-from aromm.scene import REFINE_BYTES_PER_VOXEL, assemble, load_scene
-from aromm.series import series_file, write_series, write_vtu
-from aromm.solve import simulate as simulate_full
-from inverse.measurements import homogeneous_measurements, save_measurements
+from aromm.homogenization.cell_problems import CellResult, effective_conductivity
+from aromm.homogenization.properties import BOUNDARIES, fluxmetric
+from aromm.homogenization.synthetic import homogeneous_measurements
+from aromm.linalg.direct import DEFAULT_RTOL, METHODS
+from aromm.scene.file import REFINE_BYTES_PER_VOXEL, assemble, load_scene
+from aromm.scene.geometry import VoxelGeometry
+from inverse.measurements import save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
@@ -118,15 +119,13 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
     system = assemble(sc) if engine == "scipy" else None
     progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
-        from aromm.reduction import reduce
-
         rom = reduce(system if system is not None else sc, order=order, basis_values=sc.reduction.basis,
                      reference_values=sc.reduction.reference, progress=progress, engine=engine,
                      solver=solver, fields=times is not None)
         obs = rom.simulate()
     else:
-        obs = simulate_full(system if system is not None else sc, fields="last" if field else False,
-                            method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
+        obs = simulate(system if system is not None else sc, fields="last" if field else False,
+                       method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
     if not is_root(engine):
         return
     if as_json:
@@ -170,17 +169,11 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     capacities = all(ph.c is not None for ph in sc.phases)
     image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
     boundary = boundary or default_boundary(sc, engine)
-    if engine == "petsc":
-        from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
-
+    if image is None:
         result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
-        c = mean_capacity_petsc(sc) if capacities else None
-    elif image is None:
-        result = CellResult(homogenize(sc, boundary=boundary, method=solver), boundary, solver)
-        c = mean_capacity(sc) if capacities else None
     else:
         result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
-        c = mean_capacity(sc) if capacities else None
+    c = mean_capacity(sc, engine) if capacities else None
     if not is_root(engine):
         return
     k = result.k

@@ -14,11 +14,11 @@ from tqdm import tqdm
 
 from aromm.cli import checks
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
-from aromm.errors import InputError
-from aromm.files import check_output, distinct
-from aromm.model import ForwardModel
-from aromm.scene import Scene, assemble, load_scene
-from aromm.solve import FullModel
+from aromm.core.errors import InputError
+from aromm.core.files import check_output, distinct
+from aromm.core.model import ForwardModel
+from aromm.full.solve import FullModel
+from aromm.scene.file import Scene, assemble, load_scene
 from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot
@@ -37,7 +37,7 @@ def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[Fo
     system = assemble(sc)
     if kind == "full":
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
-    from aromm.reduction import reduce
+    from aromm.api import reduce
 
     rom = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
                  progress=tty)

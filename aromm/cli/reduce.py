@@ -7,15 +7,15 @@ from pathlib import Path
 
 import click
 
-from aromm.cache import NpzCache
+from aromm.api import reduce
 from aromm.cli import checks
 from aromm.cli import engine as engine_cli
 from aromm.cli.common import REFINE, echo_json
-from aromm.eigensolvers import EIGENSOLVERS
+from aromm.core.cache import NpzCache
 from aromm.engines import is_root
-from aromm.reduction import METHODS as REDUCTIONS
-from aromm.reduction import reduce
-from aromm.scene import assemble
+from aromm.linalg.eigensolvers import EIGENSOLVERS
+from aromm.reduction.offline import METHODS as REDUCTIONS
+from aromm.scene.file import assemble
 
 
 @click.command("reduce")

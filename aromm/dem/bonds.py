@@ -26,9 +26,9 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.system import FloatArray
 from aromm.dem.packing import Packing
-from aromm.errors import InputError, NumericalError
-from aromm.system import FloatArray
 
 IntArray = npt.NDArray[np.int64]
 Z_TOLERANCE = 0.01  # accepted |Z - target| after the repair

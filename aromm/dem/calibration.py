@@ -31,6 +31,9 @@ from typing import Literal
 
 import numpy as np
 
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
+from aromm.core.vocabulary import FaceSpec
 from aromm.dem.bonds import Bonds, build_bonds
 from aromm.dem.network import (
     Network,
@@ -41,11 +44,8 @@ from aromm.dem.network import (
     transmission_factor,
 )
 from aromm.dem.packing import Packing
-from aromm.errors import InputError
-from aromm.linalg import factorize
-from aromm.solve import reaction_heat_flow, steady_field
-from aromm.system import FloatArray
-from aromm.vocabulary import FaceSpec
+from aromm.full.solve import reaction_heat_flow, steady_field
+from aromm.linalg.direct import factorize
 
 Boundary = Literal["periodic", "slab"]
 AMG_ABOVE = 20_000  # particles: above this, "auto" solves with pyamg + CG (CHOLMOD fills to GBs at 1.5e5)
@@ -64,7 +64,7 @@ def periodic_field(packing: Packing, bonds: Bonds, conductances: FloatArray, gra
 
     ``gradients`` is (3,) or (3, k) (K/m).  Solves ``L t = b``, ``b_p = sum_q H_pq G . (x_q - x_p)``
     with particle 0 pinned (the periodic Laplacian has the constants as kernel).  ``method``:
-    aromm.linalg solver; ``"auto"`` uses pyamg + CG above 20 000 particles.
+    aromm.linalg.direct solver; ``"auto"`` uses pyamg + CG above 20 000 particles.
     """
     if not packing.periodic:
         raise InputError("periodic_field needs a periodic packing")
@@ -185,7 +185,7 @@ def inclusion_ratio(network: Network, ratio: float, axes: str = "xyz") -> Inclus
 
     Periodic network: diagonal of the Love-Weber conductivity tensors.  Cut network: T = 1
     on face ``<axis>1``, 0 on ``<axis>0``, other faces adiabatic, and E the ratio of the heat
-    flows through the hot face (aromm.solve.steady_field).
+    flows through the hot face (aromm.full.solve.steady_field).
     """
     return inclusion_ratios(network, [ratio], axes)[0]
 

@@ -11,7 +11,7 @@ ARPACK on the symmetric ``C^-1/2 K C^-1/2``; the cheap bound
 is always stable and about half the exact limit on packings (the smallest particle sets
 it).  A requested step above the exact limit is refused with an InputError naming it.
 
-For the implicit path use :func:`aromm.solve.simulate` on the same system.
+For the implicit path use :func:`aromm.full.solve.simulate` on the same system.
 """
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from aromm.errors import InputError, NumericalError
-from aromm.observables import Observables
-from aromm.system import FloatArray, ThermalSystem
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.observables import Observables
+from aromm.core.system import FloatArray, ThermalSystem
 
 SAFETY = 0.9  # default step = SAFETY * exact stability limit
 
@@ -49,7 +49,7 @@ def _prepare(system: ThermalSystem, values: Mapping[str, float] | None) -> _Expl
         raise InputError("explicit integration needs a transient system (with a capacity term)")
     if system.load.timed or any(d.time is not None for d in system.dirichlet) or system.initial:
         raise InputError("explicit integration takes constant loads and fixed temperatures only "
-                         "(use aromm.solve.transient for histories)")
+                         "(use aromm.full.solve.transient for histories)")
     v = system.values(values)
     n = system.n
     fixed_values = np.full(n, np.nan)
@@ -135,7 +135,7 @@ def simulate_explicit(
         raise InputError(
             f"explicit time step {dt:.3e} s exceeds the stability limit 2/lambda_max(C^-1 K) = {limit:.3e} s "
             f"of this network (cheap safe bound min C_p/sum H_pq = {_bound(e):.3e} s); use a smaller dt "
-            "or the implicit solver aromm.solve.simulate"
+            "or the implicit solver aromm.full.solve.simulate"
         )
     starts = np.concatenate([[0.0], t_out[:-1]])
     counts = np.ceil((t_out - starts) / dt - 1e-9).astype(int)

@@ -23,11 +23,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
 from aromm.dem.bonds import Bonds
 from aromm.dem.network import representative_volumes
 from aromm.dem.packing import Packing
-from aromm.errors import InputError
-from aromm.system import FloatArray
 
 MEMBERS_PER_CHUNK = 5_000_000
 

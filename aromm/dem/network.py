@@ -1,4 +1,4 @@
-"""The DEM bond network as a :class:`~aromm.system.ThermalSystem` [Hassan2019, eq. 1-6, 14].
+"""The DEM bond network as a :class:`~aromm.core.system.ThermalSystem` [Hassan2019, eq. 1-6, 14].
 
 Each bond (p, q) carries the conductance [Hassan2019, eq. 3, 6]
 
@@ -25,8 +25,8 @@ capacity operator is ``diag(V_p / phi)`` (m^3) over that phase's particles.
 
 Faces: the particles of face ``x0`` are those whose sphere cuts the plane x = x_min
 (``x_p - r_p <= x_min``), likewise for the other faces.  Face conditions are stated in the scene
-vocabulary (:class:`aromm.vocabulary.FaceSpec`): a fixed temperature is a
-:class:`~aromm.system.Dirichlet` on those particles with parameter ``"<face>.T"``; an
+vocabulary (:class:`aromm.core.vocabulary.FaceSpec`): a fixed temperature is a
+:class:`~aromm.core.system.Dirichlet` on those particles with parameter ``"<face>.T"``; an
 imposed entering flux ``"<face>.flux"`` (W/m^2) or an exchange ``"<face>.h"`` is shared between them
 in proportion to their cross-sections ``pi r_p^2``.  Observations are V-weighted means of T over a face's
 particles, or over slabs of a profile (names ``"<axis>_slab<k>"``).
@@ -42,11 +42,11 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.core.errors import InputError
+from aromm.core.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FACES, FaceSpec, face_terms, parameter_values
 from aromm.dem.bonds import Bonds, IntArray
 from aromm.dem.packing import Packing
-from aromm.errors import InputError
-from aromm.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
-from aromm.vocabulary import FACES, FaceSpec, face_terms, parameter_values
 
 AXES = "xyz"
 Radius = Literal["pair", "global"]
@@ -205,7 +205,7 @@ class Network:
             rows[f"{axis}_slab{k}"] = w / w.sum()
         return rows
 
-    # ------------------------------------------------------------ aromm.vocabulary.Discretisation (faces)
+    # ------------------------------------------------------------ aromm.core.vocabulary.Discretisation (faces)
     def face_mass(self, face: str) -> sp.csr_array:
         """Lumped face "mass": the face's area shared between its particles, ``diag(area_p)`` (m²)."""
         return sp.csr_array(sp.diags_array(self.face_areas(face)))
@@ -222,7 +222,7 @@ class Network:
         profile: tuple[str, int] | None = None,
         time: TimeGrid | None = None,
     ) -> ThermalSystem:
-        """The ThermalSystem of this network under the face conditions ``boundary`` (aromm.vocabulary).
+        """The ThermalSystem of this network under the face conditions ``boundary`` (aromm.core.vocabulary).
 
         A fixed ``T`` is a Dirichlet condition on the face's particles; an entering flux (W/m²) and a
         convective exchange h (W/(m² K)) with T_ext are shared between them in proportion to ``pi r_p^2``

@@ -29,9 +29,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from aromm.errors import InputError, NumericalError
-from aromm.files import OutputKind, atomic_write, npz_with, read_npz
-from aromm.system import FloatArray
+from aromm.core.errors import InputError, NumericalError
+from aromm.core.files import OutputKind, atomic_write, npz_with, read_npz
+from aromm.core.system import FloatArray
 
 TRUNCATION = 2.5  # radii are kept within mean +- TRUNCATION * sd
 ARRAYS = ("centers", "radii", "box", "periodic")

@@ -14,7 +14,7 @@ import os
 import re
 import sys
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 
 ENGINES = ("scipy", "petsc")
 

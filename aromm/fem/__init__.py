@@ -1,4 +1,4 @@
-"""Finite-element assemblers: a scene's geometry and vocabulary (aromm.vocabulary) → ThermalSystem.
+"""Finite-element assemblers: a scene's geometry and vocabulary (aromm.core.vocabulary) → ThermalSystem.
 
 * :mod:`aromm.fem.voxel`: one trilinear (Q1) hexahedron per voxel of a label image;
 * :mod:`aromm.fem.mesh`: Lagrange simplices (P1/P2) on a conforming mesh, with contact resistance.

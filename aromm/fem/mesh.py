@@ -1,7 +1,7 @@
 """Lagrange finite elements (P1 or P2) on conforming simplex meshes (any mesh meshio reads) into a ThermalSystem.
 
 Phases come from cell sets (``mesh.cell_sets[phase_name]``) or from an integer cell-data
-array (``gmsh:physical`` by default) matched against :attr:`aromm.vocabulary.PhaseSpec.label`.
+array (``gmsh:physical`` by default) matched against :attr:`aromm.core.vocabulary.PhaseSpec.label`.
 A contact resistance ``R`` (m^2 K/W) between two phases (scene: ``[interfaces."fibre|gas"] R``)
 is modelled on **split interface unknowns**: every degree of freedom on the interface gets one
 copy per side, each phase's elements use their own copy, and the two copies are coupled by
@@ -13,7 +13,7 @@ interface facets), i.e. the weak form of the flux ``q_n = (T_fibre - T_gas)/R`` 
 Every matrix is assembled by scikit-fem on the original mesh, phase by phase, and its
 indices are then relabelled to the split unknowns.  The coefficient is the parameter
 ``"fibre|gas.h_c" = 1/R`` (W/(m^2 K)) so the system stays affine; ``R = 0`` means perfect
-contact (nothing split).  Phase and face terms come from aromm.vocabulary (``K_<phase>``,
+contact (nothing split).  Phase and face terms come from aromm.core.vocabulary (``K_<phase>``,
 ``C_<phase>`` for a transient, ``H_<face>``, ``U_<face>``...), plus ``G_<p>|<q>`` (role conduction) for an
 interface.  Faces ``x0 ... z1`` are the planes of the mesh's bounding box.
 """
@@ -42,9 +42,9 @@ from skfem import (
 )
 from skfem.helpers import dot, grad
 
-from aromm.errors import InputError
-from aromm.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
-from aromm.vocabulary import (
+from aromm.core.errors import InputError
+from aromm.core.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
+from aromm.core.vocabulary import (
     FACES,
     FaceSpec,
     PhaseSpec,
@@ -194,7 +194,7 @@ def _check_interfaces(interfaces: Mapping[str, float] | None, names: Sequence[st
 
 @dataclass(frozen=True, eq=False)
 class SimplexMesh:
-    """Lagrange elements on a simplex mesh in split numbering (aromm.vocabulary.Discretisation)."""
+    """Lagrange elements on a simplex mesh in split numbering (aromm.core.vocabulary.Discretisation)."""
 
     mesh: MeshTet | MeshTri
     element: object
@@ -300,7 +300,7 @@ def assemble_mesh(
     """A :class:`ThermalSystem` from a conforming simplex mesh (tetra or triangle, coordinates in m).
 
     ``interfaces`` maps ``"p|q"`` to the contact resistance R (m^2 K/W, >= 0; 0 = perfect
-    contact).  Boundary faces are the bounding-box planes ``x0 ... z1`` (aromm.vocabulary.FaceSpec:
+    contact).  Boundary faces are the bounding-box planes ``x0 ... z1`` (aromm.core.vocabulary.FaceSpec:
     fixed T, entering flux, or convection h to T_ext); unlisted faces are adiabatic.
     ``order`` is the Lagrange degree, 1 or 2 (straight-sided elements either way).
     """

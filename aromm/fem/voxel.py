@@ -9,7 +9,7 @@ Nodes are numbered ``i + (nx+1) * (j + (ny+1) * k)`` (x fastest) for the node at
 ``(i dx, j dy, k dz)``; the image is indexed ``labels[i, j, k]`` for voxel (i, j, k).
 Faces are named ``x0`` (plane x = 0), ``x1`` (x = L_x), and likewise for y and z.
 
-Only the terms a scene calls for are built (aromm.vocabulary): capacity only for a transient, a
+Only the terms a scene calls for are built (aromm.core.vocabulary): capacity only for a transient, a
 convection matrix only on faces with ``h``, one conductance block per phase present,
 directional blocks only for orthotropic phases.
 """
@@ -24,9 +24,9 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from aromm.errors import InputError
-from aromm.system import Affine, FloatArray, Geometry, ThermalSystem, TimeGrid
-from aromm.vocabulary import (
+from aromm.core.errors import InputError
+from aromm.core.system import Affine, FloatArray, Geometry, ThermalSystem, TimeGrid
+from aromm.core.vocabulary import (
     FaceSpec,
     PhaseSpec,
     boundary_mass,
@@ -124,7 +124,7 @@ def node_points(shape: tuple[int, int, int], voxel_size: Sequence[float]) -> Flo
 
 @dataclass(frozen=True, eq=False)
 class VoxelGrid:
-    """The Q1 discretisation of a voxel image (aromm.vocabulary.Discretisation): one box element per voxel.
+    """The Q1 discretisation of a voxel image (aromm.core.vocabulary.Discretisation): one box element per voxel.
 
     ``phase[v]`` is the index of voxel v's phase (C order over ``shape``).  Face masses are built once.
     """

@@ -1,4 +1,4 @@
-"""Export a :class:`~aromm.system.ThermalSystem` to a parametric pyMOR ``LTIModel`` (optional extra ``mor``).
+"""Export a :class:`~aromm.core.system.ThermalSystem` to a parametric pyMOR ``LTIModel`` (optional extra ``mor``).
 
 The semi-discrete heat equation ``C(p) dT/dt + K(p) T = F(p)``, ``y = E T`` [Chavez2020, eq. 3] becomes
 pyMOR's descriptor system with one step input ``u(t) = 1``::
@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from aromm.errors import InputError
-from aromm.system import PENALTY_INSTEAD, Affine, Coefficient, ThermalSystem, dense, require_free_transient
+from aromm.core.errors import InputError
+from aromm.core.system import PENALTY_INSTEAD, Affine, Coefficient, ThermalSystem, dense, require_free_transient
 
 try:
     from pymor.models.iosys import LTIModel

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 from aromm.microstructure.io import (
     TIFF_SUFFIXES,
     LabelImage,

@@ -24,7 +24,7 @@ import meshio
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 from aromm.fem.voxel import VTK_HEX, connectivity, node_points
 from aromm.microstructure.io import as_labels, as_voxel_size
 

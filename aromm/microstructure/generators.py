@@ -18,7 +18,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 from aromm.microstructure.io import LabelImage, as_voxel_size
 
 AXES = {"x": 0, "y": 1, "z": 2}

@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from aromm.errors import InputError
-from aromm.files import output_path
+from aromm.core.errors import InputError
+from aromm.core.files import output_path
 
 VoxelSize = tuple[float, float, float]
 LabelImage = npt.NDArray[np.int32]
@@ -230,7 +230,7 @@ def load_image(
     For the other formats ``shape``, when given, is checked against the file.  Only ``.npz``
     can carry a voxel size; the others return ``None``.
 
-    Raises :class:`~aromm.errors.InputError` naming the file and what is wrong.
+    Raises :class:`~aromm.core.errors.InputError` naming the file and what is wrong.
 
     >>> import tempfile, pathlib
     >>> folder = pathlib.Path(tempfile.mkdtemp())

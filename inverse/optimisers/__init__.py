@@ -13,7 +13,7 @@ from inverse.optimisers.base import Optimiser, Outcome, Problem, Step
 from inverse.optimisers.box import Box
 from inverse.optimisers.evolution import DifferentialEvolution
 from inverse.optimisers.least_squares import LeastSquaresRefinement, Refinement, jacobian, refine
-from inverse.optimisers.pso import ParticleSwarm, SwarmState, pso
+from inverse.optimisers.swarm import ParticleSwarm, SwarmState, pso
 
 __all__ = [
     "Box",

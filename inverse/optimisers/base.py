@@ -14,8 +14,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from aromm.errors import NumericalError
-from aromm.system import FloatArray
+from aromm.core.errors import NumericalError
+from aromm.core.system import FloatArray
 
 Objective = Callable[[FloatArray], FloatArray]  # (m, p) in [0,1]^p -> (m,) costs
 Residuals = Callable[[FloatArray], FloatArray]  # (m, p) in [0,1]^p -> (m, N) residuals

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aromm.errors import InputError
-from aromm.system import FloatArray
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
 
 LOG_DECADES = 2.0  # bounds spanning this many decades or more are searched in log scale
 

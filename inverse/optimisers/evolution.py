@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize as so
 
-from aromm.system import FloatArray
+from aromm.core.system import FloatArray
 from inverse.optimisers.base import Outcome, Problem, State, Step
 
 

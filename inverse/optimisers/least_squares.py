@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize as so
 
-from aromm.errors import InputError
-from aromm.system import FloatArray
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
 from inverse.optimisers.base import Outcome, Problem, Residuals, State, Step
 
 FD_STEP = 1e-5  # central-difference step in normalised coordinates

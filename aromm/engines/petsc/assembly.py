@@ -26,17 +26,17 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from aromm.cache import content_key
+from aromm.core.cache import content_key
+from aromm.core.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid, dense
 from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fem.voxel import assemble_voxels, face_mass
-from aromm.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid, dense
 
 
 @dataclass(frozen=True)
 class DistributedTerm:
-    """``coefficient(p) * operator`` with a PETSc matrix (MPIAIJ) or vector; ``role`` as aromm.system.Term's."""
+    """``coefficient(p) * operator`` with a PETSc matrix (MPIAIJ) or vector; ``role`` as aromm.core.system.Term's."""
 
     name: str
     coefficient: Coefficient
@@ -213,7 +213,7 @@ def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
     for face in faces:
         surface = surface + face_mass(shape, problem.voxel_size, face)
     observation = {}
-    for face in problem.outputs:  # e_f = B_f 1 / |f| (aromm.vocabulary.face_means), |f| summed over the boxes
+    for face in problem.outputs:  # e_f = B_f 1 / |f| (aromm.core.vocabulary.face_means), |f| summed over the boxes
         local = owned.vector(face_mass(shape, problem.voxel_size, face) @ np.ones(m) if face in faces
                              else np.zeros(m), comm)
         observation[face] = convert.vector(local / runtime.allsum([local.sum()], comm)[0], rows, comm)

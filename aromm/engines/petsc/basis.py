@@ -1,10 +1,12 @@
 """The detailed modal basis on the petsc engine: constants + Steklov + Dirichlet modes + correction modes.
 
-Same definitions as :func:`aromm.modes.compute_basis` and :func:`aromm.corrections.with_corrections` ([Chavez2020,
+Same definitions as :func:`aromm.reduction.bases.compute_basis` and
+:func:`aromm.reduction.corrections.with_corrections` ([Chavez2020,
 § 3.1] and the static / first-order dynamic corrections of the loads), with the operators held by PETSc and
 the vectors distributed by rows.  The small dense algebra (Gram matrices, orthonormalisation, the
-enrichment) is aromm.modes' own (:func:`aromm.corrections.enrich`, :func:`aromm.modes.check_gram`) with the
-capacity product summed over the ranks.  The returned :class:`~aromm.modes.ModalBasis` holds this rank's
+enrichment) is aromm.reduction.bases' own (:func:`aromm.reduction.corrections.enrich`,
+:func:`aromm.reduction.bases.check_gram`) with the
+capacity product summed over the ranks.  The returned :class:`~aromm.reduction.bases.ModalBasis` holds this rank's
 rows in ``vectors``.
 """
 
@@ -16,20 +18,20 @@ from collections.abc import Mapping
 import numpy as np
 import scipy.linalg as sla
 
-from aromm.corrections import enrich
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
 from aromm.engines.petsc.eigen import Reference, dirichlet_modes, steklov_modes
-from aromm.errors import InputError
-from aromm.modes import ModalBasis, check_gram, reference_operators, zero_modes
-from aromm.system import FloatArray
+from aromm.reduction.bases import ModalBasis, check_gram, reference_operators, zero_modes
+from aromm.reduction.corrections import enrich
 
 #: Relative residual of the correction solves K(s) x = U_j.
 CORRECTION_RTOL = 1e-12
 
 
 def reference(system: DistributedSystem, values: Mapping[str, float] | None = None) -> tuple[Reference, FloatArray]:
-    """Distributed K0, C0, B and ζ at the reference values (aromm.modes.reference_operators), and the
+    """Distributed K0, C0, B and ζ at the reference values (aromm.reduction.bases.reference_operators), and the
     capacity-normalised constant modes (this rank's rows)."""
     template = system.template
     ops = reference_operators(template, values)  # the same checks and reference values as the serial path
@@ -92,7 +94,7 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
 def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list[dict[str, float]],
                      values: Mapping[str, float] | None = None, solver: str = "gamg") -> ModalBasis:
     """The basis enriched with the static and first-order dynamic correction modes of the loads at each
-    parameter sample (aromm.corrections.with_corrections), solved by PETSc."""
+    parameter sample (aromm.reduction.corrections.with_corrections), solved by PETSc."""
     template = system.template
     if not template.load.terms:
         return basis

@@ -14,9 +14,9 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.core.system import FloatArray
 from aromm.engines.petsc import runtime
 from aromm.engines.petsc.layout import RowLayout
-from aromm.system import FloatArray
 
 #: Columns multiplied at a time by :func:`blocks` (its work arrays are rows × BLOCK per matrix).
 BLOCK = 8

@@ -1,6 +1,7 @@
 """Homogenisation probes [Chavez2020, eq. 13–14] on the petsc engine.
 
-The formulas are those of :mod:`aromm.homogenization` (:func:`aromm.homogenization.conductivity` runs the three
+The formulas are those of :mod:`aromm.homogenization.properties`
+(:func:`aromm.homogenization.properties.conductivity` runs the three
 probes); this module supplies the distributed steady solve of one probe and the volume-averaged capacity,
 counted box by box (for a voxel image the Q1 phase mass ``1ᵀ C_p 1`` is exactly the phase's volume).
 """
@@ -11,13 +12,13 @@ from typing import Any
 
 import numpy as np
 
+from aromm.core.errors import InputError
 from aromm.engines.petsc import linear, runtime
 from aromm.engines.petsc.assembly import assemble_boxes
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.steady import steady
-from aromm.errors import InputError
-from aromm.homogenization import ProbeSolver
-from aromm.scene import Scene
+from aromm.homogenization.properties import ProbeSolver
+from aromm.scene.file import Scene
 
 
 def as_problem(scene: Scene | VoxelProblem) -> VoxelProblem:

@@ -21,10 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from aromm.cache import content_key, default_cache_dir
+from aromm.core.cache import content_key, default_cache_dir
+from aromm.core.errors import InputError
+from aromm.core.files import atomic_write
 from aromm.engines.petsc import runtime
-from aromm.errors import InputError
-from aromm.files import atomic_write
 from aromm.microstructure.boxes import ImageBoxes, readable_by_parts
 from aromm.microstructure.io import VoxelSize, as_voxel_size, load_image
 

@@ -20,7 +20,7 @@ from itertools import product
 
 import numpy as np
 
-from aromm.errors import InputError
+from aromm.core.errors import InputError
 
 AXES = "xyz"
 

@@ -8,7 +8,7 @@ Two choices (the knob ``solver``), both usable as the inner solver of SLEPc's sh
 * ``"mumps"``: Cholesky factorisation by MUMPS (parallel direct, exact to round-off, memory ≈ N^1.3).
 
 PETSc options with the prefix of each solver (``-aromm_steady_ksp_rtol 1e-8`` ...) override these choices
-for the expert; failures raise :class:`~aromm.errors.NumericalError` naming the solver and why.
+for the expert; failures raise :class:`~aromm.core.errors.NumericalError` naming the solver and why.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from aromm.core.errors import InputError, NumericalError
 from aromm.engines.petsc import runtime
-from aromm.errors import InputError, NumericalError
 
 SOLVERS = ("gamg", "mumps")
 #: Relative residual of the steady solves (face means to ~1e-9 of the temperature scale on the test cases).

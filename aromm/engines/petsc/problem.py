@@ -17,18 +17,18 @@ from typing import Any
 
 import numpy as np
 
+from aromm.core.errors import InputError
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.engines.petsc import runtime
 from aromm.engines.petsc.images import generated_image, open_image
 from aromm.engines.petsc.layout import BoxLayout
-from aromm.errors import InputError
 from aromm.fem.voxel import assemble_voxels
-from aromm.geometry import VoxelGeometry
 from aromm.microstructure.boxes import ImageBoxes
-from aromm.scene import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
-from aromm.system import ThermalSystem, TimeGrid
-from aromm.vocabulary import FaceSpec, PhaseSpec
+from aromm.scene.file import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
+from aromm.scene.geometry import VoxelGeometry
 
-#: Named sensors ([outputs.<name>], aromm.sensors) are observation rows of the serial assembly only.
+#: Named sensors ([outputs.<name>], aromm.scene.sensors) are observation rows of the serial assembly only.
 SENSORS_REFUSED = "sensors are assembled by the scipy engine only; use --engine scipy (or mean_T outputs)"
 
 

@@ -3,7 +3,7 @@
 Every term keeps its name and coefficient and gets ``Ψᵀ C_j Ψ``, ``Ψᵀ K_j Ψ`` (r × r) or ``Ψᵀ F_j`` (r): each
 rank multiplies its rows (a few basis columns at a time, into one reused work block: no temporary of the
 basis's size, :func:`aromm.engines.petsc.convert.quadratic`) and the small products are summed over the ranks, so
-every rank ends with the same :class:`~aromm.rom.ReducedModel`, built by its public constructor (a projected
+every rank ends with the same :class:`~aromm.reduction.rom.ReducedModel`, built by its public constructor (a projected
 ThermalSystem and the initial-state terms) exactly as :meth:`ReducedModel.from_system` builds it in one process.
 """
 
@@ -11,10 +11,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from aromm.core.system import (
+    PENALTY_INSTEAD,
+    Affine,
+    Coefficient,
+    FloatArray,
+    Term,
+    ThermalSystem,
+    require_free_transient,
+)
 from aromm.engines.petsc import convert
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm
-from aromm.rom import ReducedModel
-from aromm.system import PENALTY_INSTEAD, Affine, Coefficient, FloatArray, Term, ThermalSystem, require_free_transient
+from aromm.reduction.rom import ReducedModel
 
 
 def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatArray] | None = None) -> ReducedModel:

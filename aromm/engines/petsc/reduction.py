@@ -1,10 +1,11 @@
 """``aromm.reduce(..., engine="petsc")``: the AROMM reduced model with the offline work on PETSc/SLEPc.
 
-The steps and defaults are those of :func:`aromm.reduction.reduce` [Chavez2020, § 3]: the detailed basis
+The steps and defaults are those of :func:`aromm.reduction.offline.reduce` [Chavez2020, § 3]: the detailed basis
 (constants, Steklov, Dirichlet, correction modes) is computed distributed (aromm.engines.petsc.basis), every
 term is projected onto it (aromm.engines.petsc.projection), and from there on the work is on Ñ × Ñ matrices
 that every rank holds: reference cases, amalgam (or POD) and the reference error are
-:func:`aromm.reduction.reduce_detailed` itself.  Collective: every rank calls it and returns the same model; rank 0
+:func:`aromm.reduction.offline.reduce_detailed` itself.  Collective: every rank calls it and returns the same model;
+rank 0
 alone reads and writes the cache (the key is a content hash of the image layers, the scene and the options,
 independent of the number of ranks).
 """
@@ -19,17 +20,18 @@ from typing import Any
 
 import numpy as np
 
-from aromm.cache import NpzCache, content_key
-from aromm.corrections import correction_samples
+from aromm.core.cache import NpzCache, content_key
+from aromm.core.errors import InputError
+from aromm.core.system import ThermalSystem
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_boxes, distribute_system
 from aromm.engines.petsc.basis import compute_basis, correction_count, with_corrections
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
-from aromm.errors import InputError
-from aromm.modes import split_counts
-from aromm.reduction import (
+from aromm.reduction.bases import split_counts
+from aromm.reduction.corrections import correction_samples
+from aromm.reduction.offline import (
     ReferenceCase,
     at_reference,
     mode_counts,
@@ -39,10 +41,9 @@ from aromm.reduction import (
     resolve_cache,
     resolve_reductor,
 )
-from aromm.reductor import Reductor
-from aromm.rom import ReducedModel, from_arrays, to_arrays
-from aromm.scene import Scene
-from aromm.system import ThermalSystem
+from aromm.reduction.reductors import Reductor
+from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
+from aromm.scene.file import Scene
 
 _VERSION = 2  # 2: image digest independent of the cut (boxes)
 
@@ -60,7 +61,8 @@ def distributed(source: Source, comm: Any) -> DistributedSystem:
 
 
 def relaxed(system: DistributedSystem, values: Mapping[str, float]) -> tuple[DistributedSystem, ReferenceCase]:
-    """The relaxation case of [Chavez2020, § 3.2] (aromm.reduction.relaxation_case) on the distributed operators."""
+    """The relaxation case of [Chavez2020, § 3.2] (aromm.reduction.offline.relaxation_case) on the distributed
+    operators."""
     case = relaxation_case(system.template, values)
     names = set(case.system.conductance.names)
     h = case.system.conductance["H_boundary"]

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from aromm.core.system import FloatArray, ParamValues
 from aromm.engines.petsc import linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
-from aromm.system import FloatArray, ParamValues
 
 
 @dataclass(frozen=True)

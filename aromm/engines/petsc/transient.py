@@ -1,6 +1,6 @@
 """Full-order simulation on the petsc engine: steady state, or implicit time stepping [Chavez2020, eq. 3].
 
-The schemes are those of :func:`aromm.solve.transient`: backward Euler, or BDF2 started by one Euler step,
+The schemes are those of :func:`aromm.full.solve.transient`: backward Euler, or BDF2 started by one Euler step,
 on the output grid ``dt, 2 dt, ...`` with outputs linearly interpolated at other times.  Each step solves
 ``(a C / dt + K) T_{n+1} = C (...) / dt + F`` by CG + GAMG from the previous step (or by one MUMPS
 factorisation reused at every step).  Fixed temperatures are eliminated symmetrically: the fixed rows become
@@ -15,13 +15,13 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aromm.core.observables import Observables
+from aromm.core.system import ParamValues
 from aromm.engines.petsc import linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
 from aromm.engines.petsc.reduction import Source, distributed
 from aromm.engines.petsc.steady import face_means, fixed_values, steady
-from aromm.observables import Observables
-from aromm.solve import interpolate_rows, output_steps, transient_grid
-from aromm.system import ParamValues
+from aromm.full.solve import interpolate_rows, output_steps, transient_grid
 
 #: Relative residual of every time step.
 STEP_RTOL = 1e-11

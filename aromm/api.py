@@ -1,0 +1,115 @@
+"""The public entry points that choose an engine: the only library code that branches on ``engine=``.
+
+Numerical wings (:mod:`aromm.full`, :mod:`aromm.reduction`, :mod:`aromm.homogenization`) work on one process
+and never import an engine; :mod:`aromm.engines` implements the same operations distributed by PETSc under
+MPI.  Each function here checks the engine, then hands the call to the wing (``engine="scipy"``, the
+default) or to the petsc engine (collective: every rank calls it and gets the same result).
+
+* :func:`simulate` — the full model, :func:`aromm.full.solve.simulate` or
+  :func:`aromm.engines.petsc.transient.simulate`;
+* :func:`reduce` — the reduced model, :func:`aromm.reduction.offline.reduce` or
+  :func:`aromm.engines.petsc.reduction.reduce`;
+* :func:`homogenize` — the effective conductivity tensor, :func:`aromm.homogenization.properties.homogenize`
+  (voxel cell problems, mesh probes) or the probes [Chavez2020, eq. 13] solved by the petsc engine;
+* :func:`mean_capacity` — [Chavez2020, eq. 14] on either engine.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy.typing as npt
+
+from aromm.core.errors import InputError
+from aromm.core.observables import Observables
+from aromm.core.system import FloatArray, ParamValues, ThermalSystem
+from aromm.engines import check_engine
+from aromm.full import solve
+from aromm.full.solve import Fields, Scheme
+from aromm.homogenization import properties
+from aromm.homogenization.properties import PROBE_BOUNDARIES, conductivity
+from aromm.reduction import offline
+from aromm.reduction.rom import ReducedModel
+from aromm.scene.file import Scene
+
+__all__ = ["default_boundary", "homogenize", "mean_capacity", "reduce", "simulate"]
+
+
+def simulate(
+    system: ThermalSystem,
+    values: ParamValues | None = None,
+    times: npt.ArrayLike | None = None,
+    *,
+    fields: Fields = False,
+    method: str = "auto",
+    scheme: Scheme = "bdf2",
+    progress: bool = False,
+    engine: str = "scipy",
+) -> Observables:
+    """Full model (:func:`aromm.full.solve.simulate`: steady solve or BDF2 / backward-Euler transient).
+
+    ``engine="petsc"``: the same solves distributed by PETSc under MPI (:mod:`aromm.engines.petsc.transient`;
+    every rank calls it; ``system`` may be a voxel Scene, assembled by each rank for its own rows; ``method``
+    is then ``gamg`` or ``mumps``; no ``fields``)."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.transient import simulate as simulate_petsc
+
+        if fields:
+            raise InputError("the petsc engine returns face means only (fields stay distributed); use engine='scipy'")
+        return simulate_petsc(system, values, times, scheme=scheme, solver=method)
+    return solve.simulate(system, values, times, fields=fields, method=method, scheme=scheme, progress=progress)
+
+
+def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "scipy", **options: Any) -> ReducedModel:
+    """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3]; ``options`` as
+    :func:`aromm.reduction.offline.reduce`.
+
+    ``engine="petsc"``: the offline work on PETSc/SLEPc under ``mpiexec`` (collective,
+    :func:`aromm.engines.petsc.reduction.reduce`; ``system`` may then be a voxel Scene and ``solver`` is ``gamg``
+    or ``mumps``); it keeps no fields, and the eigensolver and basis storage are SLEPc's."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.reduction import reduce as reduce_petsc
+
+        if options.pop("fields", False):
+            raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
+        if options.pop("eigensolver", "auto") != "auto" or options.pop("basis_storage", "float64") != "float64":
+            raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
+        for name in ("progress", "eigen_progress"):
+            options.pop(name, None)
+        return reduce_petsc(system, order, **options)
+    return offline.reduce(system, order, **options)
+
+
+def default_boundary(scene: Scene, engine: str = "scipy") -> str:
+    """The boundary condition of :func:`homogenize` when none is named: ``"flux"`` ([Chavez2020, eq. 13]) on the
+    petsc engine, which homogenises by probes, else :func:`aromm.homogenization.properties.default_boundary`."""
+    return "flux" if engine == "petsc" else properties.default_boundary(scene)
+
+
+def homogenize(scene: Scene, boundary: str | None = None, method: str = "auto",
+               engine: str = "scipy") -> FloatArray:
+    """Effective conductivity tensor (3x3, W/(m K)) of the scene's material under ``boundary``
+    (:func:`aromm.homogenization.properties.homogenize`; by default :func:`default_boundary`).
+
+    ``engine="petsc"`` (PETSc under MPI, collective: every rank calls it and gets the tensor): the probes
+    ``"flux"`` ([Chavez2020, eq. 13]) or ``"temperature"`` with ``method`` ``gamg`` or ``mumps``."""
+    engine = check_engine(engine)
+    boundary = boundary or default_boundary(scene, engine)
+    if engine == "scipy":
+        return properties.homogenize(scene, boundary, method)
+    if boundary not in PROBE_BOUNDARIES:
+        raise InputError(f"the petsc engine homogenises with boundary 'flux' or 'temperature' (periodic conditions "
+                         f"need a voxel image and the scipy engine), got {boundary!r}")
+    from aromm.engines.petsc.homogenization import probe_solver
+
+    return conductivity(scene, boundary, probe_solver(method))
+
+
+def mean_capacity(scene: Any, engine: str = "scipy") -> float:
+    """Volume-averaged volumetric heat capacity c̄ (J/(m^3 K)), [Chavez2020, eq. 14], on ``engine`` (the petsc
+    engine counts the phases' volumes over each rank's rows of the image)."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.homogenization import mean_capacity as mean_capacity_petsc
+
+        return float(mean_capacity_petsc(scene))
+    return properties.mean_capacity(scene)

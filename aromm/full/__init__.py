@@ -1,0 +1,1 @@
+"""The full-order model: steady and transient solves of a ThermalSystem."""

@@ -1,0 +1,1 @@
+"""Homogenisation: cell problems, effective conductivity and capacity, the homogeneous twin."""

@@ -1,0 +1,1 @@
+"""Linear algebra: direct factorisations, orderings, eigensolvers, multigrid."""

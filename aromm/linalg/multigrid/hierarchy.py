@@ -1,0 +1,199 @@
+"""Galerkin coarse grids of the voxel Q1 operator, element by element, and their assembled 27-point rows.
+
+Coarsening halves the element count along every axis: coarse element J covers fine elements 2J and 2J + 1
+(only 2J at the end of an odd axis), and the prolongation P is trilinear interpolation in index space.  The
+Galerkin operator Pᵀ A P is a sum over coarse elements of Σ_children P_cᵀ A_child P_c, with P_c the 8×8
+interpolation from the coarse element's corners to the child's, a Kronecker product of 1-D 2×2 matrices
+([[1, 0], [½, ½]] for a first child, [[½, ½], [0, 1]] for a second, the identity for a lone child).  Each
+element matrix is held as 27 "class values": a symmetric 8×8 matrix that is a sum of Kronecker products of
+symmetric 2×2 factors is fixed by its values on the node-pair classes {00, 01, 11} of each axis, and
+P_cᵀ B P_c maps that class basis to itself by one 3×3 matrix per axis and child.  So the coarse operator is
+built from the image's conductivities in slabs, without ever assembling the fine matrix; [Trottenberg2001,
+§ 3.4] (Galerkin coarse-grid operator, trilinear transfer).
+
+Homogeneous Dirichlet faces are kept on every level (their local node classes are zeroed, the rows
+become the identity); periodic grids coarsen with the wrap-around.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from aromm.core.system import FloatArray
+from aromm.linalg.multigrid.operator import VoxelOperator, fold_ghosts
+
+# class basis of symmetric 2×2 matrices: B00 = [[1,0],[0,0]], B01 = [[0,1],[1,0]], B11 = [[0,0],[0,1]]
+_BASIS = np.array([[[1.0, 0.0], [0.0, 0.0]], [[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]]])
+_CHILD_P = {"first": np.array([[1.0, 0.0], [0.5, 0.5]]), "second": np.array([[0.5, 0.5], [0.0, 1.0]]),
+            "alone": np.eye(2)}
+
+
+def _class_map(p: FloatArray) -> FloatArray:
+    """m[a, a'] with Pᵀ B_a P = Σ_a' m[a, a'] B_a'."""
+    out = np.empty((3, 3))
+    for a in range(3):
+        m = p.T @ _BASIS[a] @ p
+        out[a] = (m[0, 0], m[0, 1], m[1, 1])
+    return out
+
+
+_MAPS = {kind: _class_map(p) for kind, p in _CHILD_P.items()}
+
+
+def child_maps(n: int) -> FloatArray:
+    """(n, 3, 3): the class map of each fine element along an axis of n elements."""
+    kinds = ["first" if i % 2 == 0 and i + 1 < n else "alone" if i % 2 == 0 else "second" for i in range(n)]
+    return np.stack([_MAPS[k] for k in kinds])
+
+
+def prolongation_1d(n: int, periodic: bool) -> sp.csr_array:
+    """Linear interpolation from the coarse nodes (every other fine node, plus the end of an odd box axis)."""
+    nc = (n + 1) // 2
+    fine = n if periodic else n + 1
+    coarse = nc if periodic else nc + 1
+    rows: list[int] = []
+    cols: list[int] = []
+    vals: list[float] = []
+    for f in range(fine):
+        if f % 2 == 0 or (not periodic and f == n):
+            rows.append(f)
+            cols.append(f // 2 if f % 2 == 0 else nc)
+            vals.append(1.0)
+        else:
+            rows += [f, f]
+            cols += [f // 2, (f // 2 + 1) % coarse]
+            vals += [0.5, 0.5]
+    return sp.csr_array((vals, (rows, cols)), shape=(fine, coarse))
+
+
+@dataclass(frozen=True, eq=False)
+class ElementLevel:
+    """One grid level: class values (3, 3, 3, nz, ny, nx) (classes along z, y, x) and its boundary."""
+
+    values: FloatArray
+    periodic: bool
+    fixed: tuple[str, ...]
+
+    @classmethod
+    def fine(cls, op: VoxelOperator) -> ElementLevel:
+        """The fine level of ``op`` (27 values per voxel: for small grids, direct solvers and tests)."""
+        values = np.moveaxis(op.class_values[op.phase], (3, 4, 5), (0, 1, 2))
+        mask_fixed(values, op.fixed, 0, op.elements[0])
+        return cls(np.ascontiguousarray(values), op.periodic, op.fixed)
+
+    @classmethod
+    def coarse_of(cls, op: VoxelOperator) -> ElementLevel:
+        """Pᵀ A P of the matrix-free operator, one coarse plane at a time (peak memory: the coarse level)."""
+        table = op.class_values
+
+        def source(k0: int, k1: int) -> FloatArray:
+            return np.moveaxis(table[op.phase[k0:k1]], (3, 4, 5), (0, 1, 2))
+
+        return cls(coarsen(op.elements, source, op.fixed), op.periodic, op.fixed)
+
+    @property
+    def elements(self) -> tuple[int, int, int]:
+        nz, ny, nx = self.values.shape[3:]
+        return (nz, ny, nx)
+
+    @property
+    def node_shape(self) -> tuple[int, int, int]:
+        nz, ny, nx = self.elements
+        return (nz, ny, nx) if self.periodic else (nz + 1, ny + 1, nx + 1)
+
+    def coarse(self) -> ElementLevel:
+        def source(k0: int, k1: int) -> FloatArray:
+            return self.values[:, :, :, k0:k1]
+
+        return ElementLevel(coarsen(self.elements, source, self.fixed), self.periodic, self.fixed)
+
+    @cached_property
+    def prolongations(self) -> tuple[sp.csr_array, sp.csr_array, sp.csr_array]:
+        """1-D interpolations (z, y, x) from the next coarser level to this one."""
+        nz, ny, nx = self.elements
+        return (prolongation_1d(nz, self.periodic), prolongation_1d(ny, self.periodic),
+                prolongation_1d(nx, self.periodic))
+
+    def to_csr(self) -> sp.csr_array:
+        """Assembled operator: 27 entries per row (zeros where a neighbour is missing), identity on fixed rows."""
+        nz, ny, nx = self.elements
+        stencil = np.zeros((27, nz + 1, ny + 1, nx + 1))
+        for pz, py, px, qz, qy, qx in np.ndindex(2, 2, 2, 2, 2, 2):
+            offset = (qz - pz + 1) * 9 + (qy - py + 1) * 3 + (qx - px + 1)
+            value = self.values[pz + qz, py + qy, px + qx]  # class index: 00 → 0, 01/10 → 1, 11 → 2
+            stencil[offset, pz:pz + nz, py:py + ny, px:px + nx] += value
+        if self.periodic:
+            fold_ghosts(stencil, (1, 2, 3))
+            stencil = stencil[:, :-1, :-1, :-1]
+        shape = self.node_shape
+        n = int(np.prod(shape))
+        z, y, x = np.meshgrid(*(np.arange(s) for s in shape), indexing="ij")
+        cols = np.empty((n, 27), dtype=np.int32 if 27 * n < 2**31 else np.int64)
+        for offset, (oz, oy, ox) in enumerate(np.ndindex(3, 3, 3)):
+            zz, yy, xx = z + oz - 1, y + oy - 1, x + ox - 1
+            if self.periodic:
+                index = np.ravel_multi_index((zz, yy, xx), shape, mode="wrap")
+            else:
+                inside = (zz >= 0) & (zz < shape[0]) & (yy >= 0) & (yy < shape[1]) & (xx >= 0) & (xx < shape[2])
+                index = np.where(inside, np.ravel_multi_index((zz, yy, xx), shape, mode="clip"),
+                                 np.arange(n).reshape(shape))
+            cols[:, offset] = index.ravel()
+        del z, y, x
+        data = stencil.reshape(27, n).T.copy()
+        del stencil
+        diag = data[:, 13]
+        for face in self.fixed:
+            axis = 2 - "xyz".index(face[0])
+            plane = np.zeros(shape, dtype=bool)
+            plane[(slice(None),) * axis + (0 if face[1] == "0" else shape[axis] - 1,)] = True
+            diag[plane.ravel()] = 1.0
+        out = sp.csr_array((data.ravel(), cols.ravel(), np.arange(0, 27 * n + 1, 27)), shape=(n, n))
+        out.sum_duplicates()
+        return out
+
+
+def mask_fixed(values: FloatArray, fixed: tuple[str, ...], k0: int, nz: int) -> None:
+    """Zero the classes touching fixed node planes, for the element planes [k0, k0 + values.shape[3])."""
+    planes = values.shape[3]
+    for face in fixed:
+        axis = "zyx".index(face[0])  # class axis and element axis (offset by 3)
+        first = face[1] == "0"
+        classes = (0, 1) if first else (1, 2)
+        if axis == 0:
+            index = 0 if first else nz - 1
+            if not k0 <= index < k0 + planes:
+                continue
+            element = index - k0
+        else:
+            element = 0 if first else values.shape[3 + axis] - 1
+        for c in classes:
+            sl: list[slice | int] = [slice(None)] * 6
+            sl[axis] = c
+            sl[3 + axis] = element
+            values[tuple(sl)] = 0.0
+
+
+def coarsen(elements: tuple[int, int, int], source: Callable[[int, int], FloatArray],
+            fixed: tuple[str, ...]) -> FloatArray:
+    """Galerkin class values of the coarse elements from the fine ones, one coarse z-plane at a time."""
+    nz, ny, nx = elements
+    ncz, ncy, ncx = ((n + 1) // 2 for n in elements)
+    maps_z, maps_y, maps_x = child_maps(nz), child_maps(ny), child_maps(nx)
+    out = np.empty((3, 3, 3, ncz, ncy, ncx))
+    starts_y, starts_x = np.arange(0, ny, 2), np.arange(0, nx, 2)
+    for j in range(ncz):
+        k0, k1 = 2 * j, min(nz, 2 * j + 2)
+        v = np.array(source(k0, k1), dtype=float)
+        mask_fixed(v, fixed, k0, nz)
+        v = np.add.reduceat(np.einsum("abcKJI,Icd->abdKJI", v, maps_x), starts_x, axis=5)
+        v = np.add.reduceat(np.einsum("abcKJI,Jbd->adcKJI", v, maps_y), starts_y, axis=4)
+        v = np.einsum("abcKJI,Kad->dbcJI", v, maps_z[k0:k1])
+        out[:, :, :, j] = v
+    coarse = out
+    mask_fixed(coarse, fixed, 0, ncz)
+    return coarse

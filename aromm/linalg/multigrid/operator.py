@@ -1,0 +1,289 @@
+"""Matrix-free Q1 conduction operator on a voxel grid, for the memory-lean steady solver.
+
+The voxel model of :mod:`aromm.fem` (one trilinear hexahedron per voxel, conductivity constant per voxel)
+is applied without assembling a matrix.  Per element, with the two-node "sum" S = u₁ + u₀ and "difference"
+D = u₁ − u₀ along each axis (a Haar transform), the reference Q1 matrices are diagonal: along one axis of
+length h the 1-D mass is h (a² + d²/12) with a = S/2 and the 1-D stiffness d²/h.  Hence the element energy
+
+    uᵀ K_e u = Σ_c w_c (T_c u)²,   c ∈ {DSS, SDS, SSD, DDS, DSD, SDD, DDD}  (letters: x, y, z),
+
+with w_DSS = g_x/16, w_DDS = (g_x + g_y)/48, w_DDD = (g_x + g_y + g_z)/144 (and permutations), where
+g_x = k_x h_y h_z / h_x is the element's axial conductance.  A matrix-vector product is then 13 sums or
+differences of shifted arrays, 7 products by the per-voxel weights and their adjoints: no matrix, and
+memory of a few node arrays.  The same model is exposed as 27 numbers per element ("class values", the
+entries of the symmetric 8×8 element matrix grouped by node pair per axis: {00, 01, 11}³), which the
+Galerkin coarsening of :mod:`aromm.linalg.multigrid.hierarchy` maps to the coarse grids.
+
+Arrays are indexed (z, y, x) so that the flat node order is the one of :mod:`aromm.fem` (x fastest).  A
+``periodic`` operator identifies the nodes of opposite faces (n nodes per axis instead of n + 1); a
+``fixed`` face is a homogeneous Dirichlet plane: its rows and columns are replaced by the identity.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
+
+COMBOS = ("DSS", "SDS", "SSD", "DDS", "DSD", "SDD", "DDD")  # letters: x, y, z
+SLAB_NODES = 1 << 16  # nodes per slab of the matrix-free product (0.5 MB per float64 array: cache-sized)
+# 1-D reference matrices in the class basis {[0,0], [0,1], [1,1]} (lengths scaled out): stiffness, mass
+STIFF_1D = np.array([1.0, -1.0, 1.0])
+MASS_1D = np.array([1.0 / 3.0, 1.0 / 6.0, 1.0 / 3.0])
+
+
+@dataclass(frozen=True, eq=False)
+class VoxelOperator:
+    """The Q1 conductance operator of a voxel image, matrix-free.
+
+    ``phase``: (nz, ny, nx) integer index per voxel into ``conductivity`` ((n_phases, 3) rows k_x, k_y, k_z,
+    W/(m K)); ``voxel_size`` (dx, dy, dz) in m.  ``periodic`` identifies opposite faces on every axis;
+    ``fixed`` lists faces ("x0", ..., "z1") held at zero (box grids only).
+    """
+
+    phase: npt.NDArray[np.integer]
+    conductivity: FloatArray
+    voxel_size: tuple[float, float, float]
+    periodic: bool = False
+    fixed: tuple[str, ...] = ()
+    _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.phase.ndim != 3 or min(self.phase.shape) < 1:
+            raise InputError(f"voxel operator needs a 3-D image, got shape {self.phase.shape}")
+        if self.periodic and self.fixed:
+            raise InputError("a periodic voxel operator has no faces to fix")
+
+    @property
+    def elements(self) -> tuple[int, int, int]:
+        nz, ny, nx = self.phase.shape
+        return (nz, ny, nx)
+
+    @property
+    def node_shape(self) -> tuple[int, int, int]:
+        nz, ny, nx = self.elements
+        return (nz, ny, nx) if self.periodic else (nz + 1, ny + 1, nx + 1)
+
+    @property
+    def n(self) -> int:
+        return int(np.prod(self.node_shape))
+
+    @cached_property
+    def conductances(self) -> FloatArray:
+        """(n_phases, 3) axial conductances g_x = k_x h_y h_z / h_x, g_y, g_z (W/K)."""
+        dx, dy, dz = self.voxel_size
+        return np.asarray(self.conductivity, dtype=float) * np.array([dy * dz / dx, dx * dz / dy, dx * dy / dz])
+
+    @cached_property
+    def weights(self) -> FloatArray:
+        """(7, n_phases) weights w_c of the Haar form, in the order of COMBOS."""
+        gx, gy, gz = self.conductances.T
+        return np.stack([gx / 16, gy / 16, gz / 16, (gx + gy) / 48, (gx + gz) / 48, (gy + gz) / 48,
+                         (gx + gy + gz) / 144])
+
+    @cached_property
+    def class_values(self) -> FloatArray:
+        """(n_phases, 3, 3, 3) element matrix of each phase in class form, axes (z, y, x)."""
+        out = np.zeros((len(self.conductances), 3, 3, 3))
+        for axis in range(3):  # 0: x, 1: y, 2: z
+            per_axis = [STIFF_1D if a == axis else MASS_1D for a in (2, 1, 0)]  # z, y, x factors
+            out += self.conductances[:, axis, None, None, None] * np.einsum("i,j,k->ijk", *per_axis)
+        return out
+
+    def fixed_planes(self) -> Iterator[tuple[int, int]]:
+        """(array axis, index) of every fixed node plane."""
+        for face in self.fixed:
+            axis = 2 - "xyz".index(face[0])
+            yield axis, (0 if face[1] == "0" else self.node_shape[axis] - 1)
+
+    @cached_property
+    def _padded_phase(self) -> npt.NDArray[np.integer]:
+        """Phase index on the (nz, ny + 1, nx + 1) node layout; the extra row/column is a zero-weight phase."""
+        nz, ny, nx = self.elements
+        n_phases = len(self.conductances)
+        out = np.full((nz, ny + 1, nx + 1), n_phases, dtype=np.min_scalar_type(n_phases))
+        out[:, :ny, :nx] = self.phase
+        return out
+
+    def _weight_table(self, dtype: np.dtype) -> FloatArray:
+        key = f"w{dtype}"
+        if key not in self._cache:
+            table = np.zeros((len(COMBOS), len(self.conductances) + 1), dtype=dtype)
+            table[:, :-1] = self.weights
+            self._cache[key] = table
+        return self._cache[key]
+
+    def matvec(self, x: FloatArray, constrained: bool = True) -> FloatArray:
+        """K x for a flat node vector; ``constrained=False`` ignores ``fixed`` (the free box operator).
+
+        Computed in the vector's precision: float32 for a preconditioner, float64 otherwise.
+        """
+        dtype = np.dtype(np.float32) if np.asarray(x).dtype == np.float32 else np.dtype(np.float64)
+        u = np.asarray(x, dtype=dtype).reshape(self.node_shape)
+        y = np.zeros(self.node_shape, dtype=dtype)
+        table = self._weight_table(dtype)
+        mask = constrained and bool(self.fixed)
+        for k0, k1 in self._slabs():
+            ext = self._gather(u, k0, k1, copy=mask)
+            if mask:
+                self._zero_fixed(ext, k0, k1)
+            self._scatter(y, self._apply(ext, table, k0, k1), k0, k1)
+        if mask:
+            for axis, index in self.fixed_planes():
+                sl = _plane(axis, index)
+                y[sl] = u[sl]
+        return y.ravel()
+
+    def __matmul__(self, x: FloatArray) -> FloatArray:
+        return self.matvec(x)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.n, self.n)
+
+    def diagonal(self) -> FloatArray:
+        """Diagonal of the constrained operator: Σ_e (g_x + g_y + g_z)/9 over the elements at each node."""
+        per_phase = self.conductances.sum(axis=1) / 9.0
+        d = self.spread(per_phase[self.phase], "SSS")
+        for axis, index in self.fixed_planes():
+            d.reshape(self.node_shape)[_plane(axis, index)] = 1.0
+        return d
+
+    def spread(self, element: FloatArray, pattern: str) -> FloatArray:
+        """Adjoint of one Haar combination: nodes ← elements, e.g. ``"SSS"`` gives each element to its 8 nodes."""
+        nz, ny, nx = self.elements
+        row, plane = nx + 1, (ny + 1) * (nx + 1)
+        padded = np.zeros((nz, ny + 1, nx + 1))
+        padded[:, :ny, :nx] = element
+        out = padded.reshape(-1)[:(nz - 1) * plane + (ny - 1) * row + nx]
+        for letter, stride in zip(pattern[::-1], (plane, row, 1), strict=True):  # pattern is x, y, z
+            out = _adjoint(out if letter == "S" else None, out if letter == "D" else None, stride)
+        return self._fold(out.reshape(nz + 1, ny + 1, nx + 1)).ravel()
+
+    def _slabs(self) -> Iterator[tuple[int, int]]:
+        nz, ny, nx = self.elements
+        step = max(1, SLAB_NODES // ((ny + 1) * (nx + 1)))
+        for k0 in range(0, nz, step):
+            yield k0, min(nz, k0 + step)
+
+    def _gather(self, u: np.ndarray, k0: int, k1: int, copy: bool) -> FloatArray:
+        """Node planes k0..k1 of the elements [k0, k1), with the ghost row/column of a periodic grid."""
+        if not self.periodic:
+            return u[k0:k1 + 1].copy() if copy else u[k0:k1 + 1]
+        nz, ny, nx = self.elements
+        planes = np.arange(k0, k1 + 1) % nz
+        ext = np.empty((k1 - k0 + 1, ny + 1, nx + 1), dtype=u.dtype)
+        ext[:, :ny, :nx] = u[planes]
+        ext[:, ny, :nx] = ext[:, 0, :nx]
+        ext[:, :, nx] = ext[:, :, 0]
+        return ext
+
+    def _zero_fixed(self, ext: FloatArray, k0: int, k1: int) -> None:
+        nz = self.elements[0]
+        for axis, index in self.fixed_planes():
+            if axis == 0:
+                if index == 0 and k0 == 0:
+                    ext[0] = 0.0
+                elif index == nz and k1 == nz:
+                    ext[-1] = 0.0
+            else:
+                ext[_plane(axis, index)] = 0.0
+
+    def _apply(self, ext: FloatArray, table: FloatArray, k0: int, k1: int) -> FloatArray:
+        """Σ_c T_cᵀ w_c T_c on one slab (node planes k0..k1 → contributions to the same planes).
+
+        Every pass is one contiguous operation on the flattened slab: a pair along y or z is a shift by a
+        row or a plane.  Entries that straddle a row or plane end are garbage; their weight is zero.
+        """
+        planes, rows, cols = ext.shape
+        u = ext.reshape(-1)
+        row, plane = cols, rows * cols
+        sx, dx = _pair(u, 1)
+        ss, sd = _pair(sx, row)
+        ds, dd = _pair(dx, row)
+        terms = {"SSD": _pair(ss, plane, need_sum=False)[1]}
+        terms["DSS"], terms["DSD"] = _pair(ds, plane)
+        terms["SDS"], terms["SDD"] = _pair(sd, plane)
+        terms["DDS"], terms["DDD"] = _pair(dd, plane)
+        size = terms["DDD"].size
+        phase = self._padded_phase[k0:k1].reshape(-1)[:size]
+        for c, name in enumerate(COMBOS):
+            terms[name] *= np.take(table[c], phase)
+        g_ss = _adjoint(None, terms["SSD"], plane)
+        g_ds = _adjoint(terms["DSS"], terms["DSD"], plane)
+        g_sd = _adjoint(terms["SDS"], terms["SDD"], plane)
+        g_dd = _adjoint(terms["DDS"], terms["DDD"], plane)
+        h_s = _adjoint(g_ss, g_sd, row)
+        h_d = _adjoint(g_ds, g_dd, row)
+        return _adjoint(h_s, h_d, 1).reshape(planes, rows, cols)
+
+    def _fold(self, out: FloatArray) -> FloatArray:
+        """Ghost-extended node array → node array (periodic: ghosts added onto their twins)."""
+        if not self.periodic:
+            return out
+        fold_ghosts(out, (1, 2))
+        out[0] += out[-1]
+        return out[:-1, :-1, :-1]
+
+    def _scatter(self, y: FloatArray, out: FloatArray, k0: int, k1: int) -> None:
+        if not self.periodic:
+            y[k0:k1 + 1] += out
+            return
+        fold_ghosts(out, (1, 2))
+        y[k0:k1] += out[:-1, :-1, :-1]
+        y[k1 % self.elements[0]] += out[-1, :-1, :-1]
+
+    def node_points(self) -> FloatArray:
+        """(n, 3) node coordinates x, y, z (m) in the flat node order (for the nested-dissection ordering)."""
+        z, y, x = np.meshgrid(*(np.arange(s) * h for s, h in zip(self.node_shape, self.voxel_size[::-1],
+                                                                  strict=True)), indexing="ij")
+        return np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+
+    def to_csr(self) -> sp.csr_array:
+        """The constrained operator assembled (27-point rows): for direct solvers and tests."""
+        from aromm.linalg.multigrid.hierarchy import ElementLevel
+
+        return ElementLevel.fine(self).to_csr()
+
+
+def fold_ghosts(a: FloatArray, axes: tuple[int, ...]) -> None:
+    """Add the last (ghost) plane of ``a`` onto the first along each of ``axes`` (periodic identification)."""
+    for axis in axes:
+        a[_plane(axis, 0)] += a[_plane(axis, -1)]
+
+
+def _plane(axis: int, index: int) -> tuple[slice | int, ...]:
+    return (slice(None),) * axis + (index,)
+
+
+def _pair(a: FloatArray, stride: int, need_sum: bool = True) -> tuple[FloatArray, FloatArray]:
+    """(S a, D a) of a flat array: a[i + stride] ± a[i] (the sum skipped when not needed)."""
+    hi, lo = a[stride:], a[:-stride]
+    return (hi + lo if need_sum else hi[:0]), hi - lo
+
+
+def _adjoint(s: FloatArray | None, d: FloatArray | None, stride: int) -> FloatArray:
+    """Sᵀ s + Dᵀ d for flat arrays (length n → n + stride)."""
+    ref = s if s is not None else d
+    assert ref is not None
+    n = ref.size
+    out = np.empty(n + stride, dtype=ref.dtype)
+    out[n:] = 0.0
+    if s is None:
+        assert d is not None
+        np.negative(d, out=out[:n])
+        out[stride:] += d
+    elif d is None:
+        out[:n] = s
+        out[stride:] += s
+    else:
+        np.subtract(s, d, out=out[:n])
+        out[stride:] += s + d
+    return out

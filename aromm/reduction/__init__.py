@@ -1,0 +1,1 @@
+"""Reduced models: modal bases, corrections, reductors, the offline pipeline, the online ReducedModel."""

@@ -1,0 +1,1 @@
+"""Scene files (TOML) to a validated Scene and its ThermalSystem: file, geometry, sensors."""

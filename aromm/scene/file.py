@@ -1,0 +1,435 @@
+"""Scene files (TOML, docs/design.md "Scene file"): load and validate into frozen objects.
+
+Every refusal raises :class:`~aromm.core.errors.InputError` whose message names the file,
+the key and what is allowed; the command line turns it into exit code 2.
+"""
+
+from __future__ import annotations
+
+import inspect
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import meshio
+import numpy as np
+
+from aromm import microstructure
+from aromm.core.errors import InputError
+from aromm.core.observables import read_csv
+from aromm.core.profiles import Profile
+from aromm.core.resources import MAX_TIME_STEPS, available_memory
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
+from aromm.microstructure.generators import GENERATORS
+from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
+from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
+from aromm.scene.toml import TableReader, where
+
+SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
+PHASE_KEYS = ("label", "k", "c")
+FACE_KEYS = ("flux", "h", "T_ext", "T")
+REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
+
+
+@dataclass(frozen=True)
+class ReductionSettings:
+    """``[reduction]``: reference properties of the modal bases (``basis``) and of the reference simulation
+    (``reference``), as overrides of the scene's parameters (e.g. ``{"fibre.k": 0.53}``; [Chavez2020, § 3])."""
+
+    basis: Mapping[str, float] = field(default_factory=dict)
+    reference: Mapping[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A validated scene: a geometry (voxel image or conforming mesh), phases, face conditions, initial
+    temperature, time grid, outputs (face means, and named sensors: aromm.scene.sensors), contact resistances
+    (mesh scenes) and reduction settings."""
+
+    geometry: SceneGeometry
+    phases: tuple[PhaseSpec, ...]
+    boundary: tuple[FaceSpec, ...] = ()
+    initial_T: float = 0.0
+    time: TimeGrid | None = None
+    outputs: tuple[str, ...] = ()
+    interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    path: Path | None = None
+    reduction: ReductionSettings = ReductionSettings()
+    sensors: tuple[Sensor, ...] = ()
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Named parameter values of this scene (``"fibre.k"``, ``"z1.h"``, ``"initial.T"``...)."""
+        return parameter_values(self.phases, self.boundary, self.initial_T, self.time is not None)
+
+    @property
+    def where(self) -> str:
+        """Prefix naming the scene in messages: ``"<file>: "``, or ``"scene: "`` for one built in Python."""
+        return where(self.path)
+
+    @property
+    def size(self) -> tuple[float, float, float]:
+        """Edge lengths of the box (m): the voxel image, or the mesh's bounding box."""
+        return self.geometry.size
+
+    def volume_fractions(self) -> dict[str, float]:
+        """Volume fraction of each phase (voxel counts, or the volumes of the mesh's cells)."""
+        return self.geometry.volume_fractions(self.phases)
+
+    def refined(self, factor: int, bytes_per_voxel: float = REFINE_BYTES_PER_VOXEL,
+                budget: float | None = None) -> Scene:
+        """The same scene with each voxel split into ``factor³`` sub-voxel elements.
+
+        Labels are repeated ``factor`` times along each axis and ``voxel_size`` is divided by ``factor``: the
+        geometry, the phases and the face conditions are unchanged, only the Q1 discretisation is finer
+        (``aromm ... --refine R``).  Refused with :class:`InputError` when ``factor`` is not a positive
+        integer, when the scene is a mesh, or when the refined problem's estimate
+        ``factor³ · n_voxels · bytes_per_voxel`` exceeds ``budget`` (bytes; default: the memory available,
+        :mod:`aromm.core.resources`).
+
+        >>> phases = (PhaseSpec("a", 0, 1.0), PhaseSpec("b", 1, 2.0))
+        >>> s = Scene(VoxelGeometry(np.arange(2).reshape(2, 1, 1), (2e-3, 1e-3, 1e-3)), phases)
+        >>> r = s.refined(2)
+        >>> r.geometry.labels[:, 0, 0].tolist(), r.geometry.voxel_size, r.size == s.size
+        ([0, 0, 1, 1], (0.001, 0.0005, 0.0005), True)
+        """
+        if isinstance(factor, bool) or not isinstance(factor, int | np.integer) or factor < 1:
+            raise InputError(f"{self.where}refine: the refinement factor must be a positive integer, got {factor!r}")
+        if factor == 1:
+            return self
+        if not isinstance(self.geometry, VoxelGeometry):
+            raise InputError(f"{self.where}refine: a mesh scene has no voxels to split; refine the mesh instead")
+        labels, size = self.geometry.labels, self.geometry.voxel_size
+        limit = (available_memory()[0] or np.inf) if budget is None else float(budget)
+        need = float(labels.size) * factor**3 * bytes_per_voxel
+        if need > limit:
+            shape = "×".join(str(n * factor) for n in labels.shape)
+            raise InputError(f"{self.where}refine: {factor}× gives {shape} voxels, about {need / 1e9:.3g} GB "
+                             f"at {bytes_per_voxel:g} B/voxel, more than the {limit / 1e9:.3g} GB available")
+        for axis in range(3):
+            labels = np.repeat(labels, factor, axis=axis)
+        voxel = (size[0] / factor, size[1] / factor, size[2] / factor)
+        return replace(self, geometry=VoxelGeometry(labels, voxel))
+
+    def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
+                      time: TimeGrid | None = None) -> Scene:
+        """The same material under other face conditions and face-mean outputs, without sensors (used by
+        homogenisation and measurements)."""
+        return replace(self, boundary=boundary, outputs=outputs, time=time, sensors=())
+
+
+def assemble(scene: Scene) -> ThermalSystem:
+    """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for.
+
+    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel).  Mesh scenes: Lagrange simplices with
+    the interface conductance 1/R on split interface nodes (aromm.fem.mesh).  Sensors add their observation
+    rows after the face means (aromm.scene.sensors).
+    """
+    singular = singular_boundary(scene.boundary, scene.time)
+    if singular:
+        raise InputError(f"{scene.where}{singular}")
+    system = scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
+                                     initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
+    if not scene.sensors:
+        return system
+    rows = sensor_rows(scene.sensors, scene.geometry, system, scene.where)
+    return replace(system, observation={**system.observation, **rows})
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a TOML scene file (docs/design.md).
+
+    Paths inside the file are relative to the file.  Refused with :class:`InputError`:
+    unknown sections, keys or faces; missing or unreadable images; phase labels absent
+    from the image or image labels with no phase; non-positive or non-finite k or c;
+    a face given two conditions; ``dt <= 0`` or ``end < dt``; non-3-D images; bad voxel_size.
+    """
+    path = Path(path)
+    return scene_from_dict(read_toml(path), path)
+
+
+def scene_files(path: str | Path) -> tuple[Path, ...]:
+    """The scene file and the files it names (``geometry.image`` or ``mesh``, load histories of ``[boundary]``),
+    relative paths taken from the scene's folder: the inputs a command must never overwrite."""
+    path = Path(path)
+    data = read_toml(path)
+    geo, boundary = data.get("geometry", {}), data.get("boundary", {})
+    named = [geo.get(k) for k in ("image", "mesh")] if isinstance(geo, dict) else []
+    if isinstance(boundary, dict):
+        named += [v for spec in boundary.values() if isinstance(spec, dict) for v in spec.values()]
+    return (path, *(path.parent / v for v in named if isinstance(v, str)))
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """The parsed scene file (not yet validated); InputError when missing or not TOML."""
+    if not path.is_file():
+        raise InputError(f"{path}: scene file not found")
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise InputError(f"{path}: not a valid TOML file ({err})") from None
+
+
+def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
+                    image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None) -> Scene:
+    """Validate a scene given as a dict (the parsed TOML); ``path`` anchors relative paths.
+
+    ``image`` = (labels, voxel size stored in the file or None) replaces reading ``geometry.image``: an
+    engine that reads the image slab by slab passes a stand-in holding each label present once
+    (aromm.engines.petsc.problem), so that the phases are checked without the whole image in memory.
+    """
+    r = TableReader(path)
+    unknown = sorted(set(data) - set(SECTIONS))
+    if unknown:
+        raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
+    geo = r.table(data, "geometry", None)
+    geometry: SceneGeometry = MeshGeometry(*_mesh(r, geo, path)) if "mesh" in geo else VoxelGeometry(
+        *_geometry(r, geo, path, image))
+    phases = _phases(r, data, geometry.present())
+    boundary = _boundary(r, data)
+    initial = r.table(data, "initial", ("T",))
+    initial_T = r.number(initial.get("T", 0.0), "initial.T")
+    time = _time(r, data)
+    varying = [f.face for f in boundary if f.varies]
+    if varying and time is None:
+        raise r.fail(f"boundary.{varying[0]}", "a history (CSV file) needs a transient scene: add [time] end and dt")
+    if time is not None:
+        for ph in phases:
+            if ph.c is None:
+                raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
+    outputs, sensors = _outputs(r, data, geometry)
+    singular = singular_boundary(boundary, time)
+    if singular and ("boundary" in data or outputs or sensors):  # without either, a material for `aromm homogenize`
+        raise InputError(f"{where(path)}{singular}")
+    interfaces = _interfaces(r, data, {ph.name for ph in phases})
+    # the reduction may name capacities even in a material-only scene (a time grid is added later)
+    allowed = parameter_values(phases, boundary, initial_T, transient=True)
+    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed),
+                 sensors)
+
+
+def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
+              image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None,
+              ) -> tuple[np.ndarray, tuple[float, float, float]]:
+    if not geo:
+        raise r.fail("geometry", "missing: give image = \"file\" or generator = \"name\" with voxel_size")
+    if ("image" in geo) == ("generator" in geo):
+        raise r.fail("geometry", "give exactly one of image or generator")
+    file_voxel: tuple[float, float, float] | None = None
+    if image is not None:
+        if "image" in geo:  # the keys are checked as below; the file itself is read by the caller
+            _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+        labels, vs = image
+        file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
+    elif "image" in geo:
+        file = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+        shape = geo.get("shape")
+        labels, vs = microstructure.load_image(file, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
+        file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
+    else:
+        name = geo["generator"]
+        if name not in GENERATORS:
+            raise r.fail("geometry.generator", f"unknown generator {name!r}; allowed: {', '.join(GENERATORS)}")
+        generate = GENERATORS[name]
+        options = {k: v for k, v in geo.items() if k not in ("generator", "voxel_size", "seed")}
+        accepted = inspect.signature(generate).parameters
+        if "voxel_size" in accepted and "voxel_size" in geo:
+            options["voxel_size"] = geo["voxel_size"]
+        if "rng" in accepted:
+            seed = geo.get("seed", 0)
+            if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+                raise r.fail("geometry.seed", f"must be a non-negative integer, got {seed!r}")
+            options["rng"] = np.random.default_rng(seed)
+        try:
+            labels = generate(**options)
+        except (TypeError, ValueError, MemoryError) as err:  # InputError is a ValueError: its own refusals
+            raise r.fail("geometry", f"bad options for generator {name!r} (options: "
+                                     f"{', '.join(k for k in accepted if k != 'rng')}): {err}") from None
+    labels = np.asarray(labels)
+    if labels.ndim != 3:
+        raise r.fail("geometry.image", f"the image must be 3-D, got shape {labels.shape}")
+    if "voxel_size" in geo:
+        voxel = _voxel_triple(r, geo["voxel_size"], "geometry.voxel_size")
+    elif file_voxel is not None:
+        voxel = file_voxel
+    else:
+        raise r.fail("geometry.voxel_size", "missing: give the voxel edge in m, a number or [dx, dy, dz]")
+    return labels, voxel
+
+
+
+
+def _input_file(r: TableReader, geo: dict[str, Any], key: str, allowed: tuple[str, ...], path: Path | None) -> Path:
+    """The file named by ``geometry.<key>`` (relative to the scene file), after checking the other keys."""
+    unknown = sorted(set(geo) - set(allowed))
+    if unknown:
+        raise r.fail(f"geometry.{unknown[0]}", f"unknown key with {key}; allowed: {', '.join(allowed)}")
+    file = Path(str(geo[key]))
+    if not file.is_absolute() and path is not None:
+        file = path.parent / file
+    if not file.exists():
+        raise r.fail(f"geometry.{key}", f"file not found: {file}")
+    return file
+
+
+def _mesh(r: TableReader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Mesh, int]:
+    """A conforming tetrahedral mesh (any format meshio reads; coordinates in m, phases by cell tag)."""
+    file = _input_file(r, geo, "mesh", ("mesh", "order"), path)
+    try:
+        mesh = meshio.read(file)
+    except (meshio.ReadError, ValueError, KeyError, OSError) as err:
+        raise r.fail("geometry.mesh", f"cannot read {file} with meshio ({err})") from None
+    if not any(block.type == "tetra" for block in mesh.cells):
+        raise r.fail("geometry.mesh", f"{file} has no tetrahedra (cells: {sorted({b.type for b in mesh.cells})})")
+    if MESH_LABEL_KEY not in mesh.cell_data:
+        raise r.fail("geometry.mesh", f"{file} has no cell tags {MESH_LABEL_KEY!r} to tell the phases apart")
+    order = geo.get("order", 1)
+    if order not in (1, 2):
+        raise r.fail("geometry.order", f"element order must be 1 or 2, got {order!r}")
+    return mesh, int(order)
+
+
+def _voxel_triple(r: TableReader, value: Any, key: str) -> tuple[float, float, float]:
+    values = [value] * 3 if not isinstance(value, list | tuple | np.ndarray) else list(np.ravel(value))
+    if len(values) != 3:
+        raise r.fail(key, f"must be a number or three numbers [dx, dy, dz] in m, got {value!r}")
+    dx, dy, dz = (r.number(v, key, positive=True) for v in values)
+    return (dx, dy, dz)
+
+
+def _phases(r: TableReader, data: Mapping[str, Any], present: set[int]) -> tuple[PhaseSpec, ...]:
+    table = r.table(data, "phases", None)
+    if not table:
+        raise r.fail("phases", "missing: give at least one [phases.<name>] with label, k (and c)")
+    sources = r.table(data, "source", None)
+    phases = []
+    for name in table:
+        key = f"phases.{name}"
+        spec = r.table(table, key, PHASE_KEYS, name)
+        if "label" not in spec or isinstance(spec["label"], bool) or not isinstance(spec["label"], int):
+            raise r.fail(f"{key}.label", "missing or not an integer image label")
+        if spec["label"] not in present:
+            raise r.fail(f"{key}.label", f"label {spec['label']} is absent from the image (labels: {sorted(present)})")
+        if "k" not in spec:
+            raise r.fail(f"{key}.k", "missing conductivity in W/(m K)")
+        k_raw = spec["k"]
+        if isinstance(k_raw, list):
+            if len(k_raw) != 3:
+                raise r.fail(f"{key}.k", "orthotropic k must be [kx, ky, kz]")
+            kx, ky, kz = (r.number(v, f"{key}.k", positive=True) for v in k_raw)
+            k: float | tuple[float, float, float] = (kx, ky, kz)
+        else:
+            k = r.number(k_raw, f"{key}.k", positive=True)
+        c = r.number(spec["c"], f"{key}.c", positive=True) if "c" in spec else None
+        q = None
+        if name in sources:
+            src = r.table(sources, f"source.{name}", ("q",), name)
+            q = r.number(src.get("q"), f"source.{name}.q")
+        phases.append(PhaseSpec(name, int(spec["label"]), k, c, q))
+    unknown_sources = sorted(set(sources) - set(table))
+    if unknown_sources:
+        raise r.fail(f"source.{unknown_sources[0]}", f"no such phase; phases: {', '.join(table)}")
+    missing = present - {p.label for p in phases}
+    if missing:
+        raise r.fail("phases", f"image labels {sorted(missing)} belong to no phase")
+    if len({p.label for p in phases}) != len(phases):
+        raise r.fail("phases", "two phases share one label")
+    return tuple(phases)
+
+
+def _boundary(r: TableReader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
+    table = r.table(data, "boundary", None)
+    faces = []
+    for face in table:
+        key = f"boundary.{face}"
+        if face not in FACES:
+            raise r.fail(key, f"unknown face; allowed: {', '.join(FACES)}")
+        spec = r.table(table, key, FACE_KEYS, face)
+        given = [k for k in ("flux", "h", "T") if k in spec]
+        if "T" in spec and len(given) > 1:
+            raise r.fail(key, f"a face takes one condition: a fixed T, or flux and/or h; got {given}")
+        if "T_ext" in spec and "h" not in spec:
+            raise r.fail(f"{key}.T_ext", "T_ext goes with h")
+        faces.append(FaceSpec(
+            face,
+            flux=_load(r, spec["flux"], f"{key}.flux") if "flux" in spec else None,
+            h=r.number(spec["h"], f"{key}.h", positive=True) if "h" in spec else None,
+            T_ext=_load(r, spec.get("T_ext", 0.0), f"{key}.T_ext"),
+            T=_load(r, spec["T"], f"{key}.T") if "T" in spec else None,
+        ))
+    return tuple(faces)
+
+
+def _load(r: TableReader, value: Any, key: str) -> Load:
+    """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file) read
+    as a piecewise-linear history held at its last value (:class:`~aromm.core.profiles.Profile`)."""
+    if not isinstance(value, str):
+        return r.number(value, key)
+    file = Path(value)
+    if not file.is_absolute() and r.path is not None:
+        file = r.path.parent / file
+    if not file.is_file():
+        raise r.fail(key, f"history file not found: {file} (a number, or a CSV file t,<value> relative to the scene)")
+    table = read_csv(file)
+    if len(table.outputs) != 1:
+        raise r.fail(key, f"{file}: a history has two columns t,<value>, got {', '.join(('t', *table.outputs))}")
+    values = np.asarray(next(iter(table.mean_T.values())), dtype=float)
+    return Profile(tuple(np.asarray(table.t, dtype=float).tolist()), tuple(values.tolist()), source=str(file))
+
+
+def _time(r: TableReader, data: Mapping[str, Any]) -> TimeGrid | None:
+    if "time" not in data:
+        return None
+    t = r.table(data, "time", ("end", "dt"))
+    if "end" not in t or "dt" not in t:
+        raise r.fail("time", "needs end and dt (s)")
+    dt = r.number(t["dt"], "time.dt", positive=True)
+    end = r.number(t["end"], "time.end", positive=True)
+    if end < dt:
+        raise r.fail("time.end", f"end ({end:g} s) must be at least dt ({dt:g} s)")
+    if end / dt > MAX_TIME_STEPS:
+        raise r.fail("time", f"end / dt = {end:g} s / {dt:g} s = {end / dt:.3g} time steps, more than the "
+                             f"{MAX_TIME_STEPS:.0e} allowed; raise dt or lower end")
+    return TimeGrid(end, dt)
+
+
+def _outputs(r: TableReader, data: Mapping[str, Any],
+             geometry: SceneGeometry) -> tuple[tuple[str, ...], tuple[Sensor, ...]]:
+    """``mean_T`` (face means) and the named sensors ``[outputs.<name>]`` (aromm.scene.sensors)."""
+    out = r.table(data, "outputs", None)
+    faces = out.get("mean_T", [])
+    if not isinstance(faces, list) or any(f not in FACES for f in faces):
+        raise r.fail("outputs.mean_T", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
+    named = {k: v for k, v in out.items() if k != "mean_T"}
+    return tuple(faces), parse_sensors(named, box(geometry), faces, where(r.path),
+                                       voxels=isinstance(geometry, VoxelGeometry))
+
+
+def _interfaces(r: TableReader, data: Mapping[str, Any], names: set[str]) -> dict[tuple[str, str], float]:
+    table = r.table(data, "interfaces", None)
+    out = {}
+    for pair in table:
+        key = f'interfaces."{pair}"'
+        parts = pair.split("|")
+        if len(parts) != 2 or not set(parts) <= names:
+            raise r.fail(key, f'must name two phases as "a|b", phases: {", ".join(sorted(names))}')
+        spec = r.table(table, key, ("R",), pair)
+        out[(parts[0], parts[1])] = r.number(spec.get("R"), f"{key}.R", positive=True)
+    return out
+
+
+def _reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
+    """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers)."""
+    table = r.table(data, "reduction", ("basis", "reference"))
+    out: dict[str, dict[str, float]] = {}
+    for part in ("basis", "reference"):
+        given = r.table(table, f"reduction.{part}", None, part)
+        unknown = sorted(set(given) - set(parameters))
+        if unknown:
+            raise r.fail(f"reduction.{part}", f"unknown parameter(s) {unknown}; the scene has "
+                                              f"{', '.join(sorted(parameters))}")
+        out[part] = {k: r.number(v, f"reduction.{part}.{k}", positive=True) for k, v in given.items()}
+    return ReductionSettings(out["basis"], out["reference"])
