@@ -40,15 +40,15 @@ def worker(n: int, kind: str, order: int, modes: int, solver: str) -> dict[str, 
 
     from aromm import api
     from aromm.engines.petsc import runtime
-    from aromm.engines.petsc.memory import StageMemory, _status_bytes
+    from aromm.engines.petsc.memory import StageMemory, resident_bytes
     from aromm.engines.petsc.projection import project
     from aromm.engines.petsc.reduction import distributed
     from aromm.engines.petsc.steady import steady
-    from studies.chavez2020 import loading, small_wood
+    from aromm.studies.chavez2020 import loading, small_wood
 
     comm = runtime.world()
     scene = loading(small_wood(n, box=n * 5e-6), "z", end=60.0, dt=0.5)
-    fixed = runtime.allmax(float(_status_bytes("VmRSS") or 0), comm)
+    fixed = runtime.allmax(float(resident_bytes()), comm)
     start = time.perf_counter()
     if kind == "reduce":
         rom = api.reduce(scene, order, cache=False, engine="petsc", solver=solver)

@@ -40,6 +40,11 @@ def _reset_peak() -> bool:
     return True
 
 
+def resident_bytes() -> int:
+    """Resident memory of this process now (bytes; 0 without /proc)."""
+    return _status_bytes("VmRSS") or 0
+
+
 def peak_bytes() -> int:
     """Peak resident memory since the last reset (or since the start), bytes."""
     found = _status_bytes("VmHWM")
@@ -61,7 +66,7 @@ class StageMemory:
         """End the running stage (if any) and start ``stage``."""
         self.stop()
         self.resettable = _reset_peak() and self.resettable
-        self._resident = _status_bytes("VmRSS") or 0
+        self._resident = resident_bytes()
         self._stage = stage
 
     def stop(self) -> None:
