@@ -101,7 +101,10 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
     ref, _ = reference(system, values)
     comm = system.comm
     exchange = bool(template.conductance.with_role("exchange"))
-    cols = []
+    count = correction_count(system, samples)
+    room = _reserved(basis.vectors, count)  # the correction vectors go where the correction modes will be
+    cols = np.empty((basis.vectors.shape[0], count), order="F") if room is None else room
+    j = 0
     for sample in samples:
         v = template.values({k: val for k, val in sample.items() if k in template.parameter_names})
         k_mat = system.combine(system.conductance, v)
@@ -116,19 +119,21 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
             x = k_mat.createVecRight()
             x.set(0.0)
             linear.solve(ksp, t.operator, x, "correction modes", CORRECTION_RTOL)
-            cols.append(convert.array(x))
+            cols[:, j] = x.getArray(readonly=True)
+            j += 1
             for c in system.capacity:
                 rhs = c.operator.createVecLeft()
                 c.operator.mult(x, rhs)
                 y = k_mat.createVecRight()
                 y.set(0.0)
                 linear.solve(ksp, rhs, y, "correction modes", CORRECTION_RTOL)
-                cols.append(convert.array(y))
+                cols[:, j] = y.getArray(readonly=True)
+                j += 1
         ksp.destroy()  # one multigrid hierarchy (or factorisation) alive at a time (peak memory)
         k_mat.destroy()
     capacity = ref.capacity
-    extra, coefficients = enrich(np.column_stack(cols), basis, lambda a, b: convert.quadratic(capacity, a, b, comm))
-    del cols
+    extra, coefficients = enrich(cols[:, :j], basis, lambda a, b: convert.quadratic(capacity, a, b, comm))
+    del cols  # read by enrich only: its columns now receive the correction modes
     return ModalBasis(_extended(basis.vectors, extra),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
@@ -136,13 +141,23 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
                       {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
 
 
-def _extended(vectors: FloatArray, extra: FloatArray) -> FloatArray:
-    """``[vectors, extra]``: written into the columns :func:`compute_basis` reserved after ``vectors`` when they
-    suffice (no copy of the basis), else a new array."""
+def _reserved(vectors: FloatArray, m: int) -> FloatArray | None:
+    """The ``m`` columns :func:`compute_basis` reserved after ``vectors`` (a view of the same array), or None."""
     base = vectors.base
-    r, m = vectors.shape[1], extra.shape[1]
+    r = vectors.shape[1]
     if (isinstance(base, np.ndarray) and base.ndim == 2 and base.flags.f_contiguous and base.shape[1] >= r + m
             and base.shape[0] == vectors.shape[0] and vectors.ctypes.data == base.ctypes.data):
-        base[:, r:r + m] = extra
-        return base[:, :r + m]
-    return np.column_stack([vectors, extra])
+        return base[:, r:r + m]
+    return None
+
+
+def _extended(vectors: FloatArray, extra: FloatArray) -> FloatArray:
+    """``[vectors, extra]``: written into the reserved columns when they suffice (no copy of the basis), else a
+    new array."""
+    room = _reserved(vectors, extra.shape[1])
+    if room is None:
+        return np.column_stack([vectors, extra])
+    room[:] = extra
+    base = vectors.base
+    assert isinstance(base, np.ndarray)  # _reserved found it
+    return base[:, :vectors.shape[1] + extra.shape[1]]
