@@ -17,7 +17,7 @@ from aromm.full.solve import FullModel
 from aromm.homogenization.properties import fluxmetric, homogeneous_twin
 from aromm.homogenization.synthetic import homogeneous_measurements
 from aromm.reduction.rom import ReducedModel
-from aromm.scene.file import Scene, assemble, load_scene
+from aromm.scene.scene_file import Scene, assemble, load_scene
 
 __all__ = [
     "FullModel",

@@ -30,9 +30,18 @@ from aromm.homogenization import properties
 from aromm.homogenization.properties import PROBE_BOUNDARIES, conductivity
 from aromm.reduction import offline
 from aromm.reduction.rom import ReducedModel
-from aromm.scene.file import Scene
+from aromm.scene.scene_file import Scene
 
-__all__ = ["default_boundary", "homogenize", "mean_capacity", "reduce", "simulate"]
+__all__ = ["default_boundary", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
+
+
+def is_root(engine: str) -> bool:
+    """True on the process that prints and writes: the only one for scipy, rank 0 for petsc."""
+    if engine != "petsc":
+        return True
+    from aromm.engines.petsc import runtime
+
+    return runtime.is_root(runtime.world())
 
 
 def simulate(

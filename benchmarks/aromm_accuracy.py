@@ -33,9 +33,9 @@ from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.full.solve import simulate
 from aromm.microstructure.generators import wood
-from aromm.reduction.bases import compute_basis, split_modes
+from aromm.reduction.modal_bases import compute_basis, split_modes
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -36,7 +36,7 @@ import numpy as np
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.full.solve import simulate
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES
 
 SCENES = Path(__file__).resolve().parents[1] / "data" / "scenes"

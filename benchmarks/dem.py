@@ -35,9 +35,9 @@ from threadpoolctl import threadpool_limits
 from aromm.bounds.models import rayleigh_simple_cubic
 from aromm.core.system import TimeGrid
 from aromm.core.vocabulary import FaceSpec
-from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate, inclusion_network, inclusion_ratios
 from aromm.dem.explicit import simulate_explicit, stability_limit
+from aromm.dem.neighbours import build_bonds
 from aromm.dem.network import Network
 from aromm.dem.packing import Packing, load_packing, pack_spheres
 from aromm.full.analytic import slab_dirichlet_series

@@ -72,7 +72,7 @@ def one_size(n: int, solver: str, steps: int, amd: bool) -> dict[str, float]:
 
 def sphere_convergence(sizes: list[int], solver: str) -> list[tuple[int, float, float, float]]:
     from aromm.homogenization.properties import homogenize
-    from aromm.scene.file import scene_from_dict
+    from aromm.scene.scene_file import scene_from_dict
 
     rows = []
     for n in sizes:

@@ -76,8 +76,8 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
     else:
         from aromm.core.vocabulary import PhaseSpec
         from aromm.homogenization.cell_problems import effective_conductivity
-        from aromm.scene.file import Scene
         from aromm.scene.geometry import VoxelGeometry
+        from aromm.scene.scene_file import Scene
 
         scene = Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)))
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

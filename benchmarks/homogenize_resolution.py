@@ -43,8 +43,8 @@ SLOPE = (maxwell(PHI + 1e-6) - maxwell(PHI - 1e-6)) / 2e-6
 
 def _scene(labels: np.ndarray, k1: float = 10.0):  # type: ignore[no-untyped-def]
     from aromm.core.vocabulary import PhaseSpec
-    from aromm.scene.file import Scene
     from aromm.scene.geometry import VoxelGeometry
+    from aromm.scene.scene_file import Scene
 
     n = labels.shape[0]
     return Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, 1.0), PhaseSpec("i", 1, k1)))
@@ -98,7 +98,7 @@ def laminate_table(sizes: tuple[int, ...]) -> None:
 
 def refine_worker(factor: int) -> dict[str, object]:
     from aromm.homogenization.cell_problems import effective_conductivity
-    from aromm.scene.file import load_scene
+    from aromm.scene.scene_file import load_scene
 
     scene = load_scene(ROOT / "data" / "scenes" / "wood_homogenize.toml").refined(factor)
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.full.solve import FullModel
 from aromm.scene.geometry import VoxelGeometry

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 from homogenize_resolution import observed_order  # the same folder (run as a script)
 
-from aromm.scene.file import Scene
+from aromm.scene.scene_file import Scene
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4e6}
 MEMORY_LIMIT_GB = 14.0
@@ -71,7 +71,7 @@ def homogenise_worker(n: int, r: int) -> dict[str, object]:
 
 def identify_worker(n: int, r: int, data: Path, cache: Path, order: int = 200) -> dict[str, object]:
     from aromm.reduction.offline import reduce
-    from aromm.scene.file import assemble
+    from aromm.scene.scene_file import assemble
     from aromm.studies.chavez2020 import run
     from inverse.measurements import load_measurements
 

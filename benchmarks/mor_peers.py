@@ -78,13 +78,13 @@ import scipy.linalg as sla
 from aromm.core.cache import NpzCache
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray, Term, ThermalSystem
-from aromm.reduction.bases import compute_basis, split_modes
 from aromm.reduction.corrections import correction_samples, with_corrections
 from aromm.reduction.greedy import PodGreedy
+from aromm.reduction.modal_bases import compute_basis, split_modes
 from aromm.reduction.offline import default_modes, reduce
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.shifted import default_shifts, shifted_samples
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 from aromm.studies.chavez2020 import loading, small_wood
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -44,7 +44,7 @@ def scene(n: int):  # type: ignore[no-untyped-def]
 def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
     """One measurement in this process (all ranks under mpiexec); the record is complete on rank 0."""
     import aromm
-    from aromm.scene.file import assemble
+    from aromm.scene.scene_file import assemble
 
     load_before = os.getloadavg()[0]
     cpu0, wall0 = time.process_time(), time.perf_counter()

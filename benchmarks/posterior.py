@@ -32,7 +32,7 @@ import scipy.stats as st
 
 from aromm.full.solve import simulate
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble
+from aromm.scene.scene_file import assemble
 from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES, loading, small_wood
 from inverse.identification import identify
 from inverse.measurements import Measurements

@@ -49,7 +49,7 @@ def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: boo
     from aromm.core.system import TimeGrid
     from aromm.full.solve import steady_field, transient
     from aromm.reduction.offline import reduce
-    from aromm.scene.file import assemble
+    from aromm.scene.scene_file import assemble
     from aromm.studies.chavez2020 import loading, small_wood
 
     out: dict[str, object] = {"n": n, "eigensolver": eigensolver, "load_start": os.getloadavg()[0]}

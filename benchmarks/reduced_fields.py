@@ -38,7 +38,7 @@ from aromm.core.observables import Observables
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.full.solve import simulate
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble
+from aromm.scene.scene_file import assemble
 from aromm.scene.sensors import FaceSensor, voxel_rows
 from aromm.studies.chavez2020 import BASIS_VALUES, REFERENCE_VALUES, loading, small_wood
 

@@ -32,7 +32,7 @@ PREVIOUS = """
 import resource, sys
 from pathlib import Path
 from aromm.cli.forward import _write_field
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 from aromm.full.solve import simulate
 system = assemble(load_scene(sys.argv[1]))
 obs = simulate(system, fields=True)
@@ -80,7 +80,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         scene = args.scene.resolve() if args.scene else coarse_scene(folder)
-        from aromm.scene.file import load_scene
+        from aromm.scene.scene_file import load_scene
 
         sc = load_scene(scene)
         nodes = int(np.prod(np.asarray(sc.geometry.labels.shape) + 1))

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aromm.core.errors import InputError, NumericalError
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.core.system import FloatArray
 from inverse.measurements import Measurements
 

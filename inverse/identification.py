@@ -11,6 +11,7 @@ the three loading directions of [Chavez2020, Table 1]) can be fitted jointly: th
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -22,7 +23,8 @@ import numpy.typing as npt
 
 from aromm.core.clock import TIME_OFFSET, TimeShifted
 from aromm.core.errors import InputError
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
+from aromm.core.labchecks import OVERFLOW
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import is_positive
 from inverse import checkpoint as ckpt
@@ -39,6 +41,7 @@ DEFAULT_PARTICLES = 20
 CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
 DEFAULT_ITERATIONS = 30
 AT_BOUND = 1e-6  # normalised distance to a bound below which an estimate is reported as on it
+MAX_DECADES = 8  # widest search of a positive parameter: conductivities of solids and gases span 1e-3..1e3 W/(m K)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -192,6 +195,22 @@ def _signature(optimiser: opt.Optimiser) -> object:
     return optimiser.name
 
 
+def bounds_problem(name: str, low: float, high: float) -> str | None:
+    """Why ``low:high`` cannot be searched for ``name`` (None when it can): a parameter positive by nature needs
+    ``0 < low`` and at most :data:`MAX_DECADES` decades between its bounds (beyond, the model at the ends is
+    singular or overflows: 1e-300:1e300 is no physical range)."""
+    if not is_positive(name):
+        return None
+    if low <= 0:
+        return f"positive by nature, its lower bound must be > 0, got {low:g}"
+    decades = math.log10(high) - math.log10(low)
+    if decades > MAX_DECADES:
+        return (f"bounds {low:g}:{high:g} span {decades:.0f} decades, more than the {MAX_DECADES} a physical search "
+                "needs (the model is singular or overflows at such ends); give a physical range, e.g. 0.01:100 for "
+                "a conductivity in W/(m K), 1e4:1e7 for a capacity in J/(m³ K)")
+    return None
+
+
 def relative_scales(box: opt.Box, estimates: FloatArray) -> FloatArray:
     """Magnitudes of the relative sensitivities: ``|β̂|`` for a parameter searched in a positive (or negative)
     interval, the half-width of its bounds for one whose bounds reach zero (a clock offset, a temperature
@@ -226,6 +245,7 @@ def identify(
     progress: Callable[[Progress], None] | None = None,
     description: Mapping[str, object] | None = None,
     noise_std: float | None = None,
+    model_error: float = 0.0,
 ) -> Identification:
     """Estimate ``unknowns`` (name → (lower, upper) bounds, SI units) from ``measurements``.
 
@@ -239,6 +259,9 @@ def identify(
     with ``resume`` an existing one for the same problem is continued (and may be given more iterations).
     ``description`` adds entries to the result's ``model`` (e.g. ``{"kind": "reduced", "order": 200}``).
     ``noise_std`` (°C), a known sensor noise, is compared with the residual (:mod:`inverse.uncertainty`).
+    ``model_error``, a stated relative error of the model's temperature rise (e.g. 0.02 for the voxel model's
+    discretisation error), widens the intervals (:func:`inverse.uncertainty.model_error_std`); intervals of
+    positive parameters are on a log scale.
     """
     if unknowns is None:
         raise InputError("unknowns are required, e.g. {'fibre.k': (0.05, 1.0), 'fibre.c': (1e5, 1e7)}")
@@ -247,10 +270,18 @@ def identify(
         if not isinstance(o, opt.Optimiser):
             raise InputError(f"optimisers: {o!r} is not an optimiser (an object with a name and a run method)")
     scenarios = scenarios_of(model, measurements, {*unknowns, *(fixed or {})})
+    for sc in scenarios:  # a logger's overflow code must never reach the optimiser (aromm.core.labchecks)
+        bad = np.abs(sc.measurements.as_array()) >= OVERFLOW
+        if np.any(bad):
+            i, j = np.argwhere(bad)[0]
+            raise InputError(f"measurements {sc.measurements.source or sc.name}: {sc.measurements.faces[j]} at t = "
+                             f"{sc.measurements.t[i]:g} s is {sc.measurements.as_array()[i, j]:g}, a logger's "
+                             "overflow code, not a reading")
     box = opt.Box.from_bounds(unknowns)
-    for name, low in zip(box.names, box.lower, strict=True):
-        if is_positive(name) and low <= 0:
-            raise InputError(f"unknown {name!r}: positive by nature, its lower bound must be > 0, got {low:g}")
+    for name, low, high in zip(box.names, box.lower, box.upper, strict=True):
+        refused = bounds_problem(name, float(low), float(high))
+        if refused is not None:
+            raise InputError(f"unknown {name!r}: {refused}")
     criterion = LeastSquares(scenarios, box.names, fixed)
     info = _describe(scenarios, description)
     problem_key = ckpt.problem_key({"format": CHECKPOINT_FORMAT, "unknowns": box.as_dict(),
@@ -303,8 +334,10 @@ def identify(
                if (n := offset_note(f.t, f.measured, f.fitted, start=y0, faces=f.faces, label=f.name)) is not None]
     starts = np.cumsum([0] + [f.measured.size for f in fits])[:-1]  # rows of r: scenarios, then times × faces
     blocks = [s0 + np.arange(f.measured.size).reshape(f.measured.shape) for s0, f in zip(starts, fits, strict=True)]
+    rise = np.concatenate([(f.fitted - y0).ravel() for f, y0 in zip(fits, starts0, strict=True)])
     uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
-                             data_notes=offsets, scales=relative_scales(box, theta))
+                             data_notes=offsets, scales=relative_scales(box, theta),
+                             positive=[is_positive(n) for n in box.names], model_error=model_error, model_rise=rise)
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),

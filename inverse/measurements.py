@@ -18,18 +18,27 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.core.errors import InputError
-from aromm.core.model import ForwardModel
-from aromm.core.observables import Observables, read_csv, write_csv
+from aromm.core.forward_model import ForwardModel
+from aromm.core.labchecks import PLAUSIBLE
+from aromm.core.labcsv import read_lab_csv
+from aromm.core.observables import Observables, write_csv
 
 #: Measurements are the toolkit's one time-series table (times in s, one series per observed face, °C).
 Measurements = Observables
 
 
-def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None = None) -> Measurements:
-    """Read a ``t,<face>,...`` CSV (:func:`aromm.core.observables.read_csv`); ``faces`` (e.g. ``model.outputs``)
-    lists the allowed face names.  Every problem raises InputError naming the file, line, column and what is allowed.
+def load_measurements(path: str | os.PathLike[str], faces: Iterable[str] | None = None, *,
+                      columns: Mapping[str, str] | None = None, time_unit: str | None = None,
+                      temperature_unit: str | None = None, plausible: tuple[float, float] = PLAUSIBLE) -> Measurements:
+    """Read a measurement CSV: the toolkit's ``t,<face>,...`` file or a laboratory export (comments, units row,
+    ``;`` and decimal comma, latin-1, missing cells: :func:`aromm.core.labcsv.read_lab_csv`, which also refuses
+    sentinels, impossible temperatures and single outliers).  ``faces`` (e.g. ``model.outputs``) lists the allowed
+    outputs, ``columns`` maps file columns onto them (``{"TC1": "z0"}``).  The conversions made are logged
+    (``logging``, logger ``aromm.core.labcsv``); :func:`aromm.core.labcsv.read_lab_csv` returns them too.  Every problem
+    raises InputError naming the file, line, column and what is allowed.
     """
-    return read_csv(path, faces)
+    return read_lab_csv(path, faces, columns=columns, time_unit=time_unit, temperature_unit=temperature_unit,
+                        plausible=plausible).table
 
 
 def save_measurements(measurements: Measurements, path: str | os.PathLike[str]) -> None:

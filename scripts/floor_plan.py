@@ -35,7 +35,8 @@ def wing_of(module: str, wings: list[str]) -> str:
     best = [w for w in wings if module == w or module.startswith(w + ".")]
     if best:
         return max(best, key=len)
-    return module.split(".")[0] if module.split(".")[0] != "aromm" else ".".join(module.split(".")[:2])
+    parts = module.split(".")
+    return parts[0] if parts[0] != "aromm" else ".".join(parts[:2])
 
 
 def strongly_connected(edges: dict[str, set[str]]) -> list[list[str]]:

@@ -23,8 +23,8 @@ import numpy as np
 from aromm.core.vocabulary import PhaseSpec
 from aromm.homogenization.properties import fluxmetric
 from aromm.microstructure import save_image, wood
-from aromm.scene.file import Scene
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene
 from aromm.studies.chavez2020 import loading
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -135,7 +135,7 @@ def main() -> None:
     report("eq. 13 under the scenarios (aromm.fluxmetric)", scenario_k, labels)
     if args.homogenize:
         from aromm.homogenization.properties import homogenize, mean_capacity
-        from aromm.scene.file import load_scene
+        from aromm.scene.scene_file import load_scene
 
         start = time.perf_counter()
         scene = load_scene(ROOT / "data" / "scenes" / "wood_homogenize.toml")

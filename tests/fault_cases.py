@@ -274,7 +274,7 @@ CASES: tuple[Case, ...] = (
     Case("identify-measurements-empty", (*ID[:3], "m.csv", *ID[4:], *K), 2, ("m.csv", "empty file", "header"),
          (text("m.csv", ""),)),
     Case("identify-measurements-header", (*ID[:3], "m.csv", *ID[4:], *K), 2, ("m.csv", "line 1", "t,<face>"),
-         (text("m.csv", "time,z0\n1,2\n"),)),
+         (text("m.csv", "when,z0\n1,2\n"),)),
     Case("identify-measurements-face", (*ID[:3], "m.csv", *ID[4:], *K), 2, ("m.csv", "'x0'", "allowed: z0, z1"),
          (text("m.csv", "t,x0\n1,2\n"),)),
     Case("identify-measurements-cell", (*ID[:3], "m.csv", *ID[4:], *K), 2, ("m.csv", "line 3", "not a number"),

@@ -13,9 +13,9 @@ import scipy.sparse.linalg as spla
 from aromm import api
 from aromm.core.system import TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
-from aromm.reduction.bases import reference_operators, zero_modes
-from aromm.scene.file import Scene, assemble
+from aromm.reduction.modal_bases import reference_operators, zero_modes
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, assemble
 
 PHASES = (PhaseSpec("fibre", 1, 0.3, 4.0e6), PhaseSpec("gas", 0, 0.025, 1.2e3))
 SCENARIO = (FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0, T_ext=0.0))
@@ -101,7 +101,7 @@ def results(comm: Any) -> dict[str, np.ndarray]:
 
 
 def arpack() -> dict[str, np.ndarray]:
-    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.reduction.bases'
+    """Eigenvalues by plain scipy eigsh (ARPACK shift-invert with its own SuperLU) of aromm.reduction.modal_bases'
     problems."""
     ops = reference_operators(assemble(basis_scene()))
     inner = ops.interior

@@ -78,3 +78,52 @@ def test_every_package_folder_is_in_a_layer() -> None:
     assert wings == listed, f"wings missing from the layers: {sorted(wings - listed)}; extra: {sorted(listed - wings)}"
     assert config["root_packages"] == ["aromm", "inverse"]
 
+
+def _modules() -> list[str]:
+    return sorted(".".join(p.relative_to(ROOT).with_suffix("").parts)
+                  for package in ("aromm", "inverse") for p in (ROOT / package).rglob("*.py"))
+
+
+def test_no_module_is_hidden_behind_a_name_of_its_package() -> None:
+    """``package.name`` is the module ``package/name.py`` itself, never a function or class re-exported under the
+    module's name (``from inverse.optimisers.pso import pso`` hid the module before)."""
+    import importlib
+
+    hidden = []
+    for dotted in _modules():
+        package, _, name = dotted.rpartition(".")
+        if name == "__init__" or not package:
+            continue
+        owner = importlib.import_module(package)  # the package only: a module may need an optional extra
+        found = getattr(owner, name, None)
+        if found is not None and getattr(found, "__name__", None) != dotted:
+            hidden.append(dotted)
+    assert hidden == []
+
+
+#: Pairs one letter apart that stay: the two discretisations' conventional names (finite elements, discrete
+#: elements), wings named by the floor plan itself.
+ONE_LETTER_ALLOWED = {("dem", "fem")}
+
+
+def _one_letter_apart(a: str, b: str) -> bool:
+    if a == b or abs(len(a) - len(b)) > 1:
+        return False
+    if len(a) == len(b):
+        return sum(x != y for x, y in zip(a, b, strict=True)) == 1
+    short, long = sorted((a, b), key=len)
+    return any(long[:i] + long[i + 1:] == short for i in range(len(long)))
+
+
+def test_no_two_module_names_one_letter_apart() -> None:
+    names = sorted({d.rsplit(".", 1)[-1] for d in _modules()} - {"__init__"}
+                   | {p.name for p in (ROOT / "aromm").iterdir() if (p / "__init__.py").exists()})
+    pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:] if _one_letter_apart(a, b)]
+    assert [p for p in pairs if p not in ONE_LETTER_ALLOWED] == []
+
+
+def test_no_library_file_over_450_lines() -> None:
+    files = [p for package in ("aromm", "inverse") for p in (ROOT / package).rglob("*.py")]
+    lines = {p.relative_to(ROOT).as_posix(): len(p.read_text(encoding="utf-8").splitlines()) for p in files}
+    long = {name: n for name, n in lines.items() if n > 450}
+    assert long == {}

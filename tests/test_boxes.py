@@ -21,7 +21,7 @@ from aromm.engines.petsc.layout import BoxLayout, even_split, process_grid
 from aromm.fem.voxel import node_index
 from aromm.microstructure import load_image
 from aromm.microstructure.boxes import ImageBoxes, readable_by_parts
-from aromm.scene.file import scene_from_dict
+from aromm.scene.scene_file import scene_from_dict
 
 SHAPE = (3, 4, 7)
 

@@ -12,9 +12,9 @@ from aromm.cli import main
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.vocabulary import PhaseSpec
 from aromm.homogenization.cell_problems import effective_conductivity, resolve_solver
-from aromm.linalg.multigrid import solver as mg_solver
-from aromm.scene.file import Scene
+from aromm.linalg.multigrid import pcg as mg_solver
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene
 
 SC_EXACT = 1.39573  # simple-cubic array of spheres, radius L/3, κ = 10 [Rayleigh1892; McPhedranMcKenzie1978]
 PHI_SPHERE = 4.0 * np.pi / 81.0

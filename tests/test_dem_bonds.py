@@ -7,7 +7,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from aromm.dem.bonds import build_bonds, coordination_table, gap_for_coordination
+from aromm.dem.neighbours import build_bonds, coordination_table, gap_for_coordination
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
 
 

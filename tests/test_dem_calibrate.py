@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from aromm.core.errors import InputError
-from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate, inclusion_network, inclusion_ratio, periodic_conductivity
+from aromm.dem.neighbours import build_bonds
 from aromm.dem.network import Network, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
 

@@ -10,8 +10,8 @@ import scipy.sparse as sp
 from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec
-from aromm.dem.bonds import build_bonds
 from aromm.dem.explicit import simulate_explicit, stability_bound, stability_limit
+from aromm.dem.neighbours import build_bonds
 from aromm.dem.network import Network
 from aromm.dem.packing import cubic_lattice, pack_spheres
 from aromm.full.analytic import slab_dirichlet_series

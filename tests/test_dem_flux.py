@@ -7,9 +7,9 @@ import pytest
 import scipy.sparse as sp
 
 from aromm.core.vocabulary import FaceSpec
-from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate, periodic_conductivity, periodic_field
 from aromm.dem.flux import neighbourhood_mean, particle_flux
+from aromm.dem.neighbours import build_bonds
 from aromm.dem.network import Network, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
 from aromm.full.solve import reaction_heat_flow, steady_field

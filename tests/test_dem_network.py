@@ -9,7 +9,7 @@ import scipy.sparse as sp
 from aromm.core.errors import InputError
 from aromm.core.system import TimeGrid
 from aromm.core.vocabulary import FaceSpec
-from aromm.dem.bonds import build_bonds
+from aromm.dem.neighbours import build_bonds
 from aromm.dem.network import Network, face_particles, laplacian, sphere_inclusion, transmission_factor
 from aromm.dem.packing import Packing, cubic_lattice, pack_spheres
 from aromm.full.solve import simulate, steady_field

@@ -1,7 +1,8 @@
 """The documentation says what the code does: the scene-file reference names everything the parser accepts,
 the help texts are complete and cite by key, and the stored notebooks carry outputs of the papers' sizes.
 
-Independent truths: the parser's own tables of allowed names (aromm.scene.file, aromm.core.vocabulary, the generator
+Independent truths: the parser's own tables of allowed names (aromm.scene.scene_file, aromm.core.vocabulary, the
+generator
 registry) against the hand-written reference page; click's own description of every option; the metadata
 that scripts/regenerate_notebooks.py writes only after a complete run with AROMM_FULL=1.
 """
@@ -19,7 +20,7 @@ import pytest
 from aromm.cli import cli
 from aromm.core.vocabulary import FACES
 from aromm.microstructure.generators import GENERATORS
-from aromm.scene.file import FACE_KEYS, PHASE_KEYS, SECTIONS
+from aromm.scene.scene_file import FACE_KEYS, PHASE_KEYS, SECTIONS
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_PAGE = ROOT / "docs" / "guide" / "scene.md"

@@ -20,9 +20,9 @@ from aromm.fem import assemble_voxels
 from aromm.linalg import eigensolvers
 from aromm.linalg.block_multigrid import BlockMultigrid
 from aromm.linalg.eigensolvers import EigenProgress, choose_eigensolver, smallest_eigenpairs
-from aromm.reduction.bases import RESIDUAL_TOL, dirichlet_modes, reference_operators, steklov_modes, zero_modes
+from aromm.reduction.modal_bases import RESIDUAL_TOL, dirichlet_modes, reference_operators, steklov_modes, zero_modes
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble
+from aromm.scene.scene_file import assemble
 from aromm.studies.chavez2020 import loading, small_wood
 
 K, C = 2.0, 3.0e6  # W/(m K), J/(m3 K)

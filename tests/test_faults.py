@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fault_cases import CASES, Case, make_template, prepared, run
+from fault_cases import Case, make_template, prepared, run
+from fault_cases_lab import CASES
 
 from aromm.cli import main
 from aromm.core.observables import Observables, write_csv

@@ -14,7 +14,8 @@ from test_reduced import exact_outputs, random_labels, system_of
 
 from aromm.core.errors import InputError
 from aromm.reduction.greedy import PodGreedy, pod_greedy, training_grid
-from aromm.reduction.offline import reduce, snapshot_times
+from aromm.reduction.offline import reduce
+from aromm.reduction.reductors import snapshot_times
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.shifted import SHIFT, default_shifts, shifted_samples
 

@@ -23,7 +23,7 @@ from aromm.full.solve import transient
 from aromm.reduction.modal_integration import phi1, phi2, propagate
 from aromm.reduction.offline import reduce
 from aromm.reduction.rom import from_arrays, to_arrays
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 
 # ----------------------------------------------------------------------------- profiles and φ functions
 

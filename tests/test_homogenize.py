@@ -11,8 +11,8 @@ from aromm.api import homogenize
 from aromm.core.errors import InputError
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.homogenization.properties import fluxmetric, homogeneous_twin, mean_capacity
-from aromm.scene.file import Scene, scene_from_dict
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, scene_from_dict
 
 PHI_SPHERE = 4.0 * np.pi / 81.0  # sphere of radius L/3 in a cube of side L
 

@@ -12,7 +12,7 @@ from scene_text import scenario_1
 
 from aromm.cli import main
 from aromm.full.solve import FullModel
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 from inverse.measurements import save_measurements, simulate_measurements
 
 

@@ -20,8 +20,8 @@ from aromm.core.vocabulary import FaceSpec
 from aromm.full.solve import FullModel
 from aromm.homogenization.properties import fluxmetric, mean_capacity
 from aromm.homogenization.synthetic import homogeneous_measurements
-from aromm.scene.file import Scene, assemble
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, assemble
 from inverse import hac
 from inverse.identification import identify
 from inverse.measurements import Measurements, simulate_measurements

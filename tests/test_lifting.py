@@ -17,8 +17,8 @@ from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
 from aromm.full.analytic import slab_dirichlet_series
 from aromm.full.solve import transient
-from aromm.reduction.bases import compute_basis
 from aromm.reduction.lifting import lift
+from aromm.reduction.modal_bases import compute_basis
 from aromm.reduction.offline import reduce
 from aromm.reduction.rom import from_arrays, to_arrays
 

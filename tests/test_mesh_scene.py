@@ -14,7 +14,7 @@ from aromm.cli import main
 from aromm.core.errors import InputError
 from aromm.full.solve import transient
 from aromm.homogenization.properties import mean_capacity
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 
 SCENE = MESH_CELL
 

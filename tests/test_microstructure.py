@@ -455,19 +455,19 @@ def test_wood_scenes_follow_table_1(name: str, axis: str) -> None:
 
 @pytest.mark.parametrize("name", ["wood_s1", "wood_s2", "wood_s3", "wood_homogenize", "sphere_steady"])
 def test_scenes_load(name: str) -> None:
-    scene_module = pytest.importorskip("aromm.scene.file")
+    scene_module = pytest.importorskip("aromm.scene.scene_file")
     scene = scene_module.load_scene(DATA / "scenes" / f"{name}.toml")
     assert scene.geometry.labels.ndim == 3
 
 
 def test_sphere_scene_is_the_seed_000_cell() -> None:
-    scene = pytest.importorskip("aromm.scene.file").load_scene(DATA / "scenes" / "sphere_steady.toml")
+    scene = pytest.importorskip("aromm.scene.scene_file").load_scene(DATA / "scenes" / "sphere_steady.toml")
     assert scene.size == pytest.approx((0.1, 0.1, 0.1))
     assert scene.volume_fractions()["inclusion"] == pytest.approx(4 * math.pi / 81, rel=0.05)
 
 
 def test_wood_ver_is_reproduced_by_a_generator_scene() -> None:
-    scene_module = pytest.importorskip("aromm.scene.file")
+    scene_module = pytest.importorskip("aromm.scene.scene_file")
     geometry = {"generator": "wood", "shape": [46, 46, 46], "voxel_size": 5.0e-6, "seed": 347,
                 "cell_size_radial": 19.7e-6, "cell_size_tangential": 29.2e-6, "wall_thickness": 4.76e-6,
                 "size_jitter": 0.147, "tracheid_length": 134e-6, "grain_angle": 0.150}
@@ -482,7 +482,7 @@ def test_wood_ver_homogenised_conductivity_matches_seed_001() -> None:
     under the three scenarios' own faces, as the seed does and as the VER was tuned, within 1.5 %;
     with an isothermal S2 (`aromm.homogenize`) within issue 2's 5 %."""
     homogenize = pytest.importorskip("aromm.homogenize")
-    load_scene = pytest.importorskip("aromm.scene.file").load_scene
+    load_scene = pytest.importorskip("aromm.scene.scene_file").load_scene
     scene = load_scene(DATA / "scenes" / "wood_homogenize.toml")
     k = homogenize.homogenize(scene, boundary="flux", method="amg")
     np.testing.assert_allclose(np.diag(k), SEED_001_K, rtol=0.05)

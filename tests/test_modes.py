@@ -1,4 +1,4 @@
-"""Dirichlet and Steklov eigenbases (aromm.reduction.bases) against analytic eigenvalues and exact identities."""
+"""Dirichlet and Steklov eigenbases (aromm.reduction.modal_bases) against analytic eigenvalues and exact identities."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import Affine, Coefficient, Term, ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.reduction import bases as modes
-from aromm.reduction.bases import compute_basis, dirichlet_modes, reference_operators, steklov_modes, zero_modes
+from aromm.reduction import modal_bases as modes
+from aromm.reduction.modal_bases import compute_basis, dirichlet_modes, reference_operators, steklov_modes, zero_modes
 
 K, C = 2.0, 3.0e6  # W/(m K), J/(m3 K): a "solid" phase (not named fibre/gas: no seed override)
 

@@ -20,7 +20,7 @@ from aromm.core.errors import InputError
 from aromm.core.observables import Observables, write_csv
 from aromm.full.solve import FullModel
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 from inverse.identification import identify
 from inverse.uncertainty import IdentifiabilityWarning
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aromm.scene.file import load_scene
+from aromm.scene.scene_file import load_scene
 from aromm.scene.sensors import FaceSensor, PointSensor
 from aromm.studies.pulse_experiment import PULSE, experiment
 

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from scene_text import scenario_1
 
 from aromm.core.errors import InputError
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels

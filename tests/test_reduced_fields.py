@@ -23,7 +23,7 @@ from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
 from aromm.full.solve import transient
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 
 PHASES = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
 FAR = {"fibre.k": 0.3, "fibre.c": 4e6}

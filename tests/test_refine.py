@@ -15,8 +15,8 @@ from aromm.core.errors import InputError
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.full.solve import steady_field
 from aromm.homogenization.properties import homogenize
-from aromm.scene.file import Scene, assemble
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, assemble
 
 PHASES = (PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6))
 

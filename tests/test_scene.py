@@ -11,7 +11,7 @@ from scene_text import scenario_1
 
 from aromm.cli import main
 from aromm.core.errors import InputError
-from aromm.scene.file import load_scene
+from aromm.scene.scene_file import load_scene
 
 GOOD = scenario_1("img.npy", "1.0e-4", "1.0", "0.1")
 

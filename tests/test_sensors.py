@@ -16,7 +16,7 @@ from aromm.core.observables import read_csv
 from aromm.full.analytic import slab_dirichlet_series
 from aromm.full.solve import transient
 from aromm.reduction.offline import reduce
-from aromm.scene.file import assemble, load_scene
+from aromm.scene.scene_file import assemble, load_scene
 from aromm.scene.sensors import hat_means, hat_values
 
 # one third of an element past a node plane on every grid below (s = z/dz = 7/3, 14/3, 28/3): the interpolation

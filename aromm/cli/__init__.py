@@ -15,6 +15,7 @@ import click
 from aromm.cli import bounds, dem, forward, identify, reduce
 from aromm.cli.common import run_guarded
 from aromm.cli.console import fallback_streams
+from aromm.cli.logs import command_logs
 
 COMMANDS: list[click.Command] = [*forward.COMMANDS, *dem.COMMANDS, *identify.COMMANDS, *reduce.COMMANDS,
                                  *bounds.COMMANDS]
@@ -32,5 +33,5 @@ for _command in COMMANDS:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
-    with fallback_streams():
+    with fallback_streams(), command_logs():
         return run_guarded(cli, argv if argv is not None else sys.argv[1:])

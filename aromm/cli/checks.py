@@ -8,7 +8,8 @@ not after a reduced-model build (tests/test_faults.py times it on the shipped wo
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import click
@@ -17,11 +18,53 @@ from aromm.core.cache import ENV_VAR, NpzCache
 from aromm.core.clock import TIME_OFFSET
 from aromm.core.errors import InputError
 from aromm.core.files import Input, check_folder
+from aromm.core.labchecks import PLAUSIBLE, kelvin_suspect
+from aromm.core.labcsv import read_lab_csv
 from aromm.core.vocabulary import is_positive
-from aromm.scene.file import Scene, scene_files
-from inverse.measurements import Measurements, load_measurements
+from aromm.scene.scene_file import Scene, scene_files
+from aromm.scene.sensors import output_names
+from inverse.identification import bounds_problem
+from inverse.measurements import Measurements
 
 Bounds = dict[str, tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """How to read a laboratory CSV (``--column``, ``--time-unit``, ``--temperature-unit``, ``--plausible``)."""
+
+    columns: Mapping[str, str] = field(default_factory=dict)
+    time_unit: str | None = None
+    temperature_unit: str | None = None
+    plausible: tuple[float, float] = PLAUSIBLE
+
+
+def parse_columns(texts: Sequence[str]) -> dict[str, str]:
+    """``--column SOURCE=OUTPUT`` (repeatable): a column of the file read as one of the scene's outputs."""
+    out: dict[str, str] = {}
+    for text in texts:
+        source, eq, target = (s.strip() for s in text.partition("="))
+        if not (eq and source and target):
+            raise click.BadParameter(f"{text!r}: expected FILE_COLUMN=OUTPUT, e.g. TC1=z0", param_hint="--column")
+        if source in out:
+            raise click.BadParameter(f"column {source!r} is mapped twice", param_hint="--column")
+        out[source] = target
+    return out
+
+
+def parse_range(text: str | None, option: str, default: tuple[float, float]) -> tuple[float, float]:
+    """``LOW:HIGH`` (finite, LOW < HIGH), or ``default`` when not given."""
+    if text is None:
+        return default
+    low, colon, high = text.partition(":")
+    try:
+        lo, hi = float(low), float(high)
+    except ValueError:
+        lo = hi = math.nan
+    if not (colon and math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise click.BadParameter(f"{text!r}: expected LOW:HIGH, finite with LOW < HIGH, e.g. -50:400",
+                                 param_hint=option)
+    return lo, hi
 
 
 def scene_inputs(path: Path, role: str = "the scene file") -> list[Input]:
@@ -61,20 +104,51 @@ def unknowns(texts: Sequence[str], scene: Scene) -> Bounds:
         if is_positive(name) and lo <= 0:
             raise click.BadParameter(f"{text!r}: {name} is positive by nature; give 0 < LOW < HIGH",
                                      param_hint="--unknown")
+        problem = bounds_problem(name, lo, hi)
+        if problem is not None:
+            raise click.BadParameter(f"{text!r}: {problem}", param_hint="--unknown")
         out[name] = (lo, hi)
     return out
 
 
-def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds) -> Measurements:
-    """The measurement CSV, its columns among the scene's outputs; for the full model, its last time (plus the
-    largest clock offset searched) within the scene's ``[time] end``."""
-    data = load_measurements(path, scene.outputs)
-    if kind == "full" and scene.time is not None:
-        reach = float(data.t[-1]) + max(0.0, bounds.get(TIME_OFFSET, (0.0, 0.0))[1])
+def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
+                 options: ReadOptions | None = None) -> Measurements:
+    """The measurement CSV read as a laboratory export (:func:`aromm.core.labcsv.read_lab_csv` with ``options``: column
+    mapping, stated units, plausible range; what it converted or dropped is logged, :mod:`aromm.cli.logs`), then
+    checked against the scene before any build: enough observations for the unknowns, data in kelvin against a
+    scene in °C (refused unless the unit is stated), and the last time (plus the largest clock offset searched)
+    within ``[time] end``."""
+    opts = options or ReadOptions()
+    lab = read_lab_csv(path, (*scene.outputs, *output_names(scene.sensors)), columns=opts.columns,
+                       time_unit=opts.time_unit, temperature_unit=opts.temperature_unit, plausible=opts.plausible)
+    data = lab.table
+    rows, cols = len(data.t), len(data.outputs)
+    if rows * cols <= len(bounds):
+        raise InputError(f"{path}: too few rows to identify the unknowns: {rows} row(s) × {cols} column(s) = "
+                         f"{rows * cols} observation(s) for {len(bounds)} unknown(s) ({', '.join(bounds)}); at least "
+                         f"{len(bounds) + 1} are needed (one more than the unknowns, for the residual variance)")
+    if not lab.temperature_stated:
+        for out, series in data.mean_T.items():
+            if kelvin_suspect(series, scene.initial_T):
+                raise InputError(f"{path}, column {lab.columns[out]!r}: the values start near "
+                                 f"{float(series[0]):g}, that is {float(series[0]) - 273.15:g} °C if they are "
+                                 f"kelvin, while {scene.path} starts at {scene.initial_T:g} °C: state the unit "
+                                 "(a units row 's,K,...', or --temperature-unit K to convert, or --temperature-unit "
+                                 "C if these really are °C)")
+    if scene.time is not None:
+        offset = bounds.get(TIME_OFFSET)
+        if offset is not None and offset[1] - offset[0] > scene.time.end:
+            raise InputError(f"--unknown time_offset={offset[0]:g}:{offset[1]:g}: a clock offset range of "
+                             f"{offset[1] - offset[0]:g} s is wider than the whole experiment of {scene.path} "
+                             f"([time] end = {scene.time.end:g} s); give a range of a few time steps")
+        reach = float(data.t[-1]) + max(0.0, offset[1] if offset is not None else 0.0)
         if reach > scene.time.end * (1 + 1e-9):
-            raise InputError(f"{path}: the last time {reach:g} s (measurements, plus the largest time_offset) is "
-                             f"past the end of {scene.path} ([time] end = {scene.time.end:g} s); "
-                             "raise end, or use --model reduced (exact at any time)")
+            unit = opts.time_unit or "s"
+            raise InputError(f"{path}: the last time {reach:g} s (measurements in {unit}, plus the largest "
+                             f"time_offset) is past the end of the experiment of {scene.path} ([time] end = "
+                             f"{scene.time.end:g} s): times in another unit (ms? min?) must be stated (a units "
+                             "row, or --time-unit); else raise end" + (", or use --model reduced (exact at any "
+                             "time)" if kind == "full" else ""))
     return data
 
 

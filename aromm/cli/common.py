@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
@@ -20,7 +21,7 @@ import numpy as np
 from tqdm import tqdm
 
 from aromm.core.errors import InputError, NumericalError
-from aromm.scene.file import Scene
+from aromm.scene.scene_file import Scene
 
 # Peak memory per voxel of the direct (CHOLMOD) path, measured at 80³: 5.5 GB for 5.2e5 nodes (issue 12)
 DIRECT_BYTES_PER_VOXEL = 1.1e4
@@ -76,8 +77,23 @@ def write_extras(*extras: tuple[str, Callable[[], Path]]) -> None:
         raise ExtraFailed(", ".join(failed))
 
 
+def show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,  # noqa: PLR0917
+                 file: Any = None, line: str | None = None) -> None:
+    """A warning as one line ``aromm: warning: ...`` on stderr (no file name, line number or source line; the
+    signature of :func:`warnings.showwarning`); a numerical warning of numpy or scipy says where it came from."""
+    origin = "" if issubclass(category, UserWarning) else f" ({category.__name__} in {Path(filename).stem})"
+    click.echo(f"aromm: warning: {message}{origin}", err=True)
+
+
 def run_guarded(cli: click.Group, argv: list[str]) -> int:
-    """Run the click group and map what ends it to an exit code (module docstring), with a message."""
+    """Run the click group and map what ends it to an exit code (module docstring), with a message; warnings are
+    printed as ``aromm: warning:`` lines (:func:`show_warning`), never raw."""
+    with warnings.catch_warnings():
+        warnings.showwarning = show_warning
+        return _run(cli, argv)
+
+
+def _run(cli: click.Group, argv: list[str]) -> int:
     try:
         cli.main(args=argv, prog_name="aromm", standalone_mode=False)
     except click.exceptions.Exit as done:

@@ -21,10 +21,10 @@ from aromm.core.errors import InputError
 from aromm.core.files import check_output
 from aromm.core.system import TimeGrid
 from aromm.core.vocabulary import FaceSpec
-from aromm.dem.bonds import build_bonds
 from aromm.dem.calibration import calibrate as calibrate_ct
 from aromm.dem.calibration import inclusion_network, inclusion_ratio
 from aromm.dem.explicit import simulate_explicit
+from aromm.dem.neighbours import build_bonds
 from aromm.dem.network import Network
 from aromm.dem.packing import PACKING as PACKING_FILE
 from aromm.dem.packing import Packing, load_packing, pack_spheres

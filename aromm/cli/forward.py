@@ -8,21 +8,20 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aromm.api import default_boundary, homogenize, mean_capacity, reduce, simulate
+from aromm.api import default_boundary, homogenize, is_root, mean_capacity, reduce, simulate
 from aromm.cli import checks
-from aromm.cli import engine as engine_cli
+from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, FORCE, REFINE, SEED, FiniteFloat, echo_json, write_extras
 from aromm.core.errors import InputError
 from aromm.core.files import OutputKind, check_folder, check_output, signed
 from aromm.core.observables import TIME_SERIES, Observables, write_csv
 from aromm.core.series import series_file, write_series, write_vtu
-from aromm.engines import is_root
 from aromm.homogenization.cell_problems import CellResult, effective_conductivity
 from aromm.homogenization.properties import BOUNDARIES, fluxmetric
 from aromm.homogenization.synthetic import homogeneous_measurements
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS
-from aromm.scene.file import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import REFINE_BYTES_PER_VOXEL, assemble, load_scene
 from inverse.measurements import save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))

@@ -16,9 +16,10 @@ from aromm.cli import checks
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
 from aromm.core.errors import InputError
 from aromm.core.files import check_output, distinct
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
+from aromm.core.labchecks import PLAUSIBLE
 from aromm.full.solve import FullModel
-from aromm.scene.file import Scene, assemble, load_scene
+from aromm.scene.scene_file import Scene, assemble, load_scene
 from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot
@@ -46,16 +47,28 @@ def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[Fo
     return rom, info
 
 
+def aligned(rows: list[list[str]], right: int = 0) -> list[str]:
+    """Rows of cells as lines of aligned columns, two spaces apart whatever the widths (never run together); the
+    first ``right`` columns after the first are right-aligned."""
+    widths = [max(len(r[j]) for r in rows) for j in range(len(rows[0]))]
+    return ["  ".join(c.rjust(w) if 0 < j <= right else c.ljust(w)
+                      for j, (c, w) in enumerate(zip(r, widths, strict=True))).rstrip() for r in rows]
+
+
 def _table(result: Identification) -> str:
     unc = result.uncertainty
-    lines = [f"{'parameter':<12}{'estimate':>14}{'std error':>12}{'rel. se':>10}   {'95 % interval':<28}"
-             "95 % HAC interval"]
+    rows = [["parameter", "estimate", "std error", "rel. se", "95 % interval", "95 % HAC interval"]]
     for i, name in enumerate(unc.names):
         est, se = result.estimates[name], unc.std_error[i]
         rel = f"{100 * se / abs(est):.3g} %" if math.isfinite(se) and est else "-"
-        ci = f"[{unc.lower[i]:.6g}, {unc.upper[i]:.6g}]" if math.isfinite(se) else "(not identifiable)"
+        log = " (log)" if i < len(unc.log_scale) and unc.log_scale[i] else ""
+        ci = f"[{unc.lower[i]:.6g}, {unc.upper[i]:.6g}]{log}" if math.isfinite(se) else "(not identifiable)"
         hac = f"[{unc.lower_hac[i]:.6g}, {unc.upper_hac[i]:.6g}]" if math.isfinite(unc.std_error_hac[i]) else "-"
-        lines.append(f"{name:<12}{est:>14.6g}{se:>12.3g}{rel:>10}   {ci:<28}{hac}")
+        rows.append([name, f"{est:.6g}", f"{se:.3g}", rel, ci, hac])
+    lines = aligned(rows, right=3)
+    lines.append("the intervals include: " + "; ".join(unc.error_sources)
+                 + ("" if unc.model_error else "; not the discretisation error of the voxel model (state it with "
+                    "--model-error)"))
     lines.append(f"criterion J = {result.criterion:.4g} °C² (eq. 12), residual std {unc.residual_std:.3g} °C, "
                  f"{result.evaluations} evaluations, {result.seconds:.1f} s")
     lines.append(f"residuals: {unc.residuals.describe()}: "
@@ -73,11 +86,12 @@ def _posterior_table(post: Posterior) -> str:
     lower, upper = post.interval
     lines = ["", f"posterior (MCMC, emcee: {post.walkers} walkers × {post.steps} steps, burn-in {post.burn}, "
                  f"noise σ {'sampled' if post.noise_std is None else f'{post.noise_std:g} °C given'})",
-             f"{'parameter':<12}{'mean':>14}{'std':>12}   {'95 % credible interval':<34}{'τ (steps)':>10}{'ESS':>9}"]
+             ]
+    rows = [["parameter", "mean", "std", "95 % credible interval", "τ (steps)", "ESS"]]
     for i, name in enumerate(post.names):
-        ci = f"[{lower[i]:.6g}, {upper[i]:.6g}]"
-        lines.append(f"{name:<12}{post.mean[i]:>14.6g}{post.std[i]:>12.3g}   {ci:<34}{post.autocorr_time[i]:>10.3g}"
-                     f"{post.effective_samples[i]:>9.0f}")
+        rows.append([name, f"{post.mean[i]:.6g}", f"{post.std[i]:.3g}", f"[{lower[i]:.6g}, {upper[i]:.6g}]",
+                     f"{post.autocorr_time[i]:.3g}", f"{post.effective_samples[i]:.0f}"])
+    lines.extend(aligned(rows, right=2))
     for i, a in enumerate(post.names):
         for j in range(i + 1, len(post.names)):
             lines.append(f"posterior correlation {a} / {post.names[j]}: {post.correlation[i, j]:+.3f}")
@@ -90,6 +104,17 @@ def _posterior_table(post: Posterior) -> str:
 @click.argument("scene", type=click.Path(path_type=Path))
 @click.option("--measurements", "measurements_path", type=click.Path(path_type=Path), required=True,
               help="CSV t,<face>,... of measured face-mean temperatures (s, °C).")
+@click.option("--column", "columns", multiple=True, metavar="COLUMN=OUTPUT",
+              help="Read the CSV column COLUMN as the scene's output OUTPUT (a face or a sensor), e.g. TC1=z0 "
+                   "(repeat); the columns not mapped are then ignored.")
+@click.option("--time-unit", type=click.Choice(["ms", "s", "min", "h"]), default=None,
+              help="Unit of the CSV's times when the file does not state it (a units row or 't (min)'); default s.")
+@click.option("--temperature-unit", type=click.Choice(["C", "K"]), default=None,
+              help="Unit of the CSV's temperatures when the file does not state it (K is converted to °C); "
+                   "data that look like kelvin against the scene are refused until it is stated.")
+@click.option("--plausible", default=None, metavar="LOW:HIGH",
+              help="Plausible range of a measured temperature (°C); values outside it are refused as reading "
+                   "errors.  [default: -200:1500]")
 @click.option("--unknown", "unknowns", multiple=True, required=True, metavar="NAME=LOW:HIGH",
               help="An unknown parameter and its search bounds (repeat), e.g. fibre.k=0.05:1.")
 @click.option("--model", "kind", type=click.Choice(["reduced", "full"]), default="reduced", show_default=True,
@@ -111,15 +136,20 @@ def _posterior_table(post: Posterior) -> str:
 @click.option("--noise-std", type=FiniteFloat(min=0.0, min_open=True), default=None, metavar="S",
               help="Known standard deviation of the sensor noise (°C): compared with the residual, and the σ of "
                    "--posterior (sampled when not given).")
+@click.option("--model-error", type=FiniteFloat(min=0.0, max=1.0), default=0.0, show_default=True, metavar="E",
+              help="Stated relative error of the model's temperature rise (e.g. 0.02: the voxel model's "
+                   "discretisation error); widens the intervals, which then say so.")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
               help="Also sample the posterior of the unknowns: N steps of an emcee ensemble started at the estimates "
                    "(optional extra: pip install 'aromm[posterior]'); with --plot, a corner plot FILE_posterior.png.")
 @click.option("--walkers", type=click.IntRange(min=2), default=DEFAULT_WALKERS, show_default=True,
               help="Walkers of the --posterior ensemble (at least twice the number of sampled coordinates).")
 @FORCE
-def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, ...], kind: str, order: int, seed: int,
+def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ...], time_unit: str | None,
+                 temperature_unit: str | None, plausible: str | None, unknowns: tuple[str, ...], kind: str,
+                 order: int, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
-                 resume: bool, noise_std: float | None, posterior_steps: int | None, walkers: int,
+                 resume: bool, noise_std: float | None, model_error: float, posterior_steps: int | None, walkers: int,
                  force: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean and sensor temperatures.
 
@@ -132,7 +162,9 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
         load_emcee()  # a missing optional extra is refused first
     sc = load_scene(scene)
     bounds = checks.unknowns(unknowns, sc)
-    data = checks.measurements(measurements_path, sc, kind, bounds)
+    reading = checks.ReadOptions(checks.parse_columns(columns), time_unit, temperature_unit,
+                                 checks.parse_range(plausible, "--plausible", PLAUSIBLE))
+    data = checks.measurements(measurements_path, sc, kind, bounds, reading)
     inputs = [*checks.scene_inputs(scene), (measurements_path, "the measurement file (--measurements)")]
     corner = plot.with_name(f"{plot.stem}_posterior{plot.suffix}") if plot is not None and posterior_steps else None
     distinct([(plot, "--plot"), (corner, "--plot (its corner plot)"), (checkpoint, "--checkpoint")])
@@ -168,7 +200,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, unknowns: tuple[str, .
         try:
             result = identify(model, data, bounds, seed=seed, particles=particles, iterations=iterations,
                               checkpoint=checkpoint, resume=resume, progress=report, description=info,
-                              noise_std=noise_std)
+                              noise_std=noise_std, model_error=model_error)
         except KeyboardInterrupt:
             saved = checkpoint is not None and checkpoint.exists()
             raise Interrupted(f"resume with --resume --checkpoint {checkpoint}" if saved else "") from None

@@ -7,15 +7,14 @@ from pathlib import Path
 
 import click
 
-from aromm.api import reduce
+from aromm.api import is_root, reduce
 from aromm.cli import checks
-from aromm.cli import engine as engine_cli
+from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import REFINE, echo_json
 from aromm.core.cache import NpzCache
-from aromm.engines import is_root
 from aromm.linalg.eigensolvers import EIGENSOLVERS
 from aromm.reduction.offline import METHODS as REDUCTIONS
-from aromm.scene.file import assemble
+from aromm.scene.scene_file import assemble
 
 
 @click.command("reduce")

@@ -7,14 +7,23 @@
 * Files are read with ``allow_pickle=False``: only numeric and string arrays are stored.
 * The cache directory is ``$AROMM_CACHE_DIR`` when set, else ``$XDG_CACHE_HOME/aromm``, else
   ``~/.cache/aromm``; never the package directory.
+* It holds the kinds of :data:`KINDS`; every entry records its kind (``cache_kind``), and an entry of another
+  kind (or lacking an array its kind needs) at a key is rebuilt with a :class:`CacheWarning`.
+* One build per entry at a time (:meth:`NpzCache.lock`): an exclusive ``fcntl.flock`` on ``<kind>-<key>.lock``
+  beside the entry; a second process waits, then finds the entry built.  The lock file is removed by its holder
+  before the release (a waiter re-opens a fresh one), so none is left behind.
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
+import logging
 import os
+import warnings
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +33,24 @@ import scipy.sparse as sp
 from aromm.core.files import atomic_write
 
 ENV_VAR = "AROMM_CACHE_DIR"
+KIND_ENTRY = "cache_kind"  # the array naming an entry's kind
+#: The kinds of entry: what each holds (docs/guide/cache.md lists them from here) and the arrays it needs.
+KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "basis": ("the Dirichlet and Steklov modes and eigenvalues (aromm.reduction.modal_bases)",
+              ("vectors", "eigenvalues", "kinds", "zeta", "gram", "gram_condition")),
+    "corrections": ("the static and first-order correction vectors of the loads (aromm.reduction.corrections)",
+                    ("vectors", "coefficients")),
+    "rom": ("the reduced model itself (projected operators, initial state, info)",
+            ("capacity.names", "conductance.names")),
+    "reconstruction": ("the coefficients of the reduced basis Ψ on the detailed basis, for temperature fields "
+                       "(aromm.reduction.offline)", ("coefficients",)),
+}
+
+log = logging.getLogger(__name__)
+
+
+class CacheWarning(UserWarning):
+    """A cache entry could not be used (another kind at its key): it is rebuilt."""
 
 
 def default_cache_dir() -> Path:
@@ -77,19 +104,55 @@ class NpzCache:
         return self.directory / f"{kind}-{key}.npz"
 
     def load(self, kind: str, key: str) -> dict[str, np.ndarray] | None:
-        """The stored arrays, or None when absent or unreadable (a damaged file counts as absent)."""
+        """The stored arrays, or None when absent, unreadable (a damaged file counts as absent) or of another kind
+        (with a :class:`CacheWarning`)."""
         p = self.path(kind, key)
         if not p.is_file():
             return None
         try:
             with np.load(p, allow_pickle=False) as data:
-                return {name: data[name] for name in data.files}
+                arrays = {name: data[name] for name in data.files}
         except (OSError, ValueError, zipfile.BadZipFile, EOFError):
             return None
+        found = str(arrays.pop(KIND_ENTRY)) if KIND_ENTRY in arrays else None
+        missing = [a for a in KINDS[kind][1] if a not in arrays]
+        if (found is not None and found != kind) or missing:
+            what = f"a {found} entry" if found is not None else f"an entry without {', '.join(missing)}"
+            warnings.warn(f"cache: {p} is {what}, not a {kind} entry: rebuilt (and replaced)", CacheWarning,
+                          stacklevel=2)
+            return None
+        return arrays
 
     def save(self, kind: str, key: str, arrays: Mapping[str, npt.ArrayLike]) -> Path:
         """Write atomically (:func:`aromm.core.files.atomic_write`: temporary file in the cache folder, then rename)."""
         target = self.path(kind, key)
         with atomic_write(target, f"cache entry ({kind})", binary=True) as fh:
-            np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()})  # type: ignore[arg-type]
+            entries = {**{k: np.asarray(v) for k, v in arrays.items()}, KIND_ENTRY: np.asarray(kind)}
+            np.savez(fh, **entries)  # type: ignore[arg-type]
         return target
+
+    @contextmanager
+    def lock(self, kind: str, key: str) -> Iterator[None]:
+        """Hold the exclusive lock of one entry (module docstring): build and save it within the block."""
+        self.directory.mkdir(parents=True, exist_ok=True)
+        path = self.directory / f"{kind}-{key}.lock"
+        while True:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                log.info("cache: another process is building %s-%s; waiting for it (lock %s)", kind, key, path)
+                fcntl.flock(fd, fcntl.LOCK_EX)
+            try:
+                current = os.stat(path).st_ino == os.fstat(fd).st_ino  # not a file its last holder removed
+            except FileNotFoundError:
+                current = False
+            if current:
+                break
+            os.close(fd)
+        try:
+            yield
+        finally:
+            path.unlink(missing_ok=True)
+            fcntl.flock(fd, fcntl.LOCK_UN)
+            os.close(fd)

@@ -2,7 +2,7 @@
 
 Data loggers and heaters are rarely synchronised: the measurement stamped t was taken at model time
 ``t + δ`` (δ in s, the parameter ``time_offset``).  :class:`TimeShifted` wraps any forward model
-(:mod:`aromm.core.model`) so that δ is one more parameter, which an identification can estimate jointly
+(:mod:`aromm.core.forward_model`) so that δ is one more parameter, which an identification can estimate jointly
 with the phase properties (``--unknown time_offset=-0.5:0.5``)::
 
     Ŷ(t_i; β, δ) = Y_model(max(t_i + δ, 0); β).
@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.core.errors import InputError
-from aromm.core.model import ForwardModel, one_set
+from aromm.core.forward_model import ForwardModel, one_set
 from aromm.core.observables import Observables
 from aromm.core.system import FloatArray
 

@@ -17,3 +17,7 @@ class InputError(ValueError):
 
 class NumericalError(RuntimeError):
     """A numerical method failed: the message says which solver and why."""
+
+
+class InputWarning(UserWarning):
+    """An input could not be used as given and was replaced: the message says by what (never a silent clamp)."""

@@ -17,7 +17,6 @@ Typical use::
     obs = simulate_explicit(system)            # or aromm.simulate(system): implicit
 """
 
-from aromm.dem.bonds import Bonds, build_bonds, coordination_table, gap_for_coordination
 from aromm.dem.calibration import (
     Calibration,
     InclusionResult,
@@ -31,6 +30,7 @@ from aromm.dem.calibration import (
 )
 from aromm.dem.explicit import simulate_explicit, stability_bound, stability_limit
 from aromm.dem.flux import neighbourhood_mean, particle_flux
+from aromm.dem.neighbours import Bonds, build_bonds, coordination_table, gap_for_coordination
 from aromm.dem.network import (
     Network,
     face_particles,

@@ -34,7 +34,7 @@ import numpy as np
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import FaceSpec
-from aromm.dem.bonds import Bonds, build_bonds
+from aromm.dem.neighbours import Bonds, build_bonds
 from aromm.dem.network import (
     Network,
     Radius,

@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
-from aromm.dem.bonds import Bonds
+from aromm.dem.neighbours import Bonds
 from aromm.dem.network import representative_volumes
 from aromm.dem.packing import Packing
 

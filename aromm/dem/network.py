@@ -45,7 +45,7 @@ import scipy.sparse as sp
 from aromm.core.errors import InputError
 from aromm.core.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FACES, FaceSpec, face_terms, parameter_values
-from aromm.dem.bonds import Bonds, IntArray
+from aromm.dem.neighbours import Bonds, IntArray
 from aromm.dem.packing import Packing
 
 AXES = "xyz"

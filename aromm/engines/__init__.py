@@ -94,12 +94,3 @@ def check_solver(engine: str, solver: str, scipy_solvers: tuple[str, ...]) -> st
     if solver not in allowed:
         raise InputError(f"solver {solver!r} does not belong to engine {engine!r}; allowed: {', '.join(allowed)}")
     return solver
-
-
-def is_root(engine: str) -> bool:
-    """True on the process that prints and writes: the only one for scipy, rank 0 for petsc."""
-    if engine != "petsc":
-        return True
-    from aromm.engines.petsc import runtime
-
-    return runtime.is_root(runtime.world())

@@ -321,7 +321,7 @@ def simulate(
 
 @dataclass(frozen=True)
 class FullModel:
-    """The full finite-element (or DEM) model behind the forward-model protocol (aromm.core.model)."""
+    """The full finite-element (or DEM) model behind the forward-model protocol (aromm.core.forward_model)."""
 
     system: ThermalSystem
     method: str = "auto"

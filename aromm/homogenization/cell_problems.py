@@ -38,10 +38,11 @@ import numpy as np
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS, check_residual, factorize, resolve_method
+from aromm.linalg.multigrid.hierarchy import assembled_matrix
 from aromm.linalg.multigrid.operator import VoxelOperator
-from aromm.linalg.multigrid.solver import MultigridSolver, pinned
-from aromm.scene.file import Scene
+from aromm.linalg.multigrid.pcg import MultigridSolver, pinned
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene
 
 BOUNDARIES = ("periodic", "flux", "temperature")
 SOLVERS = METHODS
@@ -121,7 +122,7 @@ def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult) -> 
             return x
 
         return solve_mg
-    matrix = op.to_csr()
+    matrix = assembled_matrix(op)
     factor = factorize(pinned(matrix) if op.periodic else matrix, method, rtol=rtol, points=op.node_points())
     result.setup_cpu_seconds += time.process_time() - start
 

@@ -32,8 +32,8 @@ from aromm.core.system import FloatArray, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec, held, opposite
 from aromm.full.solve import reaction_heat_flow, steady_field
 from aromm.homogenization.cell_problems import BOUNDARIES, PROBE_FLUX, effective_conductivity
-from aromm.scene.file import Scene, assemble
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene, assemble
 
 MESH_TWIN_CELLS = 32  # elements along a loaded axis of the twin of a mesh scene (no voxel size to inherit)
 #: The conditions solved by probes on an assembled model (mesh scenes, the petsc engine).
@@ -43,7 +43,7 @@ __all__ = ["BOUNDARIES", "Fluxmetric", "fluxmetric", "homogeneous_twin", "homoge
 
 class ProbeScene(Protocol):
     """What the homogenisation probes need of a scene: its box and the same material under other faces
-    (a :class:`~aromm.scene.file.Scene`, or the petsc engine's slab-read VoxelProblem)."""
+    (a :class:`~aromm.scene.scene_file.Scene`, or the petsc engine's slab-read VoxelProblem)."""
 
     @property
     def size(self) -> tuple[float, float, float]: ...

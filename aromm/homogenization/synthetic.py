@@ -17,7 +17,7 @@ from aromm.core.errors import InputError
 from aromm.core.observables import Observables
 from aromm.full.solve import simulate
 from aromm.homogenization.properties import homogeneous_twin
-from aromm.scene.file import Scene, assemble
+from aromm.scene.scene_file import Scene, assemble
 
 
 def homogeneous_measurements(scene: Scene, k: npt.ArrayLike, c: float, *, perturbation: float = 0.0,

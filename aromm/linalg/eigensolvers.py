@@ -5,7 +5,7 @@ Solves ``K v = λ N v`` for the ``count`` smallest λ, with ``N`` symmetric posi
 positive-definite for the given shift σ ≤ 0.  The iteration works on the *inverted* pencil
 ``N x = μ M x``, ``μ = 1/(λ − σ)``, whose largest μ are wanted: its inner product ``xᵀMy`` is a
 norm even when ``N`` is singular, so LOBPCG [Knyazev2001] applies to the Steklov modes without
-the interior garbage that shift-invert Lanczos leaves with a singular ``N`` (aromm.reduction.bases).  On the
+the interior garbage that shift-invert Lanczos leaves with a singular ``N`` (aromm.reduction.modal_bases).  On the
 same subspace the Ritz vectors of ``(K, N)`` and ``(N, M)`` coincide and the residuals are related
 by ``N x − μ M x = −μ (K x − λ N x)``, so converging the one converges the other.
 
@@ -26,6 +26,7 @@ by ``N x − μ M x = −μ (K x − λ N x)``, so converging the one converges 
 from __future__ import annotations
 
 import logging
+import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -50,7 +51,8 @@ EIGENSOLVERS = ("auto", "arpack", "lobpcg")
 #: unknowns, against LOBPCG's 3.51 GB; exponents 0.90 and 0.82 in N from 24³, the fill tending to N^4/3) and
 #: heads for 13–22 GB at 96³ (extrapolated), where LOBPCG measured 11.4 GB and 6,349 CPU s (9.1e5 unknowns).
 LOBPCG_ABOVE = 200_000
-#: Relative residual at which a pair is converged (below aromm.reduction.bases.RESIDUAL_TOL, which is checked after).
+#: Relative residual at which a pair is converged (below aromm.reduction.modal_bases.RESIDUAL_TOL, which is checked
+#: after).
 TOL = 1e-7
 #: Columns per chunk, and extra (guard) columns iterated with them.
 BLOCK = 40
@@ -87,7 +89,8 @@ ProgressCallback = Callable[[EigenProgress], None]
 def choose_eigensolver(name: str, n: int) -> str:
     """``"arpack"`` or ``"lobpcg"`` for an eigenproblem with ``n`` unknowns (``name`` ``"auto"`` picks by size).
 
-    ``"arpack"`` means the direct path of aromm.reduction.bases: dense ``eigh`` up to its DENSE_LIMIT unknowns, ARPACK
+    ``"arpack"`` means the direct path of aromm.reduction.modal_bases: dense ``eigh`` up to its DENSE_LIMIT unknowns,
+    ARPACK
     shift-invert on a sparse factorisation above; ``"lobpcg"`` is used at any size when asked for.
     """
     if name not in EIGENSOLVERS:
@@ -98,8 +101,8 @@ def choose_eigensolver(name: str, n: int) -> str:
 
 
 class PairsBar:
-    """Progress of the eigen-solves: a tqdm bar of converged pairs (all families), a log line whenever the
-    count of a family changes (``logging``, for batch runs), and an optional listener of every report.
+    """Progress of the eigen-solves: a tqdm bar of converged pairs (all families), a log line per 10 % of the pairs
+    of a family (``logging``, for batch runs), and an optional listener of every report.
 
     ``iterations`` holds the LOBPCG iterations reported per family (0 for a direct solve).
     """
@@ -111,7 +114,11 @@ class PairsBar:
         self.iterations: dict[str, int] = {}
 
     def __call__(self, report: EigenProgress) -> None:
-        if self.state.get(report.label, (-1, 0))[0] != report.converged:
+        before = self.state.get(report.label, (-1, 0))[0]
+        tenth = max(1, -(-report.wanted // 10))  # a log line per 10 % of the family's pairs, and at its end
+        if math.isnan(report.residual):  # a one-call solve starting (report_done)
+            log.info("%s: %d pairs wanted, solving", report.label, report.wanted)
+        elif before < 0 or report.converged // tenth != before // tenth or report.converged == report.wanted != before:
             log.info("%s: %d of %d pairs converged (iteration %d, residual %.1e)", report.label, report.converged,
                      report.wanted, report.iterations, report.residual)
         self.state[report.label] = (report.converged, report.wanted)
@@ -128,10 +135,11 @@ class PairsBar:
         self.bar.close()
 
 
-def report_done(progress: ProgressCallback | None, label: str, count: int) -> None:
-    """Report a family solved in one call (dense or ARPACK: no intermediate progress)."""
+def report_done(progress: ProgressCallback | None, label: str, count: int, *, started: bool = False) -> None:
+    """Report a family solved in one call (dense or ARPACK: no intermediate progress): when it starts
+    (``started``: 0 pairs yet, so that the log and the bars know it is under way) and when it is done."""
     if progress is not None:
-        progress(EigenProgress(label, count, count, 0, 0.0))
+        progress(EigenProgress(label, 0 if started else count, count, 0, math.nan if started else 0.0))
 
 
 @dataclass(frozen=True)
@@ -418,35 +426,3 @@ def _final_rayleigh_ritz(a: sp.csr_array, m: sp.csr_array, v: FloatArray) -> tup
         rows = slice(lo, min(lo + ROW_SLAB, v.shape[0]))
         v[rows] = v[rows] @ c
     return mu, v
-
-
-# ----------------------------------------------------------------- checks by chunks of columns (bounded memory)
-
-CHECK_COLUMNS = 32
-
-
-def relative_residuals(k: sp.csr_array, n_mat: sp.csr_array, lam: FloatArray, v: FloatArray) -> FloatArray:
-    """``||K v − λ N v|| / (||K v|| + |λ| ||N v||)`` per column (temporaries of CHECK_COLUMNS columns)."""
-    out = np.empty(v.shape[1])
-    for lo in range(0, v.shape[1], CHECK_COLUMNS):
-        cols = slice(lo, lo + CHECK_COLUMNS)
-        kv = k @ v[:, cols]
-        nv = n_mat @ v[:, cols]
-        num = np.linalg.norm(kv - nv * lam[cols], axis=0)
-        den = np.linalg.norm(kv, axis=0) + np.abs(lam[cols]) * np.linalg.norm(nv, axis=0)
-        out[cols] = num / np.maximum(den, 1e-300)
-    return out
-
-
-def column_norms(m: sp.csr_array, v: FloatArray) -> FloatArray:
-    """``sqrt(diag(vᵀ M v))`` (temporaries of CHECK_COLUMNS columns)."""
-    return np.sqrt(np.concatenate([np.einsum("ij,ij->j", v[:, lo:lo + CHECK_COLUMNS], m @ v[:, lo:lo + CHECK_COLUMNS])
-                                   for lo in range(0, v.shape[1], CHECK_COLUMNS)]))
-
-
-def chunked_gram(m: sp.csr_array, v: FloatArray) -> FloatArray:
-    """``vᵀ M v`` (temporaries of CHECK_COLUMNS columns)."""
-    out = np.empty((v.shape[1], v.shape[1]))
-    for lo in range(0, v.shape[1], CHECK_COLUMNS):
-        out[:, lo:lo + CHECK_COLUMNS] = v.T @ (m @ v[:, lo:lo + CHECK_COLUMNS])
-    return out

@@ -3,7 +3,7 @@
 For each parameter sample s and load vector U_j, the static response ``x = K(s)⁻¹ U_j`` and the first time
 moment ``K(s)⁻¹ C_i x`` (moment matching at zero frequency, the "static correction" / mode-acceleration idea of
 modal synthesis; an extension of [Chavez2020], not in it; docs/method/corrections.md).  They are
-C0-orthonormalised against the Dirichlet–Steklov basis of :mod:`aromm.reduction.bases` and appended to it as kind
+C0-orthonormalised against the Dirichlet–Steklov basis of :mod:`aromm.reduction.modal_bases` and appended to it as kind
 ``"correction"``; the coefficients of the corrections themselves travel with the basis so that the reducer keeps
 them as whole columns.
 """
@@ -19,7 +19,7 @@ import scipy.sparse as sp
 from aromm.core.cache import NpzCache, content_key
 from aromm.core.system import FloatArray, ThermalSystem
 from aromm.linalg.direct import factorize
-from aromm.reduction.bases import BASIS_VERSION, ModalBasis, ReferenceOperators, reference_operators
+from aromm.reduction.modal_bases import BASIS_VERSION, ModalBasis, ReferenceOperators, reference_operators
 from aromm.reduction.shifted import SHIFT
 
 #: Default conductivity factors of the correction samples (each conduction parameter in turn); on the

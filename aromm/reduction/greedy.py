@@ -30,7 +30,7 @@ import numpy.typing as npt
 
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray, ThermalSystem
-from aromm.reduction.reductors import DetailedModel
+from aromm.reduction.reductors import DetailedModel, snapshot_times
 from aromm.reduction.rom import ReducedModel
 
 #: Projection-error singular values below this fraction of the largest are the trajectory's null space.
@@ -49,7 +49,7 @@ class PodGreedy:
     :func:`material_parameters` with :data:`TRAINING_FACTORS`.  ``tolerance`` (°C): stop as soon as the
     worst training error is below it (0: always reach the order, else the order may be smaller).
     ``step``: modes added per iteration (0: ceil(order / 25)).  Snapshot times: the scene's output grid
-    plus early log-spaced times (:func:`aromm.reduction.offline.snapshot_times`).
+    plus early log-spaced times (:func:`aromm.reduction.reductors.snapshot_times`).
     """
 
     training: tuple[tuple[tuple[str, float], ...], ...] = ()
@@ -73,8 +73,6 @@ class PodGreedy:
         return repr((self.name, self.training, self.tolerance, self.step))
 
     def coefficients(self, detailed: DetailedModel, order: int) -> FloatArray:
-        from aromm.reduction.offline import snapshot_times  # aromm.reduction.offline registers this reductor
-
         model = detailed.model
         base = dict(model.parameters)
         training = ([{**base, **dict(mu)} for mu in self.training] if self.training else

@@ -1,6 +1,6 @@
 """Offline reduction: detailed modal basis, reference simulations, a reductor, the reduced model [Chavez2020, § 3].
 
-1. Detailed basis Φ (:mod:`aromm.reduction.bases`): constants, Steklov and Dirichlet modes at reference properties
+1. Detailed basis Φ (:mod:`aromm.reduction.modal_bases`): constants, Steklov and Dirichlet modes at reference properties
    (``basis_values``), enriched by static and first-order correction vectors of the loads.
 2. Reference cases, simulated exactly on the detailed modal model (:class:`~aromm.reduction.rom.ReducedModel` on Φ):
    the system itself at ``reference_values``, other scenarios on the same mesh, and the relaxation of the
@@ -15,10 +15,12 @@ own parameters.  A scene may state other ones (``[reduction]`` section, e.g. the
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import sys
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -26,18 +28,18 @@ import numpy as np
 from tqdm import tqdm
 
 from aromm.core.cache import NpzCache, content_key
-from aromm.core.errors import InputError
+from aromm.core.errors import InputError, InputWarning
 from aromm.core.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid
-from aromm.linalg.eigensolvers import PairsBar, ProgressCallback, choose_eigensolver
+from aromm.linalg.eigensolvers import EigenProgress, PairsBar, ProgressCallback, choose_eigensolver
 from aromm.reduction.amalgam import AmalgamReductor
-from aromm.reduction.bases import ModalBasis, boundary_of, compute_basis, split_modes
 from aromm.reduction.corrections import correction_samples, with_corrections
 from aromm.reduction.greedy import PodGreedy
 from aromm.reduction.lifting import lift, liftings
+from aromm.reduction.modal_bases import ModalBasis, boundary_of, compute_basis, split_modes
 from aromm.reduction.pod import PodReductor
-from aromm.reduction.reductors import DetailedModel, Reductor
+from aromm.reduction.reductors import DetailedModel, Reductor, snapshot_times
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
-from aromm.scene.file import Scene, assemble
+from aromm.scene.scene_file import Scene, assemble
 
 log = logging.getLogger(__name__)
 
@@ -79,14 +81,6 @@ def relaxation_case(system: ThermalSystem, values: Mapping[str, float], h: float
         boundary=system.boundary,
     )
     return ReferenceCase(cooled, {**values, "relaxation.h": h, "initial.T": initial}, name="relaxation")
-
-
-def snapshot_times(grid: TimeGrid | None) -> FloatArray:
-    """The scene's output grid plus 60 log-spaced times from dt/100 (early boundary layers)."""
-    if grid is None:
-        raise InputError("the reduced model needs a time grid ([time] section)")
-    early = np.geomspace(grid.dt / 100.0, grid.end, 60)
-    return np.unique(np.concatenate([early, grid.times]))
 
 
 def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> NpzCache | None:
@@ -153,7 +147,7 @@ def reduce(
     """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3], on one process
     (:func:`aromm.api.reduce` chooses between this and the petsc engine).
 
-    * Detailed basis: constants + Steklov + Dirichlet modes (aromm.reduction.bases) at the reference properties
+    * Detailed basis: constants + Steklov + Dirichlet modes (aromm.reduction.modal_bases) at the reference properties
       ``basis_values`` (overrides of the system's parameters, default none), ``modes`` = Ñ in total
       (default :func:`default_modes`), split evenly unless ``n_dirichlet`` / ``n_steklov`` are given
       (``n_steklov`` counts the constants).
@@ -202,6 +196,11 @@ def reduce(
     system = lift(system, basis_values, solver)  # fixed temperatures: the free unknowns (aromm.reduction.lifting)
     references = [_lifted(r, basis_values, solver) for r in references]
     n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov, lambda total: split_modes(system, total))
+    asked = int(modes) if modes is not None else default_modes(int(order))
+    if n_dirichlet is None and n_steklov is None and n_d + n_s < asked:
+        warnings.warn(f"Ñ = {asked} modes asked{'' if modes is not None else f' (default 1.5 × order {order} + 20)'}, "
+                      f"but the mesh has {system.n} free unknowns: Ñ = {n_d + n_s} modes used ({n_d} Dirichlet, "
+                      f"{n_s} Steklov)", InputWarning, stacklevel=2)
     cases = _cases(system, reference_values or {}, references)
     store = resolve_cache(cache)
     if corrections is True:
@@ -213,47 +212,56 @@ def reduce(
                       getattr(reductor, "cache_key", reductor.name), solver,
                       relaxation, samples, [(c.system.fingerprint(), dict(c.values), c.times) for c in cases],
                       *([eig] if eig != "arpack" else []), *([basis_storage] if basis_storage != "float64" else []))
-    if store is not None:
-        stored = store.load("rom", key)
-        recipe = store.load("reconstruction", key) if fields and stored is not None else None
-        if stored is not None and (not fields or recipe is not None):
-            log.info("reduced model loaded from the cache %s", store.path("rom", key))
-            rom = from_arrays(stored)
-            rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
-            if recipe is None:
-                return rom
-            modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
-                                    eigensolver=eig, storage=basis_storage, store=store, stages=_Stages(False))
-            return _with_fields(rom, original, modal.vectors @ recipe["coefficients"], basis_values, solver)
+    with store.lock("rom", key) if store is not None else contextlib.nullcontext():  # one build per model at a time
+        if store is not None:
+            stored = store.load("rom", key)
+            recipe = store.load("reconstruction", key) if fields and stored is not None else None
+            if stored is not None and (not fields or recipe is not None):
+                log.info("reduced model loaded from the cache %s", store.path("rom", key))
+                rom = from_arrays(stored)
+                rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+                _order_used(int(order), rom)
+                if recipe is None:
+                    return rom
+                modal = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
+                                        eigensolver=eig, storage=basis_storage, store=store, stages=_Stages(False))
+                return _with_fields(rom, original, modal.vectors @ recipe["coefficients"], basis_values, solver)
 
-    start = time.perf_counter()
-    stages = _Stages(progress)
-    pairs = PairsBar(enabled=progress, listener=eigen_progress)
-    basis = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
-                            eigensolver=eig, storage=basis_storage, store=store, stages=stages, progress=pairs)
-    pairs.close()
-    stages.next("projection and reference cases")
-    memo: dict[int, FloatArray] = {}
-    model = ReducedModel.from_system(system, basis.vectors, memo)
-    if relaxation:
-        cases.append(relaxation_case(system, cases[0].values))
-    projected = [(model if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
-                  case) for case in cases]
-    stages.next(f"{reductor.name} to order {order}")
-    tracked = replace(model, basis=np.eye(basis.size))  # transform() carries Ψ's coefficients A (Ψ = Φ A)
-    rom, err = reduce_detailed(tracked, projected, basis, int(order), reductor, check_values=cases[0].values)
-    coefficients, rom = rom.basis, replace(rom, basis=None)
-    assert coefficients is not None
-    stages.close()
-    info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
-            "lifted_faces": fixed, "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values())}
-    rom = replace(rom, info=info)
-    log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
-             rom.order, basis.size, info["offline_seconds"], err)
-    if store is not None:
-        store.save("rom", key, to_arrays(rom))
-        store.save("reconstruction", key, {"coefficients": coefficients})
-    return _with_fields(rom, original, basis.vectors @ coefficients, basis_values, solver) if fields else rom
+        start = time.perf_counter()
+        stages = _Stages(progress)
+
+        def converged(report: EigenProgress) -> None:  # the reduce bar moves with the pairs during the basis step
+            stages.within(sum(c for c, _ in pairs.state.values()) / max(n_d + n_s, 1))
+            if eigen_progress is not None:
+                eigen_progress(report)
+
+        pairs = PairsBar(enabled=progress, listener=converged)
+        basis = _detailed_basis(system, n_d, n_s, basis_values=basis_values, samples=samples, solver=solver,
+                                eigensolver=eig, storage=basis_storage, store=store, stages=stages, progress=pairs)
+        pairs.close()
+        stages.next("projection and reference cases")
+        memo: dict[int, FloatArray] = {}
+        model = ReducedModel.from_system(system, basis.vectors, memo)
+        if relaxation:
+            cases.append(relaxation_case(system, cases[0].values))
+        projected = [(model if case.system is system else ReducedModel.from_system(case.system, basis.vectors, memo),
+                      case) for case in cases]
+        stages.next(f"{reductor.name} to order {order}")
+        tracked = replace(model, basis=np.eye(basis.size))  # transform() carries Ψ's coefficients A (Ψ = Φ A)
+        rom, err = reduce_detailed(tracked, projected, basis, int(order), reductor, check_values=cases[0].values)
+        coefficients, rom = rom.basis, replace(rom, basis=None)
+        assert coefficients is not None
+        stages.close()
+        info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
+                "lifted_faces": fixed, "eigensolver": eig, "eigen_iterations": sum(pairs.iterations.values())}
+        rom = replace(rom, info=info)
+        _order_used(int(order), rom)
+        log.info("reduced model built: order %d from %d modes in %.1f s, reference error %.3g °C",
+                 rom.order, basis.size, info["offline_seconds"], err)
+        if store is not None:
+            store.save("rom", key, to_arrays(rom))
+            store.save("reconstruction", key, {"coefficients": coefficients})
+        return _with_fields(rom, original, basis.vectors @ coefficients, basis_values, solver) if fields else rom
 
 
 def _detailed_basis(system: ThermalSystem, n_d: int, n_s: int, *, basis_values: Mapping[str, float],
@@ -314,10 +322,19 @@ def _lifted(case: ThermalSystem | ReferenceCase, values: Mapping[str, float], so
     return replace(case, system=lift(case.system, values, solver))
 
 
+def _order_used(order: int, rom: ReducedModel) -> None:
+    """Warn when the model's order is below the one asked: the detailed basis (modes and correction vectors) had
+    fewer vectors, and the whole of it is the model."""
+    if rom.order < order:
+        warnings.warn(f"order ñ = {order} asked, but the detailed basis has {rom.order} vectors (Ñ = "
+                      f"{rom.info.get('modes')} incl. correction vectors): order {rom.order} used (raise --modes, "
+                      "or ask for a lower order)", InputWarning, stacklevel=3)
+
+
 def mode_counts(order: int, modes: int | None, n_dirichlet: int | None, n_steklov: int | None,
                 split: Callable[[int], tuple[int, int]]) -> tuple[int, int]:
     """(n_dirichlet, n_steklov) of :func:`reduce`: Ñ = ``modes`` (default :func:`default_modes`) split by
-    ``split`` (aromm.reduction.bases.split_modes) unless one of the counts is given."""
+    ``split`` (aromm.reduction.modal_bases.split_modes) unless one of the counts is given."""
     total = int(modes) if modes is not None else default_modes(order)
     if n_dirichlet is None and n_steklov is None:
         return split(total)
@@ -377,11 +394,18 @@ class _Stages:
 
     def next(self, stage: str) -> None:
         if self.started:
-            self.bar.update()
+            self.bar.n = int(self.bar.n) + 1
+            self.bar.refresh()
         self.started = True
         self.bar.set_postfix_str(stage)
         log.info("reduce: %s", stage)
 
+    def within(self, fraction: float) -> None:
+        """Progress within the current stage (0 to 1): the bar moves during a long stage."""
+        self.bar.n = int(self.bar.n) + min(max(fraction, 0.0), 0.99)
+        self.bar.refresh()
+
     def close(self) -> None:
-        self.bar.update(self.bar.total - self.bar.n)
+        self.bar.n = self.bar.total
+        self.bar.refresh()
         self.bar.close()

@@ -1,7 +1,7 @@
 """What a reductor is: a rule that turns the detailed modal model into the coefficients of a reduced basis.
 
 The offline reduction (:mod:`aromm.reduction.offline`) computes a detailed basis Φ of Ñ modes (Dirichlet,
-Steklov, constants and correction vectors, :mod:`aromm.reduction.bases`), the detailed modal model on Φ and the
+Steklov, constants and correction vectors, :mod:`aromm.reduction.modal_bases`), the detailed modal model on Φ and the
 excitation states of reference simulations.  A :class:`Reductor` then chooses coefficients A (Ñ × ñ)
 and the reduced basis is Ψ = Φ A; every projected operator becomes ``AᵀXA`` without touching the mesh.
 The amalgam [Quemener2012; Chavez2020, eq. 9] (:mod:`aromm.reduction.amalgam`) and POD (:mod:`aromm.reduction.pod`) are
@@ -16,8 +16,9 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-from aromm.core.system import FloatArray
-from aromm.reduction.bases import ModalBasis
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray, TimeGrid
+from aromm.reduction.modal_bases import ModalBasis
 from aromm.reduction.rom import ReducedModel
 
 
@@ -69,3 +70,11 @@ class Reductor(Protocol):
     def name(self) -> str: ...
 
     def coefficients(self, detailed: DetailedModel, order: int) -> FloatArray: ...
+
+
+def snapshot_times(grid: TimeGrid | None) -> FloatArray:
+    """The scene's output grid plus 60 log-spaced times from dt/100 (early boundary layers)."""
+    if grid is None:
+        raise InputError("the reduced model needs a time grid ([time] section)")
+    early = np.geomspace(grid.dt / 100.0, grid.end, 60)
+    return np.unique(np.concatenate([early, grid.times]))

@@ -41,7 +41,7 @@ from threadpoolctl import ThreadpoolController
 
 from aromm.core import resources
 from aromm.core.errors import InputError, NumericalError
-from aromm.core.model import one_set
+from aromm.core.forward_model import one_set
 from aromm.core.observables import Observables
 from aromm.core.profiles import Profile
 from aromm.core.resources import FLOAT
@@ -96,7 +96,7 @@ def _transformed(affine: Affine, a: FloatArray) -> Affine:
 
 @dataclass(frozen=True)
 class ReducedModel:
-    """A Galerkin-projected ThermalSystem of order r; implements the ForwardModel protocol (aromm.core.model).
+    """A Galerkin-projected ThermalSystem of order r; implements the ForwardModel protocol (aromm.core.forward_model).
 
     ``projected`` is the reduced system (dense r × r operators, projected observation rows, the scene's
     parameters and time grid, the feedthrough of a lifted system); ``initial`` holds ``Ψᵀ C_j 1`` per

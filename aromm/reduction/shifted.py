@@ -1,6 +1,6 @@
 """Shifted-solve correction vectors: Laplace-domain samples of the load response (rational Krylov moments).
 
-The static and first-moment correction vectors of aromm.reduction.bases match the response at s = 0 (late times).
+The static and first-moment correction vectors of aromm.reduction.modal_bases match the response at s = 0 (late times).
 The early response — a boundary layer growing under the heated face over the first output times — lives at
 Laplace frequencies s ≈ 1/t.  A correction sample with a shift s adds ``(K(p) + s C(p))⁻¹ U_j`` and
 ``(K(p) + s C(p))⁻¹ C_i (K(p) + s C(p))⁻¹ U_j`` for every load U_j and capacity term C_i: the transfer

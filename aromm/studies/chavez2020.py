@@ -20,14 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec
 from aromm.homogenization.properties import fluxmetric, mean_capacity
 from aromm.homogenization.synthetic import homogeneous_measurements
 from aromm.reduction.offline import reduce
 from aromm.reduction.rom import ReducedModel
-from aromm.scene.file import Scene, assemble, load_scene, scene_from_dict
+from aromm.scene.scene_file import Scene, assemble, load_scene, scene_from_dict
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, Scenario
 from inverse.farm import Farm

@@ -25,12 +25,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from aromm.core.clock import TIME_OFFSET, TimeShifted
-from aromm.core.model import ForwardModel
+from aromm.core.forward_model import ForwardModel
 from aromm.core.profiles import Profile
 from aromm.core.system import FloatArray, TimeGrid
 from aromm.core.vocabulary import FaceSpec
 from aromm.full.solve import FullModel
-from aromm.scene.file import Scene, assemble
+from aromm.scene.scene_file import Scene, assemble
 from aromm.scene.sensors import FaceSensor, PointSensor, Sensor
 from inverse.measurements import Measurements
 

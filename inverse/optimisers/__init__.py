@@ -9,9 +9,9 @@ A new optimiser is one module: a class with a ``name`` and a ``run`` method (:cl
 passed to :func:`inverse.identify` in its ``optimisers`` chain.
 """
 
-from inverse.optimisers.base import Optimiser, Outcome, Problem, Step
 from inverse.optimisers.box import Box
 from inverse.optimisers.evolution import DifferentialEvolution
+from inverse.optimisers.interface import Optimiser, Outcome, Problem, Step
 from inverse.optimisers.least_squares import LeastSquaresRefinement, Refinement, jacobian, refine
 from inverse.optimisers.swarm import ParticleSwarm, SwarmState, pso
 

@@ -15,7 +15,7 @@ import numpy as np
 import scipy.optimize as so
 
 from aromm.core.system import FloatArray
-from inverse.optimisers.base import Outcome, Problem, State, Step
+from inverse.optimisers.interface import Outcome, Problem, State, Step
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import scipy.optimize as so
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
-from inverse.optimisers.base import Outcome, Problem, Residuals, State, Step
+from inverse.optimisers.interface import Outcome, Problem, Residuals, State, Step
 
 FD_STEP = 1e-5  # central-difference step in normalised coordinates
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
-from inverse.optimisers.base import Objective, Outcome, Problem, State, Step
+from inverse.optimisers.interface import Objective, Outcome, Problem, State, Step
 
 W, C1, C2 = 0.7298, 1.49618, 1.49618  # Clerc–Kennedy constriction [ClercKennedy2002]
 V_MAX = 0.5  # velocity clamp, fraction of the normalised range per step

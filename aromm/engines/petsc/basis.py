@@ -1,12 +1,12 @@
 """The detailed modal basis on the petsc engine: constants + Steklov + Dirichlet modes + correction modes.
 
-Same definitions as :func:`aromm.reduction.bases.compute_basis` and
+Same definitions as :func:`aromm.reduction.modal_bases.compute_basis` and
 :func:`aromm.reduction.corrections.with_corrections` ([Chavez2020,
 § 3.1] and the static / first-order dynamic corrections of the loads), with the operators held by PETSc and
 the vectors distributed by rows.  The small dense algebra (Gram matrices, orthonormalisation, the
-enrichment) is aromm.reduction.bases' own (:func:`aromm.reduction.corrections.enrich`,
-:func:`aromm.reduction.bases.check_gram`) with the
-capacity product summed over the ranks.  The returned :class:`~aromm.reduction.bases.ModalBasis` holds this rank's
+enrichment) is aromm.reduction.modal_bases' own (:func:`aromm.reduction.corrections.enrich`,
+:func:`aromm.reduction.modal_bases.check_gram`) with the
+capacity product summed over the ranks.  The returned :class:`~aromm.reduction.modal_bases.ModalBasis` holds this rank's
 rows in ``vectors``.
 """
 
@@ -23,15 +23,15 @@ from aromm.core.system import FloatArray
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
 from aromm.engines.petsc.eigen import Reference, dirichlet_modes, steklov_modes
-from aromm.reduction.bases import ModalBasis, check_gram, reference_operators, zero_modes
 from aromm.reduction.corrections import enrich
+from aromm.reduction.modal_bases import ModalBasis, check_gram, reference_operators, zero_modes
 
 #: Relative residual of the correction solves K(s) x = U_j.
 CORRECTION_RTOL = 1e-12
 
 
 def reference(system: DistributedSystem, values: Mapping[str, float] | None = None) -> tuple[Reference, FloatArray]:
-    """Distributed K0, C0, B and ζ at the reference values (aromm.reduction.bases.reference_operators), and the
+    """Distributed K0, C0, B and ζ at the reference values (aromm.reduction.modal_bases.reference_operators), and the
     capacity-normalised constant modes (this rank's rows)."""
     template = system.template
     ops = reference_operators(template, values)  # the same checks and reference values as the serial path

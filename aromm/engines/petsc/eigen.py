@@ -1,18 +1,19 @@
-"""Dirichlet and Steklov eigenbases by SLEPc, with the definitions and normalisation of :mod:`aromm.reduction.bases`.
+"""Dirichlet and Steklov eigenbases by SLEPc, with the definitions and normalisation of
+:mod:`aromm.reduction.modal_bases`.
 
 With reference operators K0 (conduction), C0 (capacity) and the boundary mass B [Chavez2020, § 3.1]:
 
 * Dirichlet modes (eq. 6): ``K0_II v = λ C0_II v`` on the interior rows, ``v = 0`` on Γ;
 * Steklov modes (eqs. 7–8): ``K0 v = λ ζB v`` with ``ζ = 1ᵀC0 1 / 1ᵀB 1``; the constants (λ = 0) are
-  computed apart (:func:`aromm.reduction.bases.zero_modes`) and dropped here.
+  computed apart (:func:`aromm.reduction.modal_bases.zero_modes`) and dropped here.
 
 Both are generalised Hermitian problems solved by Krylov–Schur with shift-and-invert (SLEPc ``EPS`` +
 ``ST sinvert``), the inner solves being a MUMPS Cholesky factorisation or CG + GAMG to a tight tolerance
-(``solver``, aromm.engines.petsc.linear).  As in aromm.reduction.bases, Steklov uses a small negative shift
+(``solver``, aromm.engines.petsc.linear).  As in aromm.reduction.modal_bases, Steklov uses a small negative shift
 ``σ = −1e-6 max(diag K0 / diag ζB)`` (K0 and B are both singular), then one purification solve
 ``V ← (K0 − σζB)⁻¹ ζB V`` (the discrete harmonic extension), then a Rayleigh–Ritz step.  Every mode is
 capacity-normalised, ``vᵀ C0 v = 1``.  Residuals and orthogonality are checked against the tolerances of
-aromm.reduction.bases; a :class:`~aromm.core.errors.NumericalError` names the solver when they fail.
+aromm.reduction.modal_bases; a :class:`~aromm.core.errors.NumericalError` names the solver when they fail.
 
 Vectors are this rank's rows (n_local × count); every returned array is identical across ranks except
 those rows.
@@ -30,9 +31,9 @@ from aromm.core.errors import NumericalError
 from aromm.core.system import FloatArray
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.layout import RowLayout
-from aromm.reduction.bases import ORTHOGONALITY_TOL, RESIDUAL_TOL
+from aromm.reduction.modal_bases import ORTHOGONALITY_TOL, RESIDUAL_TOL
 
-#: SLEPc's relative residual tolerance for converged eigenpairs (ARPACK in aromm.reduction.bases works to machine
+#: SLEPc's relative residual tolerance for converged eigenpairs (ARPACK in aromm.reduction.modal_bases works to machine
 #: precision; 1e-12 gives eigenvalues equal to ARPACK's to ~1e-14 relative on the test cases).
 EIGEN_TOL = 1e-12
 #: Relative tolerance of the iterative inner solves of shift-and-invert (must be tighter than EIGEN_TOL).
@@ -94,7 +95,7 @@ def _solve_eps(a: Any, b: Any, count: int, *, target: float, solver: str, prefix
 
 
 def _residuals(a: Any, b: Any, lam: FloatArray, vec: FloatArray, comm: Any) -> FloatArray:
-    """``||A v − λ B v|| / (||A v|| + |λ| ||B v||)`` per column (aromm.reduction.bases._relative_residuals)."""
+    """``||A v − λ B v|| / (||A v|| + |λ| ||B v||)`` per column (aromm.reduction.modal_bases._relative_residuals)."""
     sq = np.empty((3, vec.shape[1]))
     for cols, (av, bv) in convert.blocks((a, b), vec):
         sq[:, cols] = [((av - bv * lam[cols]) ** 2).sum(axis=0), (av**2).sum(axis=0), (bv**2).sum(axis=0)]

@@ -18,7 +18,7 @@ from aromm.engines.petsc.assembly import assemble_boxes
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.steady import steady
 from aromm.homogenization.properties import ProbeSolver
-from aromm.scene.file import Scene
+from aromm.scene.scene_file import Scene
 
 
 def as_problem(scene: Scene | VoxelProblem) -> VoxelProblem:

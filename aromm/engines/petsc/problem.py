@@ -25,8 +25,8 @@ from aromm.engines.petsc.images import generated_image, open_image
 from aromm.engines.petsc.layout import BoxLayout
 from aromm.fem.voxel import assemble_voxels
 from aromm.microstructure.boxes import ImageBoxes
-from aromm.scene.file import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
 
 #: Named sensors ([outputs.<name>], aromm.scene.sensors) are observation rows of the serial assembly only.
 SENSORS_REFUSED = "sensors are assembled by the scipy engine only; use --engine scipy (or mean_T outputs)"

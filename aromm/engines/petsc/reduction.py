@@ -29,8 +29,8 @@ from aromm.engines.petsc.basis import compute_basis, correction_count, with_corr
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
-from aromm.reduction.bases import split_counts
 from aromm.reduction.corrections import correction_samples
+from aromm.reduction.modal_bases import split_counts
 from aromm.reduction.offline import (
     ReferenceCase,
     at_reference,
@@ -43,7 +43,7 @@ from aromm.reduction.offline import (
 )
 from aromm.reduction.reductors import Reductor
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
-from aromm.scene.file import Scene
+from aromm.scene.scene_file import Scene
 
 _VERSION = 2  # 2: image digest independent of the cut (boxes)
 
@@ -108,7 +108,8 @@ def reduce(
 ) -> ReducedModel:
     """AROMM reduced model of ``source`` at order ``order`` on the petsc engine (options of aromm.reduce).
 
-    ``source``: a voxel :class:`~aromm.scene.Scene` or box-read :class:`VoxelProblem` (assembled by boxes),
+    ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or box-read :class:`VoxelProblem` (assembled by
+    boxes),
     or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
     and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky).
     """

@@ -5,7 +5,7 @@ This is ``aromm.linalg.direct.factorize(a, method="mg", points=...)``: any syste
 The grid is read off the unknowns' coordinates; eliminated nodes become identity rows of the full grid.
 Coarse operators are Galerkin products Pᵀ A P with the trilinear prolongation of
 :mod:`aromm.linalg.multigrid.hierarchy` (masked on eliminated nodes), assembled by scipy; smoothing, V-cycle and
-CG are those of :class:`~aromm.linalg.multigrid.solver.MultigridSolver`.  Memory is that of the assembled matrix
+CG are those of :class:`~aromm.linalg.multigrid.pcg.MultigridSolver`.  Memory is that of the assembled matrix
 (≈ 330 B per unknown) plus ≈ 1/7 for the coarse levels: the matrix-free path of the homogenisation
 (:mod:`aromm.homogenization.cell_problems`) is the lean one.
 """
@@ -85,7 +85,7 @@ def galerkin(a: sp.csr_array, shape: tuple[int, int, int], fixed: npt.NDArray[np
 
 def grid_solver(a: sp.csr_array, points: FloatArray | None, rtol: float) -> Callable[[FloatArray], FloatArray]:
     """``solve(b)`` by multigrid-preconditioned CG for ``aromm.linalg.direct.factorize(method="mg")``."""
-    from aromm.linalg.multigrid.solver import MultigridSolver
+    from aromm.linalg.multigrid.pcg import MultigridSolver
 
     grid = GridMatrix.from_points(a, points)
     mg = MultigridSolver(grid, rtol=rtol)  # type: ignore[arg-type]

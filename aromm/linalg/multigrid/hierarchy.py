@@ -157,6 +157,11 @@ class ElementLevel:
         return out
 
 
+def assembled_matrix(op: VoxelOperator) -> sp.csr_array:
+    """The constrained operator ``op`` assembled (27-point rows): for direct solvers and tests."""
+    return ElementLevel.fine(op).to_csr()
+
+
 def mask_fixed(values: FloatArray, fixed: tuple[str, ...], k0: int, nz: int) -> None:
     """Zero the classes touching fixed node planes, for the element planes [k0, k0 + values.shape[3])."""
     planes = values.shape[3]

@@ -27,7 +27,6 @@ from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
-import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
@@ -245,12 +244,6 @@ class VoxelOperator:
         z, y, x = np.meshgrid(*(np.arange(s) * h for s, h in zip(self.node_shape, self.voxel_size[::-1],
                                                                   strict=True)), indexing="ij")
         return np.column_stack([x.ravel(), y.ravel(), z.ravel()])
-
-    def to_csr(self) -> sp.csr_array:
-        """The constrained operator assembled (27-point rows): for direct solvers and tests."""
-        from aromm.linalg.multigrid.hierarchy import ElementLevel
-
-        return ElementLevel.fine(self).to_csr()
 
 
 def fold_ghosts(a: FloatArray, axes: tuple[int, ...]) -> None:

@@ -12,11 +12,12 @@ from typing import Any
 
 import click
 
+from aromm.api import is_root
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, refine_scene
 from aromm.core.errors import InputError
-from aromm.engines import ENGINES, PETSC_SOLVERS, check_engine, check_solver, is_root
+from aromm.engines import ENGINES, PETSC_SOLVERS, check_engine, check_solver
 from aromm.linalg.direct import METHODS
-from aromm.scene.file import load_scene
+from aromm.scene.scene_file import load_scene
 
 ENGINE = click.option("--engine", type=click.Choice(ENGINES), default="scipy", show_default=True,
                       help="scipy: one process; petsc: PETSc/SLEPc under `mpiexec -n P` (rank 0 prints and writes).")

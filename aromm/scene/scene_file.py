@@ -18,7 +18,7 @@ import numpy as np
 
 from aromm import microstructure
 from aromm.core.errors import InputError
-from aromm.core.observables import read_csv
+from aromm.core.labcsv import read_lab_csv
 from aromm.core.profiles import Profile
 from aromm.core.resources import MAX_TIME_STEPS, available_memory
 from aromm.core.system import ThermalSystem, TimeGrid
@@ -364,8 +364,9 @@ def _boundary(r: TableReader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
 
 
 def _load(r: TableReader, value: Any, key: str) -> Load:
-    """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file) read
-    as a piecewise-linear history held at its last value (:class:`~aromm.core.profiles.Profile`)."""
+    """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file, a laboratory
+    export read by :func:`aromm.core.labcsv.read_lab_csv`) read as a piecewise-linear history held at its last value
+    (:class:`~aromm.core.profiles.Profile`)."""
     if not isinstance(value, str):
         return r.number(value, key)
     file = Path(value)
@@ -373,7 +374,9 @@ def _load(r: TableReader, value: Any, key: str) -> Load:
         file = r.path.parent / file
     if not file.is_file():
         raise r.fail(key, f"history file not found: {file} (a number, or a CSV file t,<value> relative to the scene)")
-    table = read_csv(file)
+    # a logger export is read as such (aromm.core.labcsv): a fixed or exterior temperature in °C or K, a flux in W/m²
+    table = read_lab_csv(file, quantity="flux" if key.endswith(".flux") else "temperature",
+                         what=f"history file ({key})").table
     if len(table.outputs) != 1:
         raise r.fail(key, f"{file}: a history has two columns t,<value>, got {', '.join(('t', *table.outputs))}")
     values = np.asarray(next(iter(table.mean_T.values())), dtype=float)

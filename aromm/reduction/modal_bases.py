@@ -42,15 +42,8 @@ from aromm.core.cache import NpzCache, content_key
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray, ThermalSystem, require_free_transient
 from aromm.linalg.direct import Factorization, factorize, resolve_method
-from aromm.linalg.eigensolvers import (
-    ProgressCallback,
-    choose_eigensolver,
-    chunked_gram,
-    column_norms,
-    relative_residuals,
-    report_done,
-    smallest_eigenpairs,
-)
+from aromm.linalg.eigen_checks import chunked_gram, column_norms, relative_residuals
+from aromm.linalg.eigensolvers import ProgressCallback, choose_eigensolver, report_done, smallest_eigenpairs
 
 #: Largest system solved with dense ``eigh`` (every mode) instead of ARPACK.
 DENSE_LIMIT = 1500
@@ -217,6 +210,7 @@ def dirichlet_modes(ops: ReferenceOperators, count: int, method: str = "auto", *
         lam, vec = found.eigenvalues, found.vectors
         vec /= column_norms(c_ii, vec)
     else:
+        report_done(progress, "Dirichlet modes", count, started=True)
         if n_i <= DENSE_LIMIT:
             lam, vec = sla.eigh(k_ii.toarray(), c_ii.toarray(), subset_by_index=(0, count - 1))
         else:
@@ -261,6 +255,7 @@ def steklov_modes(ops: ReferenceOperators, count: int, method: str = "auto", *, 
         lam, vec = found.eigenvalues, found.vectors
         label = "LOBPCG"
     else:
+        report_done(progress, "Steklov modes", count, started=True)
         lam, vec = _steklov_shift_invert(ops, b, want, n_zero, sigma=sigma, method=method)
         label = f"shift-invert, {resolve_method(method)}"
         report_done(progress, "Steklov modes", count)
