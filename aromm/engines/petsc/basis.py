@@ -98,8 +98,9 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
     template = system.template
     if not template.load.terms:
         return basis
-    ref, _ = reference(system, values)
     comm = system.comm
+    # C0 only (the C0 product of the enrichment): K0 of reference() is not needed here
+    capacity = system.combine(system.capacity, reference_operators(template, values).values)
     exchange = bool(template.conductance.with_role("exchange"))
     count = correction_count(system, samples)
     room = _reserved(basis.vectors, count)  # the correction vectors go where the correction modes will be
@@ -131,7 +132,6 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
                 j += 1
         ksp.destroy()  # one multigrid hierarchy (or factorisation) alive at a time (peak memory)
         k_mat.destroy()
-    capacity = ref.capacity
     extra, coefficients = enrich(cols[:, :j], basis, lambda a, b: convert.quadratic(capacity, a, b, comm))
     del cols  # read by enrich only: its columns now receive the correction modes
     return ModalBasis(_extended(basis.vectors, extra),
