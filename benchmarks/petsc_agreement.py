@@ -1,12 +1,13 @@
-"""Agreement of the petsc engine at 2 ranks and 1 rank with ARPACK and the serial engine (the cases of
-tests/test_petsc_engine.py, printed as numbers with seconds).
+"""Agreement of the petsc engine at P ranks and 1 rank with ARPACK and the serial engine (the cases of
+tests/test_petsc_engine.py, printed as numbers with seconds); P = 4 is cut in 2×2×1 boxes, P = 2 in z-slabs.
 
 Prints: the largest relative difference of the Dirichlet and Steklov eigenvalues from ARPACK (scipy's eigsh,
 shift-invert) for the MUMPS and the CG + GAMG inner solvers; the largest difference (°C) of the face means of the
 reduced model (with and without correction modes), of the transient and steady full models, and the relative
-difference of the homogenised k, from the serial (scipy) engine; wall seconds of each run and the load average.
+difference of the homogenised k, from the serial (scipy) engine; then the P-rank results against the 1-rank
+ones; wall seconds of each run and the load average.
 
-Usage: python benchmarks/petsc_agreement.py [--ranks 2]   (needs petsc4py/slepc4py/mpi4py and mpiexec;
+Usage: python benchmarks/petsc_agreement.py [--ranks 4]   (needs petsc4py/slepc4py/mpi4py and mpiexec;
 --ranks 1 skips the mpiexec run)
 """
 
@@ -32,7 +33,8 @@ from aromm.engines.petsc import runtime  # noqa: E402
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--ranks", type=int, choices=(1, 2), default=2)
+    parser.add_argument("--ranks", type=int, choices=(1, 2, 4), default=4,
+                        help="ranks of the mpiexec run (4: 2×2×1 boxes, 2: z-slabs, 1: none)")
     args = parser.parse_args()
     load = os.getloadavg()[0]
     two: dict[str, np.ndarray] = {}
@@ -40,8 +42,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder) / "two.npz"
         start = time.perf_counter()
-        if args.ranks == 2:
-            run = cases.mpiexec(sys.executable, str(ROOT / "tests" / "petsc_worker.py"), str(out))
+        if args.ranks > 1:
+            run = cases.mpiexec(sys.executable, str(ROOT / "tests" / "petsc_worker.py"), str(out), ranks=args.ranks,
+                                options=petsc_cases.BOXES_2x2x1 if args.ranks == 4 else "")
             if run.returncode != 0:
                 raise SystemExit(run.stderr[-3000:])
             two_s = time.perf_counter() - start
@@ -54,9 +57,13 @@ def main() -> None:
     reference = petsc_cases.arpack()
     serial = petsc_cases.serial()
     serial_s = time.perf_counter() - start
-    print(f"load average {load:.1f} → {os.getloadavg()[0]:.1f} (2 cores, shared); wall s: 2 ranks {two_s:.0f} "
+    many = f"{args.ranks} ranks"
+    print(f"load average {load:.1f} → {os.getloadavg()[0]:.1f} (2 cores, shared); wall s: {many} {two_s:.0f} "
           f"(incl. start-up), 1 rank {one_s:.0f}, serial + ARPACK {serial_s:.0f}")
-    print(f"{'quantity':<44} {'2 ranks':>10} {'1 rank':>10}")
+    if two:
+        print(f"process grid: {tuple(int(g) for g in two['grid'])}; box rows vs the DMDA's AO: "
+              f"{int(two['numbering_error'])} (largest difference)")
+    print(f"{'quantity':<44} {many:>10} {'1 rank':>10}")
     runs = (two, one) if two else (one,)
     for family in ("dirichlet", "steklov"):
         for solver in ("mumps", "gamg"):
@@ -73,6 +80,13 @@ def main() -> None:
         rows = [np.max(np.abs(np.diag(r[f"k_{b}"]) / np.diag(serial[f"k_{b}"]) - 1)) for r in runs]
         print(f"homogenised k ({b}) vs serial (rel.)".ljust(44 + 11 * (len(runs) == 1))
               + "".join(f"{v:>10.1e}" for v in rows))
+    if two:
+        print(f"{many} against 1 rank (largest difference; relative for eigenvalues and k):")
+        for key in one:
+            if key not in ("grid", "numbering_error"):
+                diff = np.max(np.abs(np.asarray(two[key]) - np.asarray(one[key])))
+                scale = np.max(np.abs(one[key])) if key.startswith(("dirichlet", "steklov", "k_")) else 1.0
+                print(f"  {key:<40} {diff / scale:>10.1e}")
 
 
 if __name__ == "__main__":

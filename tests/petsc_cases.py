@@ -1,6 +1,6 @@
-"""Cases of the petsc-engine tests, computed the same way at 1 rank (in the pytest process) and at 2 ranks
-(``mpiexec -n 2 python tests/petsc_worker.py OUT.npz``): small random two-phase images, no symmetry (so
-no degenerate eigenvalues), contrast 12 in k and 3300 in c."""
+"""Cases of the petsc-engine tests, computed the same way at 1 rank (in the pytest process) and at 4 ranks cut
+2×2×1 (``mpiexec -n 4 python tests/petsc_worker.py OUT.npz`` with :data:`BOXES_2x2x1`): small random two-phase
+images, no symmetry (so no degenerate eigenvalues), contrast 12 in k and 3300 in c."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-import aromm
+from aromm import api
 from aromm.core.system import TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.reduction.modal_bases import reference_operators, zero_modes
@@ -40,6 +40,12 @@ def reduce_scene() -> Scene:
                  ("z0", "z1"))
 
 
+def memory_scene() -> Scene:
+    """24³ voxels (15,625 nodes), transient: the per-stage memory of the projection."""
+    return Scene(VoxelGeometry(labels((24, 24, 24), 5), (1e-4, 1e-4, 1e-4)), PHASES, SCENARIO, 0.0, TimeGrid(2.0, 0.2),
+                 ("z0", "z1"))
+
+
 def steady_scene() -> Scene:
     """Steady, one fixed-temperature face (Dirichlet elimination) and convection: the full-model solves."""
     return Scene(VoxelGeometry(labels((7, 6, 8), 4), (1e-4, 1.2e-4, 0.9e-4)), PHASES,
@@ -47,27 +53,50 @@ def steady_scene() -> Scene:
                  ("z0", "z1", "x1"))
 
 
+#: PETSc options of the 4-rank run: the x and y axes cut in two, z whole (boxes, not slabs).
+BOXES_2x2x1 = "-aromm_da_processors_x 2 -aromm_da_processors_y 2 -aromm_da_processors_z 1"
+
+
+def numbering_error(system: Any) -> int:
+    """Largest difference, over the ranks and their box nodes, between the rows aromm.engines.petsc.layout gives
+    them and the DMDA's own application-to-PETSc ordering of the natural (aromm.fem) node numbers."""
+    from aromm.engines.petsc import runtime
+    from aromm.engines.petsc.problem import box_layout
+    from aromm.fem.voxel import node_index
+
+    layout = box_layout(basis_scene().geometry.labels.shape, system.comm)
+    rows, _ = layout.box_rows()
+    (x0, x1), (y0, y1), (z0, z1) = layout.box
+    i, j, k = np.meshgrid(np.arange(x0, x1 + 1), np.arange(y0, y1 + 1), np.arange(z0, z1 + 1), indexing="ij")
+    natural = node_index(layout.shape, i, j, k).ravel(order="F")
+    petsc = system.grid.getAO().app2petsc(natural.astype(runtime.petsc().IntType))
+    return int(runtime.allmax(float(np.abs(np.asarray(petsc) - rows).max()), system.comm))
+
+
 def results(comm: Any) -> dict[str, np.ndarray]:
     """Everything the tests compare, computed by the petsc engine on ``comm`` (collective)."""
     from aromm.engines.petsc.basis import compute_basis
+    from aromm.engines.petsc.problem import box_layout
     from aromm.engines.petsc.reduction import distributed
 
     out: dict[str, np.ndarray] = {}
     system = distributed(basis_scene(), comm)
+    out["numbering_error"] = np.array(numbering_error(system))
+    out["grid"] = np.array(box_layout(basis_scene().geometry.labels.shape, comm).grid)
     for solver in ("mumps", "gamg"):
         basis = compute_basis(system, N_DIRICHLET, N_STEKLOV, solver=solver)
         out[f"dirichlet_{solver}"] = basis.eigenvalues[basis.kinds == "dirichlet"]
         out[f"steklov_{solver}"] = basis.eigenvalues[basis.kinds == "steklov"]
     for corrections in (True, False):
-        rom = aromm.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False, engine="petsc",
+        rom = api.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False, engine="petsc",
                            solver="mumps")
         out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
-    transient = aromm.simulate(reduce_scene(), PROBE, engine="petsc", method="mumps")
+    transient = api.simulate(reduce_scene(), PROBE, engine="petsc", method="mumps")
     out["transient"] = transient.as_array()
-    out["steady"] = aromm.simulate(steady_scene(), {"fibre.k": 0.5}, engine="petsc").as_array()
+    out["steady"] = api.simulate(steady_scene(), {"fibre.k": 0.5}, engine="petsc").as_array()
     scene = steady_scene()
-    out["k_flux"] = aromm.homogenize(scene, "flux", engine="petsc")
-    out["k_temperature"] = aromm.homogenize(scene, "temperature", method="mumps", engine="petsc")
+    out["k_flux"] = api.homogenize(scene, "flux", engine="petsc")
+    out["k_temperature"] = api.homogenize(scene, "temperature", method="mumps", engine="petsc")
     return out
 
 
@@ -91,10 +120,10 @@ def serial() -> dict[str, np.ndarray]:
     """The keys of :func:`results` that the serial (scipy) engine computes, by the serial engine."""
     out = {}
     for corrections in (True, False):
-        rom = aromm.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False)
+        rom = api.reduce(reduce_scene(), 10, modes=24, corrections=corrections, cache=False)
         out[f"rom_corrections_{corrections}"] = rom.simulate(PROBE).as_array()
-    out["transient"] = aromm.simulate(assemble(reduce_scene()), PROBE).as_array()
-    out["steady"] = aromm.simulate(assemble(steady_scene()), {"fibre.k": 0.5}).as_array()
-    out["k_flux"] = aromm.homogenize(steady_scene(), "flux")
-    out["k_temperature"] = aromm.homogenize(steady_scene(), "temperature")
+    out["transient"] = api.simulate(assemble(reduce_scene()), PROBE).as_array()
+    out["steady"] = api.simulate(assemble(steady_scene()), {"fibre.k": 0.5}).as_array()
+    out["k_flux"] = api.homogenize(steady_scene(), "flux")
+    out["k_temperature"] = api.homogenize(steady_scene(), "temperature")
     return out

@@ -1,7 +1,7 @@
 """``--engine scipy|petsc`` on the commands that assemble and solve (simulate, homogenize, reduce).
 
 With ``--engine petsc`` the command runs under ``mpiexec -n P`` (PETSc/SLEPc, aromm.engines.petsc): every
-rank executes it, reads its z-slab of the image (:func:`aromm.engines.petsc.problem.load_problem`), and
+rank executes it, reads its box of the image (:func:`aromm.engines.petsc.problem.load_problem`), and
 only rank 0 prints and writes.
 """
 
@@ -33,7 +33,7 @@ def resolve(engine: str, solver: str) -> str:
 
 def load(path: Path, engine: str, refine: int = 1, bytes_per_voxel: float = DIRECT_BYTES_PER_VOXEL) -> Any:
     """The scene for ``engine``: a Scene (refined ``refine`` times, memory checked at ``bytes_per_voxel``), or for
-    petsc a VoxelProblem whose image each rank reads by slabs."""
+    petsc a VoxelProblem whose image each rank reads by boxes."""
     if engine == "petsc":
         if refine != 1:
             raise InputError("--refine works with the scipy engine; with --engine petsc refine the image file")

@@ -44,7 +44,7 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None
                as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant).
 
-    With --engine petsc run it under `mpiexec -n P`: every rank assembles its z-slab of the image."""
+    With --engine petsc run it under `mpiexec -n P`: every rank assembles its box of the image."""
     solver = engine_cli.resolve(engine, solver)
     if not no_cache:
         checks.cache_folder(cache_dir)

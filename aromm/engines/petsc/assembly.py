@@ -2,12 +2,13 @@
 
 Two ways in:
 
-* :func:`assemble_slabs` (voxel problems, scalable): rank r reads its voxel layers ``k0 <= k < k1`` and
-  assembles them with the serial assembler :func:`aromm.fem.assemble_voxels` as a box of its own (the same
-  Q1 element matrices, face masses and term names; only the faces of the whole box that the slab touches
-  are given to it).  Its node ``l`` is the global node ``l + k0 (nx+1)(ny+1)``; the rows of its top plane
-  belong to rank r + 1 and are sent there (one plane per term), so that the owned rows hold the complete
-  sums.  Every rank's memory is O(its slab): nothing of the whole image's matrices is ever on one rank.
+* :func:`assemble_boxes` (voxel problems, scalable): rank r reads the voxels of its box
+  (:class:`~aromm.engines.petsc.layout.BoxLayout`, a 3-D block of the image) and assembles them with the serial
+  assembler :func:`aromm.fem.assemble_voxels` as an image of its own (the same Q1 element matrices, face
+  masses and term names; only the faces of the whole box that the rank's box touches are given to it).  Its
+  nodes are renumbered to the DMDA's global rows; the rows of its upper node planes belong to the neighbours
+  above it (up to 7) and are sent there once per term, so that the owned rows hold the complete sums.
+  Every rank's memory is O(its box): nothing of the whole image's matrices is ever on one rank.
 * :func:`distribute_system` (any ThermalSystem already assembled on every rank: DEM networks, mesh scenes,
   tests): each rank keeps its block of rows.
 
@@ -28,7 +29,7 @@ import scipy.sparse as sp
 from aromm.core.cache import content_key
 from aromm.core.system import Affine, Coefficient, ParamValues, Role, ThermalSystem, TimeGrid, dense
 from aromm.engines.petsc import convert, runtime
-from aromm.engines.petsc.layout import RowLayout, SlabLayout
+from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fem.voxel import assemble_voxels, face_mass
 
@@ -65,6 +66,7 @@ class DistributedSystem:
     fingerprint: str
     description: str = ""
     complete: bool = False  # the template is the whole system (distributed by rows), not a stand-in
+    grid: Any = None  # the DMDA of the node grid (voxel problems assembled by boxes), else None
 
     @property
     def n(self) -> int:
@@ -109,109 +111,169 @@ class DistributedSystem:
         return convert.vector(np.zeros(self.rows.local), self.rows, self.comm)
 
 
-def _shift(block: sp.csr_array, offset: int, n: int) -> sp.csr_array:
-    """Rows of a slab matrix with its column numbers moved to the global numbering."""
-    csr = sp.csr_array(block)
-    return sp.csr_array((csr.data, csr.indices.astype(np.int64) + offset, csr.indptr), shape=(csr.shape[0], n))
+def _to_owners(owner: np.ndarray, arrays: tuple[np.ndarray, ...], layout: BoxLayout, comm: Any,
+               ) -> tuple[np.ndarray, ...]:
+    """Entries (``arrays`` side by side, one per box node entry) moved to the rank ``owner`` of each: this rank's
+    own entries and those its neighbours assembled on the nodes it owns (collective)."""
+    me, size = layout.rank, layout.size
+    order = np.argsort(owner, kind="stable")
+    bounds = np.concatenate([[0], np.cumsum(np.bincount(owner, minlength=size))])
+    outgoing = [None if r == me or bounds[r] == bounds[r + 1] else tuple(a[order[bounds[r]:bounds[r + 1]]]
+                                                                        for a in arrays) for r in range(size)]
+    incoming = runtime.mpi(comm).alltoall(outgoing)
+    mine = order[bounds[me]:bounds[me + 1]]
+    parts = [tuple(a[mine] for a in arrays), *(p for p in incoming if p is not None)]
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(len(arrays)))
 
 
-def _owned_rows(slab: sp.csr_array, layout: SlabLayout, comm: Any) -> sp.csr_array:
-    """This rank's complete rows of a matrix assembled by slabs: its own rows plus the top-plane rows of the
-    rank below (received), in global columns."""
-    rows, plane = layout.rows, layout.plane
-    csr = sp.csr_array(slab)
-    ghost = None if layout.last else _shift(csr[rows.local:], layout.offset, rows.n)
-    received = _exchange(ghost, layout, comm)
-    mine = _shift(csr[: rows.local], layout.offset, rows.n)
-    if received is None:
-        return mine
-    pad = sp.csr_array((rows.local - plane, rows.n))
-    return sp.csr_array(mine + sp.vstack([received, pad], format="csr"))
+@dataclass(frozen=True)
+class _BoxRows:
+    """Global row (PETSc numbering) and owner rank of each node of this rank's box, in aromm.fem's box order."""
+
+    layout: BoxLayout
+    rows: RowLayout
+    global_row: np.ndarray
+    owner: np.ndarray
+
+    def matrix(self, block: sp.sparray, comm: Any) -> sp.csr_array:
+        """This rank's complete rows of a matrix assembled by boxes, in global columns.  The rows of the nodes it
+        owns are taken as they are (in the box's order, which is the order of its rows); only the rows of the
+        upper node planes go through triplets, to their owners."""
+        csr = sp.csr_array(block)
+        mine = self.owner == self.layout.rank
+        own = csr if mine.all() else csr[np.flatnonzero(mine)]
+        own = sp.csr_array((own.data, self.global_row[own.indices], own.indptr), shape=(self.rows.local, self.rows.n))
+        ghosts = np.flatnonzero(~mine)
+        ghost = sp.coo_array(csr[ghosts]) if ghosts.size else sp.coo_array((0, csr.shape[1]))
+        g = self.global_row
+        r, c, v = _to_owners(self.owner[ghosts][ghost.row], (g[ghosts][ghost.row], g[ghost.col], ghost.data),
+                             self.layout, comm)
+        if r.size:
+            own = sp.csr_array(own + sp.csr_array((v, (r - self.rows.lo, c)), shape=own.shape))
+        return own
+
+    def vector(self, values: np.ndarray, comm: Any) -> np.ndarray:
+        """This rank's complete entries of a vector assembled by boxes."""
+        r, v = _to_owners(self.owner, (self.global_row, np.asarray(values, dtype=float)), self.layout, comm)
+        return np.bincount(r - self.rows.lo, weights=v, minlength=self.rows.local)
 
 
-def _owned_entries(slab: np.ndarray, layout: SlabLayout, comm: Any) -> np.ndarray:
-    """This rank's complete entries of a vector assembled by slabs."""
-    rows = layout.rows
-    received = _exchange(None if layout.last else np.asarray(slab[rows.local:]), layout, comm)
-    mine = np.array(slab[: rows.local], dtype=float)
-    if received is not None:
-        mine[: layout.plane] += received
-    return mine
+def _take(operators: dict[str, Any], name: str, size: int, vector: bool) -> Any:
+    """The box's operator ``name``, dropped from ``operators`` (freed once converted: one term's copy at a time)."""
+    if name in operators:
+        return operators.pop(name)
+    return np.zeros(size) if vector else sp.csr_array((size, size))  # the box has none of this phase / face
 
 
-def _exchange(ghost: Any, layout: SlabLayout, comm: Any) -> Any:
-    """Send ``ghost`` (the top plane's contributions) up one rank; return what the rank below sent."""
-    from mpi4py import MPI
+def node_grid(layout: BoxLayout, comm: Any) -> Any:
+    """The PETSc DMDA of the node grid with the ownership of ``layout`` (box stencil of width 1: the 27 nodes a
+    Q1 row couples); checked to own the rows :class:`BoxLayout` numbers."""
+    PETSc = runtime.petsc()
+    nx, ny, nz = layout.shape
+    da = PETSc.DMDA().create(dim=3, dof=1, sizes=(nx + 1, ny + 1, nz + 1), proc_sizes=layout.grid,
+                             stencil_type=PETSc.DMDA.StencilType.BOX, stencil_width=1,
+                             ownership_ranges=tuple(layout.ownership(a) for a in range(3)), comm=comm)
+    (x0, _), (y0, _), (z0, _) = layout.box
+    expected = tuple((lo, lo + layout.ownership(a)[q]) for a, (lo, q) in enumerate(zip((x0, y0, z0), layout.coords(),
+                                                                                      strict=True)))
+    if tuple(tuple(r) for r in da.getRanges()) != expected or da.getGlobalVec().getOwnershipRange() != (
+            layout.rows.lo, layout.rows.hi):
+        raise RuntimeError(f"DMDA ownership {da.getRanges()} differs from the box layout's {expected}")
+    return da
 
-    up = MPI.PROC_NULL if layout.last else layout.rank + 1
-    down = MPI.PROC_NULL if layout.first else layout.rank - 1
-    return runtime.mpi(comm).sendrecv(ghost, dest=up, source=down)
 
-
-def _term_operator(group: Affine, name: str, size: int, vector: bool) -> Any:
-    for t in group.terms:
-        if t.name == name:
-            return t.operator
-    return np.zeros(size) if vector else sp.csr_array((size, size))  # the slab has none of this phase / face
-
-
-def assemble_slabs(problem: VoxelProblem, comm: Any) -> DistributedSystem:
-    """Assemble ``problem`` by z-slabs (collective: every rank calls it)."""
+def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
+    """Assemble ``problem`` by boxes (collective: every rank calls it)."""
     layout = problem.layout(comm)
     rows = layout.rows
     template = problem.template()
     faces = layout.faces()
-    labels = problem.image.read(layout.k0, layout.k1)
-    slab = assemble_voxels(labels, problem.voxel_size, problem.phases,
-                           tuple(f for f in problem.boundary if f.face in faces), time=problem.time,
-                           initial_T=problem.initial_T)
-    m = slab.n
+    labels = problem.image.read(layout.box)
+    box = assemble_voxels(labels, problem.voxel_size, problem.phases,
+                          tuple(f for f in problem.boundary if f.face in faces), time=problem.time,
+                          initial_T=problem.initial_T)
+    m = box.n
+    fixed = {s.name: s.dofs for s in box.dirichlet}
+    operators = {t.name: t.operator for group in (box.capacity, box.conductance, box.load) for t in group.terms}
+    del box  # its matrices are now held by ``operators`` alone, and freed one by one as they are converted
+    owned = _BoxRows(layout, rows, *layout.box_rows())
 
-    def matrices(group: Affine, own: Affine) -> tuple[DistributedTerm, ...]:
+    def matrices(group: Affine) -> tuple[DistributedTerm, ...]:
         return tuple(DistributedTerm(t.name, t.coefficient,
-                                     convert.matrix(_owned_rows(_term_operator(own, t.name, m, False), layout, comm),
-                                                    rows, comm), t.role) for t in group.terms)
+                                     convert.matrix(owned.matrix(_take(operators, t.name, m, False), comm), rows, comm),
+                                     t.role) for t in group.terms)
 
-    def vectors(group: Affine, own: Affine) -> tuple[DistributedTerm, ...]:
+    def vectors(group: Affine) -> tuple[DistributedTerm, ...]:
         return tuple(DistributedTerm(t.name, t.coefficient,
-                                     convert.vector(_owned_entries(_term_operator(own, t.name, m, True), layout, comm),
-                                                    rows, comm), t.role) for t in group.terms)
+                                     convert.vector(owned.vector(_take(operators, t.name, m, True), comm), rows, comm),
+                                     t.role) for t in group.terms)
 
-    shape = layout.slab_shape
+    shape = layout.box_shape
     surface = sp.csr_array((m, m))
     for face in faces:
         surface = surface + face_mass(shape, problem.voxel_size, face)
     observation = {}
-    for face in problem.outputs:  # e_f = B_f 1 / |f| (aromm.core.vocabulary.face_means), |f| summed over the slabs
-        local = _owned_entries(face_mass(shape, problem.voxel_size, face) @ np.ones(m) if face in faces
-                               else np.zeros(m), layout, comm)
+    for face in problem.outputs:  # e_f = B_f 1 / |f| (aromm.core.vocabulary.face_means), |f| summed over the boxes
+        local = owned.vector(face_mass(shape, problem.voxel_size, face) @ np.ones(m) if face in faces
+                             else np.zeros(m), comm)
         observation[face] = convert.vector(local / runtime.allsum([local.sum()], comm)[0], rows, comm)
     dirichlet = {}
     for d in template.dirichlet:
-        own = next((s.dofs for s in slab.dirichlet if s.name == d.name), np.zeros(0, dtype=np.int64))
-        dofs = own + layout.offset
-        dirichlet[d.name] = dofs[(dofs >= rows.lo) & (dofs < rows.hi)]
+        own = fixed.get(d.name, np.zeros(0, dtype=np.int64))
+        dirichlet[d.name] = np.unique(owned.global_row[own[owned.owner[own] == layout.rank]])
+    m_, n_, p_ = layout.grid
     return DistributedSystem(
         template, rows, comm,
-        capacity=matrices(template.capacity, slab.capacity),
-        conductance=matrices(template.conductance, slab.conductance),
-        load=vectors(template.load, slab.load),
+        capacity=matrices(template.capacity),
+        conductance=matrices(template.conductance),
+        load=vectors(template.load),
         dirichlet=dirichlet, observation=observation,
-        boundary=convert.matrix(_owned_rows(surface, layout, comm), rows, comm),
-        fingerprint=problem_key(problem, labels, comm),
+        boundary=convert.matrix(owned.matrix(surface, comm), rows, comm),
+        fingerprint=problem_key(problem, labels, layout, comm),
         description=f"{problem.where}{problem.shape[0]}×{problem.shape[1]}×{problem.shape[2]} voxels "
-                    f"in {layout.size} z-slabs",
+                    f"in {m_}×{n_}×{p_} boxes",
+        grid=node_grid(layout, comm),
     )
 
 
-def problem_key(problem: VoxelProblem, labels: np.ndarray, comm: Any) -> str:
-    """Content hash of a voxel problem, the same for any number of ranks: every z layer of the image is hashed
-    by the rank that read it (``labels``, its slab), then the layer hashes in order with the scene's phases,
-    faces and grids."""
-    mine = [content_key(labels[:, :, k]) for k in range(labels.shape[2])]
-    layers = [h for part in runtime.mpi(comm).allgather(mine) for h in part]
+_MIX = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB))
+
+
+def _splitmix(x: np.ndarray) -> np.ndarray:
+    """SplitMix64 finaliser (Steele, Lea & Flood 2014): a bijective mixing of 64-bit words."""
+    z = x + _MIX[0]
+    z = (z ^ (z >> np.uint64(30))) * _MIX[1]
+    z = (z ^ (z >> np.uint64(27))) * _MIX[2]
+    return z ^ (z >> np.uint64(31))
+
+
+def image_digest(labels: np.ndarray, layout: BoxLayout, comm: Any) -> str:
+    """A digest of the whole image that does not depend on how it is cut: the sum (mod 2⁶⁴, two lanes) over
+    the voxels of a mixing of (global voxel index, label), each rank summing its box layer by layer."""
+    (x0, x1), (y0, y1), (z0, z1) = layout.box
+    nx, ny, _ = layout.shape
+    plane = (np.arange(x0, x1, dtype=np.uint64)[:, None]
+             + np.uint64(nx) * np.arange(y0, y1, dtype=np.uint64)[None, :])
+    lanes = np.zeros(2, dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(z1 - z0):
+            word = ((plane + np.uint64(nx * ny * (z0 + k))) << np.uint64(32)) | labels[:, :, k].astype(
+                np.uint32).astype(np.uint64)
+            for lane in range(2):
+                lanes[lane] += _splitmix(word ^ _MIX[lane + 1]).sum(dtype=np.uint64)
+    from mpi4py import MPI
+
+    total = np.zeros_like(lanes)
+    runtime.mpi(comm).Allreduce(lanes, total, op=MPI.SUM)
+    return f"{int(total[0]):016x}{int(total[1]):016x}"
+
+
+def problem_key(problem: VoxelProblem, labels: np.ndarray, layout: BoxLayout, comm: Any) -> str:
+    """Content hash of a voxel problem, the same for any number of ranks and any cut: :func:`image_digest` of
+    the boxes the ranks read (``labels``, this rank's) with the scene's phases, faces and grids."""
     return content_key("voxel problem", problem.shape, problem.voxel_size, repr(problem.phases),
-                       repr(problem.boundary), problem.initial_T, repr(problem.time), problem.outputs, layers)
+                       repr(problem.boundary), problem.initial_T, repr(problem.time), problem.outputs,
+                       image_digest(labels, layout, comm))
 
 
 def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:

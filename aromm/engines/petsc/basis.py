@@ -58,20 +58,33 @@ def reference(system: DistributedSystem, values: Mapping[str, float] | None = No
     return ref, constants
 
 
+def correction_count(system: DistributedSystem, samples: list[dict[str, float]]) -> int:
+    """Correction vectors :func:`with_corrections` computes (before dropping dependent directions)."""
+    return len(samples) * len(system.load) * (1 + len(system.capacity)) if system.template.load.terms else 0
+
+
 def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
-                  values: Mapping[str, float] | None = None, solver: str = "gamg") -> ModalBasis:
-    """Constants + ``n_steklov`` Steklov (counting the constants) + ``n_dirichlet`` Dirichlet modes."""
+                  values: Mapping[str, float] | None = None, solver: str = "gamg", *, reserve: int = 0) -> ModalBasis:
+    """Constants + ``n_steklov`` Steklov (counting the constants) + ``n_dirichlet`` Dirichlet modes.
+
+    The modes are written into one Fortran-ordered array with ``reserve`` more columns, which
+    :func:`with_corrections` fills (:func:`correction_count`): the basis is never copied whole."""
     if n_dirichlet < 0 or n_steklov < 1:
         raise InputError(f"mode counts must be n_dirichlet >= 0 and n_steklov >= 1, got {n_dirichlet}, {n_steklov}")
     start = time.perf_counter()
     ref, z = reference(system, values)
-    lam_s, v_s = steklov_modes(ref, n_steklov - z.shape[1], z.shape[1], solver)
+    n0 = z.shape[1]
+    buffer = np.empty((ref.rows.local, max(n_steklov, n0) + n_dirichlet + reserve), order="F")
+    buffer[:, :n0] = z
+    lam_s, v_s = steklov_modes(ref, n_steklov - n0, n0, solver)
+    buffer[:, n0:n0 + lam_s.size] = v_s
+    del v_s
     t_s = time.perf_counter() - start
-    lam_d, v_d = dirichlet_modes(ref, n_dirichlet, solver)
-    vectors = np.column_stack([z, v_s, v_d])
+    lam_d = dirichlet_modes(ref, n_dirichlet, solver, out=buffer[:, n0 + lam_s.size:])
+    vectors = buffer[:, :n0 + lam_s.size + lam_d.size]
     eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
     kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
-    gram = convert.gram(vectors, convert.apply(ref.capacity, vectors, ref.rows, ref.comm), ref.comm)
+    gram = convert.quadratic(ref.capacity, vectors, vectors, ref.comm)
     cond = check_gram(gram)
     return ModalBasis(vectors, eigenvalues, kinds, ref.zeta, gram,
                       {"seconds": time.perf_counter() - start, "steklov_seconds": t_s, "cached": 0.0,
@@ -85,10 +98,14 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
     template = system.template
     if not template.load.terms:
         return basis
-    ref, _ = reference(system, values)
-    rows, comm = system.rows, system.comm
+    comm = system.comm
+    # C0 only (the C0 product of the enrichment): K0 of reference() is not needed here
+    capacity = system.combine(system.capacity, reference_operators(template, values).values)
     exchange = bool(template.conductance.with_role("exchange"))
-    cols = []
+    count = correction_count(system, samples)
+    room = _reserved(basis.vectors, count)  # the correction vectors go where the correction modes will be
+    cols = np.empty((basis.vectors.shape[0], count), order="F") if room is None else room
+    j = 0
     for sample in samples:
         v = template.values({k: val for k, val in sample.items() if k in template.parameter_names})
         k_mat = system.combine(system.conductance, v)
@@ -103,21 +120,44 @@ def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list
             x = k_mat.createVecRight()
             x.set(0.0)
             linear.solve(ksp, t.operator, x, "correction modes", CORRECTION_RTOL)
-            cols.append(convert.array(x))
+            cols[:, j] = x.getArray(readonly=True)
+            j += 1
             for c in system.capacity:
                 rhs = c.operator.createVecLeft()
                 c.operator.mult(x, rhs)
                 y = k_mat.createVecRight()
                 y.set(0.0)
                 linear.solve(ksp, rhs, y, "correction modes", CORRECTION_RTOL)
-                cols.append(convert.array(y))
+                cols[:, j] = y.getArray(readonly=True)
+                j += 1
         ksp.destroy()  # one multigrid hierarchy (or factorisation) alive at a time (peak memory)
         k_mat.destroy()
-    capacity = ref.capacity
-    extra, coefficients = enrich(np.column_stack(cols), basis,
-                                 lambda a, b: convert.gram(a, convert.apply(capacity, b, rows, comm), comm))
-    return ModalBasis(np.column_stack([basis.vectors, extra]),
+    extra, coefficients = enrich(cols[:, :j], basis, lambda a, b: convert.quadratic(capacity, a, b, comm))
+    del cols  # read by enrich only: its columns now receive the correction modes
+    return ModalBasis(_extended(basis.vectors, extra),
                       np.concatenate([basis.eigenvalues, np.full(extra.shape[1], np.nan)]),
                       np.concatenate([basis.kinds, np.array(["correction"] * extra.shape[1])]),
                       basis.zeta, sla.block_diag(basis.gram, np.eye(extra.shape[1])),
                       {**basis.info, "corrections": float(coefficients.shape[1])}, coefficients)
+
+
+def _reserved(vectors: FloatArray, m: int) -> FloatArray | None:
+    """The ``m`` columns :func:`compute_basis` reserved after ``vectors`` (a view of the same array), or None."""
+    base = vectors.base
+    r = vectors.shape[1]
+    if (isinstance(base, np.ndarray) and base.ndim == 2 and base.flags.f_contiguous and base.shape[1] >= r + m
+            and base.shape[0] == vectors.shape[0] and vectors.ctypes.data == base.ctypes.data):
+        return base[:, r:r + m]
+    return None
+
+
+def _extended(vectors: FloatArray, extra: FloatArray) -> FloatArray:
+    """``[vectors, extra]``: written into the reserved columns when they suffice (no copy of the basis), else a
+    new array."""
+    room = _reserved(vectors, extra.shape[1])
+    if room is None:
+        return np.column_stack([vectors, extra])
+    room[:] = extra
+    base = vectors.base
+    assert isinstance(base, np.ndarray)  # _reserved found it
+    return base[:, :vectors.shape[1] + extra.shape[1]]

@@ -84,54 +84,53 @@ def _solve_eps(a: Any, b: Any, count: int, *, target: float, solver: str, prefix
         raise NumericalError(f"SLEPc Krylov–Schur ({prefix.strip('_')}, {count} modes, inner {solver}) converged "
                              f"{converged} of {count} eigenpairs in {eps.getIterationNumber()} restarts; ask for "
                              "fewer modes")
-    v = a.createVecRight()
-    lam = np.empty(count)
-    vec = np.empty((v.getLocalSize(), count))
-    for i in range(count):
-        lam[i] = eps.getEigenpair(i, v).real
-        vec[:, i] = convert.array(v)
+    lam = np.array([eps.getEigenvalue(i).real for i in range(count)])
     order = np.argsort(lam)
-    return lam[order], vec[:, order], eps
+    v = a.createVecRight()
+    vec = np.empty((v.getLocalSize(), count), order="F")
+    for position, i in enumerate(order):  # written in ascending order: no reordering copy
+        eps.getEigenvector(int(i), v)
+        vec[:, position] = v.getArray(readonly=True)
+    return lam[order], vec, eps
 
 
-def _residuals(a: Any, b: Any, lam: FloatArray, vec: FloatArray, *, rows: RowLayout, comm: Any) -> FloatArray:
+def _residuals(a: Any, b: Any, lam: FloatArray, vec: FloatArray, comm: Any) -> FloatArray:
     """``||A v − λ B v|| / (||A v|| + |λ| ||B v||)`` per column (aromm.reduction.modal_bases._relative_residuals)."""
-    av = convert.apply(a, vec, rows, comm)
-    bv = convert.apply(b, vec, rows, comm)
-    sq = runtime.allsum(np.stack([((av - bv * lam) ** 2).sum(axis=0), (av**2).sum(axis=0), (bv**2).sum(axis=0)]),
-                        comm)
+    sq = np.empty((3, vec.shape[1]))
+    for cols, (av, bv) in convert.blocks((a, b), vec):
+        sq[:, cols] = [((av - bv * lam[cols]) ** 2).sum(axis=0), (av**2).sum(axis=0), (bv**2).sum(axis=0)]
+    sq = runtime.allsum(sq, comm)
     num, ka, mb = np.sqrt(sq)
     return num / np.maximum(ka + np.abs(lam) * mb, 1e-300)
 
 
-def dirichlet_modes(ref: Reference, count: int, solver: str) -> tuple[FloatArray, FloatArray]:
-    """The ``count`` slowest Dirichlet modes (eq. 6): eigenvalues (s⁻¹) and C0-normalised vectors (this rank's
-    rows of the full numbering, zero on Γ)."""
+def dirichlet_modes(ref: Reference, count: int, solver: str, out: FloatArray) -> FloatArray:
+    """The ``count`` slowest Dirichlet modes (eq. 6): their eigenvalues (s⁻¹, returned, ascending) and their
+    C0-normalised vectors written into the first columns of ``out`` (this rank's rows of the full numbering,
+    zero on Γ)."""
     PETSc = runtime.petsc()
     rows, comm = ref.rows, ref.comm
     interior = np.setdiff1d(np.arange(rows.local), ref.on_gamma())
     n_interior = int(runtime.allsum([interior.size], comm)[0])
     count = min(count, n_interior)
     if count <= 0:
-        return np.zeros(0), np.zeros((rows.local, 0))
+        return np.zeros(0)
     index = PETSc.IS().createGeneral((interior + rows.lo).astype(PETSc.IntType), comm=comm)
     k_ii = ref.stiffness.createSubMatrix(index, index)
     c_ii = ref.capacity.createSubMatrix(index, index)
-    sub = RowLayout(tuple(int(s) for s in np.concatenate([[0], np.cumsum(runtime.mpi(comm).allgather(interior.size))])),
-                    rows.rank)
     lam, vec, eps = _solve_eps(k_ii, c_ii, count, target=0.0, solver=solver, prefix="aromm_dirichlet_")
     eps.destroy()  # its inner solver's multigrid hierarchy or factorisation (peak memory)
-    res = _residuals(k_ii, c_ii, lam, vec, rows=sub, comm=comm)
+    res = _residuals(k_ii, c_ii, lam, vec, comm)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(f"SLEPc Dirichlet eigensolver ({solver}): relative residual {res.max():.1e} exceeds "
                              f"{RESIDUAL_TOL:.0e} (mode {int(res.argmax())} of {count})")
-    gram = convert.gram(vec, convert.apply(c_ii, vec, sub, comm), comm)
+    gram = convert.quadratic(c_ii, vec, vec, comm)
     dev = float(np.abs(gram - np.eye(count)).max())
     if dev > ORTHOGONALITY_TOL:
         raise NumericalError(f"SLEPc Dirichlet eigensolver: modes not C0-orthonormal (max |VᵀCV − I| = {dev:.1e})")
-    full = np.zeros((rows.local, count))
-    full[interior] = vec
-    return lam, full
+    out[:, :count] = 0.0
+    out[interior, :count] = vec
+    return lam
 
 
 def steklov_modes(ref: Reference, count: int, n_zero: int, solver: str) -> tuple[FloatArray, FloatArray]:
@@ -149,26 +148,25 @@ def steklov_modes(ref: Reference, count: int, n_zero: int, solver: str) -> tuple
                              prefix="aromm_steklov_")
     ksp = eps.getST().getKSP()  # operator K0 − σζB
     rhs, x = b.createVecLeft(), b.createVecRight()
-    bv = convert.apply(b, vec, rows, comm)
     for j in range(vec.shape[1]):  # purification: the discrete harmonic extension of each trace
-        rhs.getArray()[:] = bv[:, j]
         x.getArray()[:] = vec[:, j]
+        b.mult(x, rhs)
         linear.solve(ksp, rhs, x, "Steklov purification", INNER_RTOL)
-        vec[:, j] = convert.array(x)
+        vec[:, j] = x.getArray(readonly=True)
     eps.destroy()
-    kr = convert.gram(vec, convert.apply(ref.stiffness, vec, rows, comm), comm)
-    br = convert.gram(vec, convert.apply(b, vec, rows, comm), comm)
+    kr = convert.quadratic(ref.stiffness, vec, vec, comm)
+    br = convert.quadratic(b, vec, vec, comm)
     try:
         lam, q = sla.eigh((kr + kr.T) / 2, (br + br.T) / 2)
     except np.linalg.LinAlgError as err:
         raise NumericalError(f"Steklov Rayleigh–Ritz: traces of the computed modes are dependent ({err})") from None
-    vec = (vec @ q)[:, n_zero:]
+    vec = convert.combine_rows(vec, q, out=vec)[:, n_zero:]  # in place, block of rows by block of rows
     lam = lam[n_zero:]
-    res = _residuals(ref.stiffness, b, lam, vec, rows=rows, comm=comm)
+    res = _residuals(ref.stiffness, b, lam, vec, comm)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(f"SLEPc Steklov eigensolver (shift {sigma:.2e} s⁻¹, {solver}): relative residual "
                              f"{res.max():.1e} exceeds {RESIDUAL_TOL:.0e} (mode {int(res.argmax())} of {count})")
     if lam[0] <= 1e-8 * lam[-1]:
         raise NumericalError("SLEPc Steklov eigensolver: a zero eigenvalue beyond the constants (disconnected body?)")
-    norms = np.sqrt(np.diag(convert.gram(vec, convert.apply(ref.capacity, vec, rows, comm), comm)))
-    return lam, vec / norms
+    vec /= np.sqrt(convert.diagonal(ref.capacity, vec, comm))
+    return lam, vec

@@ -3,7 +3,7 @@
 The formulas are those of :mod:`aromm.homogenization.properties`
 (:func:`aromm.homogenization.properties.conductivity` runs the three
 probes); this module supplies the distributed steady solve of one probe and the volume-averaged capacity,
-counted slab by slab (for a voxel image the Q1 phase mass ``1ᵀ C_p 1`` is exactly the phase's volume).
+counted box by box (for a voxel image the Q1 phase mass ``1ᵀ C_p 1`` is exactly the phase's volume).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.engines.petsc import linear, runtime
-from aromm.engines.petsc.assembly import assemble_slabs
+from aromm.engines.petsc.assembly import assemble_boxes
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.steady import steady
 from aromm.homogenization.properties import ProbeSolver
@@ -26,25 +26,24 @@ def as_problem(scene: Scene | VoxelProblem) -> VoxelProblem:
 
 
 def probe_solver(solver: str = "gamg", comm: Any = None) -> ProbeSolver:
-    """A :data:`aromm.homogenization.properties.ProbeSolver` solving each probe by slabs (collective)."""
+    """A :data:`aromm.homogenization.ProbeSolver` solving each probe by boxes (collective)."""
     solver = linear.check_solver(solver)
     comm = comm if comm is not None else runtime.world()
 
     def solve(probe: Any) -> tuple[dict[str, float], float]:
-        state = steady(assemble_slabs(as_problem(probe), comm), solver=solver)
+        state = steady(assemble_boxes(as_problem(probe), comm), solver=solver)
         return state.means, next(iter(state.heat_flow.values()), 0.0)
 
     return solve
 
 
 def mean_capacity(problem: VoxelProblem, comm: Any = None) -> float:
-    """Volume-averaged capacity ``c̄ = Σ c_p |Ω_p| / |Ω|`` (J/(m³ K)), eq. 14, from the voxel counts of the slabs."""
+    """Volume-averaged capacity ``c̄ = Σ c_p |Ω_p| / |Ω|`` (J/(m³ K)), eq. 14, from the voxel counts of the boxes."""
     comm = comm if comm is not None else runtime.world()
     missing = [ph.name for ph in problem.phases if ph.c is None]
     if missing:
         raise InputError(f"{problem.where}mean capacity needs c for every phase; missing for {missing}")
-    layout = problem.layout(comm)
-    labels = problem.image.read(layout.k0, layout.k1)
+    labels = problem.image.read(problem.layout(comm).box)
     counts = runtime.allsum([np.count_nonzero(labels == ph.label) for ph in problem.phases], comm)
     return float(sum(n * float(ph.c) for n, ph in zip(counts, problem.phases, strict=True) if ph.c is not None)
                  / counts.sum())

@@ -1,9 +1,12 @@
-"""A voxel scene whose image every rank reads slab by slab (memory-mapped .npy, TIFF pages, raw bytes).
+"""A voxel scene whose image every rank reads box by box (memory-mapped .npy, TIFF pages, raw bytes).
 
 :func:`load_problem` parses and validates the scene file as :func:`aromm.load_scene` does, but instead of
-the whole image each rank opens the file's header (:class:`aromm.microstructure.slabs.ImageSlabs`), reads
-its own layers to find the labels present (their union over the ranks checks the phases), and keeps the
-file open for the assembly.  :meth:`VoxelProblem.from_scene` wraps a scene already in memory.
+the whole image each rank opens the file's header (:class:`aromm.microstructure.boxes.ImageBoxes`), reads
+its own box to find the labels present (their union over the ranks checks the phases), and keeps the file
+open for the assembly; a ``.npz``, a TIFF not stored page by page or a generated image is first converted
+once to a ``.npy`` by rank 0 (:mod:`aromm.engines.petsc.images`).  :meth:`VoxelProblem.from_scene` wraps a
+scene already in memory.  The process grid is :func:`aromm.engines.petsc.layout.process_grid`'s unless the
+PETSc options ``-aromm_da_processors_x/y/z`` fix some of its sizes (as PETSc's ``-da_processors_x``).
 """
 
 from __future__ import annotations
@@ -18,9 +21,10 @@ from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.engines.petsc import runtime
-from aromm.engines.petsc.layout import SlabLayout
+from aromm.engines.petsc.images import generated_image, open_image
+from aromm.engines.petsc.layout import BoxLayout
 from aromm.fem.voxel import assemble_voxels
-from aromm.microstructure.slabs import ImageSlabs
+from aromm.microstructure.boxes import ImageBoxes
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
 
@@ -30,9 +34,9 @@ SENSORS_REFUSED = "sensors are assembled by the scipy engine only; use --engine 
 
 @dataclass(frozen=True)
 class VoxelProblem:
-    """What the distributed assembler needs: the image by slabs, phases, faces, time grid and outputs."""
+    """What the distributed assembler needs: the image by boxes, phases, faces, time grid and outputs."""
 
-    image: ImageSlabs
+    image: ImageBoxes
     voxel_size: tuple[float, float, float]
     phases: tuple[PhaseSpec, ...]
     boundary: tuple[FaceSpec, ...]
@@ -57,8 +61,8 @@ class VoxelProblem:
     def parameters(self) -> dict[str, float]:
         return dict(self.template().parameters)
 
-    def layout(self, comm: Any) -> SlabLayout:
-        return SlabLayout.split(self.shape, runtime.size(comm), runtime.rank(comm))
+    def layout(self, comm: Any) -> BoxLayout:
+        return box_layout(self.shape, comm)
 
     def template(self) -> ThermalSystem:
         """The serial system of a stand-in image holding each present label once: the same terms (names,
@@ -76,20 +80,32 @@ class VoxelProblem:
     def from_scene(cls, scene: Scene) -> VoxelProblem:
         geometry = scene.geometry
         if not isinstance(geometry, VoxelGeometry):
-            raise InputError(f"{scene.where}the petsc engine assembles voxel images by z-slabs; for a mesh scene "
+            raise InputError(f"{scene.where}the petsc engine assembles voxel images by boxes; for a mesh scene "
                              "assemble it (aromm.assemble) and pass the ThermalSystem, which is distributed by rows")
         if scene.interfaces:
             raise InputError(f"{scene.where}[interfaces]: contact resistance needs a conforming mesh")
         if scene.sensors:
             raise InputError(f"{scene.where}outputs.{scene.sensors[0].name}: {SENSORS_REFUSED}")
         present = tuple(sorted(geometry.present()))
-        return cls(ImageSlabs.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
+        return cls(ImageBoxes.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
                    geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs,
                    present, scene.where, scene.reduction)
 
 
+def box_layout(shape: tuple[int, int, int], comm: Any) -> BoxLayout:
+    """This rank's box of an image of ``shape`` on the process grid (``-aromm_da_processors_x/y/z`` honoured)."""
+    return BoxLayout.split(shape, runtime.size(comm), runtime.rank(comm), processors=runtime.processors())
+
+
+def _generate(path: Path) -> np.ndarray:
+    """The labels of a generated image (the whole scene validated and generated, on the rank that calls it)."""
+    geometry = load_scene(path).geometry
+    assert isinstance(geometry, VoxelGeometry)  # a generator makes a voxel geometry
+    return geometry.labels
+
+
 def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
-    """Read a scene file for the petsc engine: the image by slabs when it is a file (collective)."""
+    """Read a scene file for the petsc engine: every rank reads its box of the image (collective)."""
     path = Path(path)
     data = read_toml(path)
     geo = data.get("geometry")
@@ -97,17 +113,20 @@ def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     named = [k for k in outputs if k != "mean_T"] if isinstance(outputs, dict) else []
     if named:  # checked before the stand-in image, whose box is not the body's
         raise InputError(f"{path}: outputs.{named[0]}: {SENSORS_REFUSED}")
-    if not isinstance(geo, dict) or "image" not in geo or "generator" in geo:
-        return VoxelProblem.from_scene(load_scene(path))  # generated images are made whole on every rank
-    file = Path(str(geo["image"]))
-    if not file.is_absolute():
-        file = path.parent / file
-    if not file.exists():
-        raise InputError(f"{path}: geometry.image: file not found: {file}")
-    shape = geo.get("shape")
-    image = ImageSlabs.open(file, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
-    layout = SlabLayout.split(image.shape, runtime.size(comm), runtime.rank(comm))
-    present = sorted(runtime.union(image.labels_present(layout.k0, layout.k1), comm))
+    if not isinstance(geo, dict) or ("image" in geo) == ("generator" in geo):
+        return VoxelProblem.from_scene(load_scene(path))  # a mesh, or the serial reader's errors
+    if "generator" in geo:
+        image = generated_image(path, geo, lambda: _generate(path), comm)
+    else:
+        file = Path(str(geo["image"]))
+        if not file.is_absolute():
+            file = path.parent / file
+        if not file.exists():
+            raise InputError(f"{path}: geometry.image: file not found: {file}")
+        shape = geo.get("shape")
+        image = open_image(file, tuple(int(n) for n in shape) if isinstance(shape, list | tuple) else None,
+                           geo.get("dtype"), comm)
+    present = sorted(runtime.union(image.labels_present(box_layout(image.shape, comm).box), comm))
     stand_in = np.asarray(present, dtype=np.int32).reshape(-1, 1, 1)
     scene = scene_from_dict(data, path, image=(stand_in, image.voxel_size))
     geometry = scene.geometry

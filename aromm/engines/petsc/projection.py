@@ -1,7 +1,8 @@
 """Galerkin projection of a distributed ThermalSystem onto a distributed basis [Chavez2020, eq. 10].
 
 Every term keeps its name and coefficient and gets ``Ψᵀ C_j Ψ``, ``Ψᵀ K_j Ψ`` (r × r) or ``Ψᵀ F_j`` (r): each
-rank multiplies its rows (one MatMatMult per term) and the small products are summed over the ranks, so
+rank multiplies its rows (a few basis columns at a time, into one reused work block: no temporary of the
+basis's size, :func:`aromm.engines.petsc.convert.quadratic`) and the small products are summed over the ranks, so
 every rank ends with the same :class:`~aromm.reduction.rom.ReducedModel`, built by its public constructor (a projected
 ThermalSystem and the initial-state terms) exactly as :meth:`ReducedModel.from_system` builds it in one process.
 """
@@ -39,8 +40,8 @@ def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatA
         for t in terms:
             key = id(t.operator)
             if key not in memo:
-                image = convert.array(t.operator) if vector else convert.apply(t.operator, basis, rows, comm)
-                memo[key] = convert.gram(basis, image, comm)
+                memo[key] = (convert.gram(basis, convert.array(t.operator), comm) if vector
+                             else convert.quadratic(t.operator, basis, basis, comm))
             out.append(Term(t.name, t.coefficient, memo[key], t.role))
         return Affine(tuple(out))
 

@@ -24,8 +24,9 @@ from aromm.core.cache import NpzCache, content_key
 from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem
 from aromm.engines.petsc import convert, linear, runtime
-from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_slabs, distribute_system
-from aromm.engines.petsc.basis import compute_basis, with_corrections
+from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_boxes, distribute_system
+from aromm.engines.petsc.basis import compute_basis, correction_count, with_corrections
+from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
 from aromm.reduction.corrections import correction_samples
@@ -44,19 +45,19 @@ from aromm.reduction.reductors import Reductor
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
 from aromm.scene.scene_file import Scene
 
-_VERSION = 1
+_VERSION = 2  # 2: image digest independent of the cut (boxes)
 
 Source = ThermalSystem | Scene | VoxelProblem | DistributedSystem
 
 
 def distributed(source: Source, comm: Any) -> DistributedSystem:
-    """A voxel scene or problem assembled by z-slabs; a ThermalSystem (held by every rank) split by rows."""
+    """A voxel scene or problem assembled by boxes; a ThermalSystem (held by every rank) split by rows."""
     if isinstance(source, DistributedSystem):
         return source
     if isinstance(source, ThermalSystem):
         return distribute_system(source, comm)
     problem = source if isinstance(source, VoxelProblem) else VoxelProblem.from_scene(source)
-    return assemble_slabs(problem, comm)
+    return assemble_boxes(problem, comm)
 
 
 def relaxed(system: DistributedSystem, values: Mapping[str, float]) -> tuple[DistributedSystem, ReferenceCase]:
@@ -107,8 +108,8 @@ def reduce(
 ) -> ReducedModel:
     """AROMM reduced model of ``source`` at order ``order`` on the petsc engine (options of aromm.reduce).
 
-    ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or slab-read :class:`VoxelProblem` (assembled by
-    z-slabs),
+    ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or box-read :class:`VoxelProblem` (assembled by
+    boxes),
     or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
     and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky).
     """
@@ -118,6 +119,8 @@ def reduce(
     solver = linear.check_solver(solver)
     comm = comm if comm is not None else runtime.world()
     start = time.perf_counter()
+    memory = StageMemory(comm)
+    memory.start("assembly")
     system = distributed(source, comm)
     others = [distributed(r.system if isinstance(r, ReferenceCase) else r, comm) for r in references]
     stages = {"assembly_seconds": time.perf_counter() - start}
@@ -138,12 +141,15 @@ def reduce(
     if found is not None:
         return found
 
-    basis = compute_basis(system, n_d, n_s, basis_values, solver)
+    memory.start("basis")
+    basis = compute_basis(system, n_d, n_s, basis_values, solver, reserve=correction_count(system, samples))
     clock = time.perf_counter()
+    memory.start("corrections")
     if samples:
         basis = with_corrections(system, basis, samples, basis_values, solver)
     stages["corrections_seconds"] = time.perf_counter() - clock
     clock = time.perf_counter()
+    memory.start("projection")
     memo: dict[int, np.ndarray] = {}
     detailed = project(system, basis.vectors, memo)
     cases = [(detailed, ReferenceCase(template, ref_vals, name="system"))]
@@ -158,10 +164,12 @@ def reduce(
         cases.append((project(cooled, basis.vectors, memo), relax))
     stages["projection_seconds"] = time.perf_counter() - clock
     clock = time.perf_counter()
+    memory.start("amalgam")
     rom, err = reduce_detailed(detailed, cases, basis, int(order), reductor, check_values=ref_vals)
     stages["amalgam_seconds"] = time.perf_counter() - clock
     info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
-            **stages, "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
+            **stages, **memory.record(), "basis_bytes": runtime.allmax(basis.vectors.nbytes, comm),
+            "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
     rom = replace(rom, info=info)
     if store is not None and runtime.is_root(comm):
         store.save("rom", key, to_arrays(rom))

@@ -63,6 +63,16 @@ def allsum(values: npt.ArrayLike, comm: Any) -> np.ndarray:
     return total
 
 
+def allmax_array(values: npt.ArrayLike, comm: Any) -> np.ndarray:
+    """Element-wise maximum over the ranks (per-stage peak memory)."""
+    from mpi4py import MPI
+
+    local = np.ascontiguousarray(np.asarray(values, dtype=float))
+    total = np.empty_like(local)
+    mpi(comm).Allreduce(local, total, op=MPI.MAX)
+    return total
+
+
 def allmax(value: float, comm: Any) -> float:
     from mpi4py import MPI
 
@@ -77,6 +87,7 @@ def union(items: set[int], comm: Any) -> set[int]:
     return out
 
 
-def gather_strings(text: str, comm: Any) -> list[str]:
-    """Every rank's string, in rank order, on every rank (content hashes of the slabs)."""
-    return list(mpi(comm).allgather(text))
+def processors() -> tuple[int, int, int]:
+    """Process-grid sizes fixed by the PETSc options ``-aromm_da_processors_x/y/z`` (0: not fixed)."""
+    options = petsc().Options("aromm_da_")
+    return (options.getInt("processors_x", 0), options.getInt("processors_y", 0), options.getInt("processors_z", 0))
