@@ -13,11 +13,16 @@ effective one, the boundary layer's weight falling like 1/e [Huet1990] [Kanit200
 reports k̄ of the whole (largest) cube under uniform flux, periodic and fixed-temperature conditions, and their
 relative spread ``(max − min) / periodic``: a spread above the tolerance says the volume is not yet representative
 whatever the spread between positions.
+
+Cost, measured with ``aromm rev`` on a 96³ spruce-like image (default edges 12…96, 9 positions, the three
+boundary conditions; one thread, load average 12 on 2 cores): 83 CPU s, 3 min 45 s wall, 447 MB peak; the edges
+of 72 and 48 voxels take most of it (29 and 15 CPU s).  The periodic solves scale about linearly with the voxels.
 """
 
 from __future__ import annotations
 
 import itertools
+import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -38,6 +43,7 @@ from aromm.scene.scene_file import Scene
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+log = logging.getLogger(__name__)
 DEFAULT_TOLERANCE = 0.02  # relative spread of k̄ (2 %)
 DEFAULT_FRACTIONS = (1 / 8, 1 / 4, 3 / 8, 1 / 2, 3 / 4, 1.0)  # default edges, as fractions of the smallest side
 MIN_EDGE = 4  # voxels: below, a sub-volume holds too few voxels of each phase to mean anything
@@ -207,6 +213,8 @@ def rev(scene: Scene, edges: Sequence[int] | None = None, *, positions: int = 9,
                 cs.append(mean_capacity(sub))
         results.append(EdgeResult(edge, where, np.array(ks), np.array(cs) if capacities else None,
                                   time.process_time() - start))
+        log.info("REV: edge %d, %d positions, spread %.3g, %.1f CPU s", edge, len(where), results[-1].spread,
+                 results[-1].cpu_seconds)
     rev_edge = _rev_edge(results, tolerance)
     crop = None
     if rev_edge is not None:
