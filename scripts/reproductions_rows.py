@@ -28,6 +28,7 @@ NB = {
     "sub": "bounds_subgrids",
     "demc": "dem_convergence",
     "demt": "dem_temperatures",
+    "basis": "chavez_basis_size",
 }
 FIG4_ORDER = 200
 
@@ -136,6 +137,29 @@ def _chavez() -> list[Row]:
             _src(NB["fig4"]),
             "ratio",
             0.02,
+        ),
+        Row(
+            "[Chavez2020] § 3.1, § 3.3",
+            "max error at the point of Fig. 4 with 20 % of each basis kept, a generated 16³ image (a trend)",
+            "0.02 °C (20 % of each basis, the paper's VER)",
+            Quote(NB["basis"], r"^paper's method, (\d+) % of each basis \(Ñ = (\d+):.*ñ = (\d+): max error (\S+) °C",
+                  "{3} °C ({0} %, Ñ = {1}, ñ = {2})", 3),
+            Quote(NB["basis"], r"^with corrections, (\d+) % of each basis \(Ñ = (\d+):.*ñ = (\d+): max error (\S+) °C",
+                  "{3} °C ({0} %, Ñ = {1}, ñ = {2})", 3),
+            "a small image, not the paper's VER: the trend of the paper's method with Ñ is in the next row",
+            _src(NB["basis"]),
+            "ratio",
+            0.02,
+        ),
+        Row(
+            "[Chavez2020] § 3.1, § 3.3",
+            "the paper's method: error against Ñ (5–20 % of each basis, generated 16³ image)",
+            "—",
+            Quote(NB["basis"], r"error ∝ Ñ\^(\S+) over this range", "error ∝ Ñ^{0}"),
+            "—",
+            "the basis size is one factor of the paper's error; the shipped VER at 20 % of each basis "
+            "(20 % of N ≈ 10⁵ modes) is not run",
+            _src(NB["basis"]),
         ),
         Row(
             "[Chavez2020] Fig. 4",
@@ -439,16 +463,16 @@ def _subgrids() -> list[Row]:
               "B ≤ 0.02, D ≤ 0.001, C ≤ 0.1 (FE at h = 0.4 a, coarser than `bounds`)")
     return [
         Row("[GarnierDanes] Table 1, sub-grid", f"averages of ε (%), V3L / W∞a / W1a / W∞b / V3U, {cut}",
-            " / ".join(f"{SEED_TABLE1[n][0]:g}" for n in order), "—",
-            Quote(NB["sub"], _subgrid_block(cut), " / ".join(f"{{{4 * i}}}" for i in range(5))), reason,
+            " / ".join(f"{SEED_TABLE1[n][0]:g}" for n in order),
+            Quote(NB["sub"], _subgrid_block(cut), " / ".join(f"{{{4 * i}}}" for i in range(5))), "—", reason,
             _src(NB["sub"])),
         Row("[GarnierDanes] Table 1, sub-grid", f"smallest |ε| (%), same bounds, {cut}",
-            " / ".join(f"{min(abs(SEED_TABLE1[n][1]), abs(SEED_TABLE1[n][2])):g}" for n in order), "—",
-            Quote(NB["sub"], _subgrid_block(cut), " / ".join(f"{{{4 * i + 3}}}" for i in range(5))), reason,
+            " / ".join(f"{min(abs(SEED_TABLE1[n][1]), abs(SEED_TABLE1[n][2])):g}" for n in order),
+            Quote(NB["sub"], _subgrid_block(cut), " / ".join(f"{{{4 * i + 3}}}" for i in range(5))), "—", reason,
             _src(NB["sub"])),
         Row("[GarnierDanes] Table 1, sub-grid", "extremes of ε (%), V3L min / W∞a min / W∞b max / V3U max, corners",
             " / ".join(f"{SEED_TABLE1[n][i]:g}" for n, i in (("V3L", 1), ("W_inf_a", 1), ("W_inf_b", 2), ("V3U", 2))),
-            "—", Quote(NB["sub"], _subgrid_block(corners), "{1} / {5} / {14} / {18}"), reason, _src(NB["sub"])),
+            Quote(NB["sub"], _subgrid_block(corners), "{1} / {5} / {14} / {18}"), "—", reason, _src(NB["sub"])),
     ]
 
 
@@ -477,12 +501,12 @@ def _garnier() -> list[Row]:
             "[GarnierDanes] Fig. 1 (bounds)",
             "ordering lower ≤ E_c ≤ upper on the grid",
             "holds",
-            "—",
             Quote(
                 b,
                 r"(\d+) of (\d+) bound/E_c comparisons on the wrong side",
                 "{0} of {1} comparisons on the wrong side, all within the FE error",
             ),
+            "—",
             "E_c from FE carries its own error (next row)",
             _src(b),
         ),
@@ -490,8 +514,8 @@ def _garnier() -> list[Row]:
             "[GarnierDanes] Fig. 1 (bounds)",
             "FE cell value E_c against the exact value (φ ≤ 0.3)",
             "—",
-            "—",
             Quote(b, r"FE error of E_c against the exact value: max (\S+) %, mean (\S+) %", "max {0} %, mean {1} %"),
+            "—",
             "quadratic elements on a polyhedral sphere",
             _src(b),
         ),

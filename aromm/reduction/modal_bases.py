@@ -186,6 +186,11 @@ def _eigsh(a: sp.csr_array, m: sp.csr_array, count: int, sigma: float, *, fac: F
             f"ARPACK shift-invert ({label}, {count} modes, factorisation {fac.method}) did not converge: "
             f"{len(err.eigenvalues)} of {count} eigenpairs; ask for fewer modes"
         ) from None
+    except spla.ArpackError as err:  # e.g. -9999: no Arnoldi factorisation (many modes of a singular M)
+        raise NumericalError(
+            f"ARPACK shift-invert ({label}, {count} modes of a {a.shape[0]}-unknown problem, factorisation "
+            f"{fac.method}) failed: {err}; ask for fewer modes or use eigensolver='lobpcg'"
+        ) from None
     order = np.argsort(lam)
     return lam[order], vec[:, order]
 
