@@ -11,6 +11,7 @@ Public API::
     study = aromm.rev(scene)                        # REV study: k̄ spread against sub-volume edge, crop
 """
 
+from aromm.api import homogenize, mean_capacity, reduce, simulate
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.observables import Observables
 from aromm.core.system import ThermalSystem

@@ -127,3 +127,22 @@ def test_no_library_file_over_450_lines() -> None:
     lines = {p.relative_to(ROOT).as_posix(): len(p.read_text(encoding="utf-8").splitlines()) for p in files}
     long = {name: n for name, n in lines.items() if n > 450}
     assert long == {}
+
+
+@pytest.mark.parametrize("package", ["aromm", "inverse"])
+def test_the_public_names_resolve(package: str) -> None:
+    """Every name of the public contract (``__all__`` of aromm and inverse, docs/design.md) is importable."""
+    import importlib
+
+    module = importlib.import_module(package)
+    missing = [name for name in module.__all__ if not hasattr(module, name)]
+    assert missing == []
+
+
+def test_the_documented_entry_points_are_the_api_s() -> None:
+    """``aromm.simulate``, ``reduce``, ``homogenize`` and ``mean_capacity`` are the engine-choosing ones."""
+    import aromm
+    from aromm import api
+
+    for name in ("simulate", "reduce", "homogenize", "mean_capacity"):
+        assert getattr(aromm, name) is getattr(api, name)
