@@ -25,7 +25,6 @@ from aromm.core.observables import Observables
 from aromm.core.system import FloatArray, ParamValues, ThermalSystem
 from aromm.engines import check_engine
 from aromm.full import solve
-from aromm.full.solve import Fields, Scheme
 from aromm.homogenization import properties
 from aromm.homogenization.properties import PROBE_BOUNDARIES, conductivity
 from aromm.reduction import offline
@@ -44,18 +43,10 @@ def is_root(engine: str) -> bool:
     return runtime.is_root(runtime.world())
 
 
-def simulate(
-    system: ThermalSystem,
-    values: ParamValues | None = None,
-    times: npt.ArrayLike | None = None,
-    *,
-    fields: Fields = False,
-    method: str = "auto",
-    scheme: Scheme = "bdf2",
-    progress: bool = False,
-    engine: str = "scipy",
-) -> Observables:
-    """Full model (:func:`aromm.full.solve.simulate`: steady solve or BDF2 / backward-Euler transient).
+def simulate(system: ThermalSystem | Scene, values: ParamValues | None = None, times: npt.ArrayLike | None = None,
+             *, engine: str = "scipy", **options: Any) -> Observables:
+    """Full model (:func:`aromm.full.solve.simulate`: steady solve or BDF2 / backward-Euler transient; ``options``
+    ``fields``, ``method``, ``scheme``, ``progress`` as there).
 
     ``engine="petsc"``: the same solves distributed by PETSc under MPI (:mod:`aromm.engines.petsc.transient`;
     every rank calls it; ``system`` may be a voxel Scene, assembled by each rank for its own rows; ``method``
@@ -63,10 +54,14 @@ def simulate(
     if check_engine(engine) == "petsc":
         from aromm.engines.petsc.transient import simulate as simulate_petsc
 
-        if fields:
+        if options.pop("fields", False):
             raise InputError("the petsc engine returns face means only (fields stay distributed); use engine='scipy'")
-        return simulate_petsc(system, values, times, scheme=scheme, solver=method)
-    return solve.simulate(system, values, times, fields=fields, method=method, scheme=scheme, progress=progress)
+        options.pop("progress", None)
+        return simulate_petsc(system, values, times, scheme=options.get("scheme", "bdf2"),
+                              solver=options.get("method", "auto"))
+    if isinstance(system, Scene):
+        raise InputError("simulate: the scipy engine takes an assembled ThermalSystem (aromm.assemble(scene))")
+    return solve.simulate(system, values, times, **options)
 
 
 def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "scipy", **options: Any) -> ReducedModel:
@@ -81,6 +76,8 @@ def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "sc
 
         if options.pop("fields", False):
             raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
+        if options.get("method") == "krylov":
+            raise InputError("reduce: method 'krylov' runs on the scipy engine only (so far)")
         if options.pop("eigensolver", "auto") != "auto" or options.pop("basis_storage", "float64") != "float64":
             raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
         for name in ("progress", "eigen_progress"):

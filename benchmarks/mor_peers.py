@@ -306,6 +306,57 @@ def aromm_rows(study: Study, orders: Sequence[int], methods: Sequence[str], cach
     return rows
 
 
+#: The identification box of issue 25 (the 3×3 grid's range) over which ``method="krylov"`` picks its points.
+KRYLOV_BOX = {"fibre.k": (0.1, 1.0), "fibre.c": (1e6, 1e7)}
+
+
+def krylov_rows(study: Study, orders: Sequence[int], compressions: Sequence[str], *, tolerance: float,
+                solver: str, max_points: int, highest: float) -> list[Row]:
+    """aromm.reduction.krylov: one greedy rational-Krylov span over KRYLOV_BOX (timed once, counted in every row), then
+    each compression to each order (its own time added); ``krylov-span`` is the whole span (the floor)."""
+    from aromm.reduction.compression import compress, loss
+    from aromm.reduction.krylov import KrylovReductor, build_span, material_box, training_set
+    from aromm.reduction.rom import one_blas_thread
+    from aromm.reduction.scipy_engine import ScipyEngine
+
+    system = study.system
+    assert system.time is not None
+    reductor = KrylovReductor.over(KRYLOV_BOX, tolerance=tolerance, solver=solver, max_points=max_points,
+                                   highest=highest)
+    box = material_box(system, reductor.bounds)
+    shifts = reductor.shift_values(system.time)
+    training = training_set(box, reductor.per_axis)
+    start = clock()
+    engine = ScipyEngine(system, solver)
+    with one_blas_thread():
+        span = build_span(engine, reductor, box, study.times, shifts, max_width=10**6)
+    shared = since(start)
+    stats = engine.stats
+    its = stats.iterations
+    note = (f"{len(span.points)} points, {stats.solves} solves ({stats.method}"
+            + (f", CG its {min(its)}–{max(its)}" if its else "") + f"), estimate {span.history[-1]:.1e}")
+    rows = [study.row("krylov-span", span.model.order, shared,
+                      lambda mu: span.model.simulate(mu, study.times).as_array(), note)]
+    print(format_row(rows[-1]), flush=True)
+    kept = np.eye(span.model.order)[:, :1]
+    for method in compressions:
+        for order in orders:
+            if order >= span.model.order:
+                continue
+            start = clock()
+            with one_blas_thread():
+                a = compress(span.model, method, order, training=training, times=study.times, kept=kept,
+                             moments=span.moments, tolerance=tolerance / 2)
+                rom = span.model.transform(a)
+            own = since(start)
+            lost = loss(span.model, a, training, study.times)
+            rows.append(study.row(f"krylov-{method}", order, (shared[0] + own[0], shared[1] + own[1]),
+                                  lambda mu, rom=rom: rom.simulate(mu, study.times).as_array(),
+                                  f"span {span.model.order}, loss {lost:.1e} on the training grid"))
+            print(format_row(rows[-1]), flush=True)
+    return rows
+
+
 def pymor_rows(study: Study, orders: Sequence[int], irka_orders: Sequence[int], methods: Sequence[str],
                *, irka_maxit: int, solver: str) -> list[Row]:
     from pymor.core.defaults import set_defaults
@@ -400,7 +451,13 @@ def main() -> None:
     parser.add_argument("--irka-orders", type=int, nargs="+", default=[5, 10])
     parser.add_argument("--irka-maxit", type=int, default=20)
     parser.add_argument("--methods", nargs="*", default=["aromm", "aromm+shifts", "pod", "greedy", "greedy+shifts",
-                                                            "detailed", "bt", "irka", "gramian-pod"])
+                                                            "detailed", "krylov", "bt", "irka", "gramian-pod"])
+    parser.add_argument("--krylov-compressions", nargs="+", default=["gramian", "pod", "greedy"],
+                        help="compressions of the krylov span to measure (aromm.reduction.compression)")
+    parser.add_argument("--krylov-tolerance", type=float, default=1e-6, help="greedy tolerance of krylov (°C)")
+    parser.add_argument("--krylov-points", type=int, default=10, help="most parameter points of krylov")
+    parser.add_argument("--krylov-highest", type=float, default=3.0, help="largest krylov shift × t_first")
+    parser.add_argument("--krylov-solver", default="auto", help="shifted solves of krylov: auto, cholmod, mg")
     parser.add_argument("--pymor-solver", choices=("aromm", "default"), default="aromm",
                         help="sparse solver inside pyMOR: aromm's CHOLMOD/nested dissection (benchmarks/mor_solver.py, "
                              "BT 214 s instead of ~600 s at 24³) or pyMOR's default SuperLU/COLAMD")
@@ -427,6 +484,10 @@ def main() -> None:
                                                           "detailed")]
         if aromm_methods:
             rows += aromm_rows(study, args.orders, aromm_methods, Path(tmp))
+    if "krylov" in args.methods:
+        rows += krylov_rows(study, args.orders, args.krylov_compressions, tolerance=args.krylov_tolerance,
+                            solver=args.krylov_solver, max_points=args.krylov_points,
+                            highest=args.krylov_highest)
     peers = [m for m in args.methods if m in ("bt", "irka", "gramian-pod")]
     if peers:
         rows += pymor_rows(study, args.orders, args.irka_orders, peers, irka_maxit=args.irka_maxit,

@@ -12,7 +12,8 @@ written back in place (atomically, only when every cell ran without error), so t
 renders the stored outputs without executing anything.  The run is recorded in the notebook's metadata
 under ``aromm``: ``full`` (true; false with ``--small``), the date, the wall seconds, the CPU seconds of
 the kernel (a child process, counted once it has exited), the load average at start and end and the
-number of cores (the machine may be shared: read the seconds with the load).  The tests
+number of cores (the machine may be shared: read the seconds with the load).  After a full run the table of
+docs/reproductions.md is rewritten from the stored outputs (scripts/reproductions_table.py).  The tests
 (tests/test_notebooks.py) execute the notebooks at small sizes in memory and never write them.
 
 The reduced models are built in a fresh temporary cache unless ``--cache DIR`` is given, so the offline
@@ -25,6 +26,7 @@ import argparse
 import datetime
 import os
 import resource
+import subprocess
 import sys
 import tempfile
 import time
@@ -88,6 +90,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{path.name}: running at {size} (load {os.getloadavg()[0]:.1f}) ...", flush=True)
             wall = regenerate(path, cache, args.timeout, full=not args.small)
             print(f"{path.name}: stored, {wall:.0f} s wall (load {os.getloadavg()[0]:.1f})", flush=True)
+    if not args.small:  # the table of docs/reproductions.md quotes the stored outputs
+        subprocess.run([sys.executable, str(ROOT / "scripts" / "reproductions_table.py")], check=True)
+        print("docs/reproductions.md: table rewritten from the stored outputs", flush=True)
     return 0
 
 

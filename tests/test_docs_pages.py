@@ -1,4 +1,5 @@
-"""The scene and cache pages against the code (issue 23 item 7): every TOML example of docs/guide/scene.md loads
+"""The scene and cache pages against the code (issue 23 item 7): every whole TOML example (```toml fences;
+fragments of one section are ```{code-block} toml) of docs/guide/scene.md loads
 with aromm.load_scene (beside the shipped data it names), the outputs it documents are the ones the parser builds,
 and the cache page's table of kinds is aromm.core.cache.KINDS."""
 

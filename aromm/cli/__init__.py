@@ -12,13 +12,13 @@ import sys
 
 import click
 
-from aromm.cli import bounds, dem, forward, identify, reduce
+from aromm.cli import bounds, dem, forward, identify, reduce, scan_commands
 from aromm.cli.common import run_guarded
 from aromm.cli.console import fallback_streams
 from aromm.cli.logs import command_logs
 
 COMMANDS: list[click.Command] = [*forward.COMMANDS, *dem.COMMANDS, *identify.COMMANDS, *reduce.COMMANDS,
-                                 *bounds.COMMANDS]
+                                 *bounds.COMMANDS, *scan_commands.COMMANDS]
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

@@ -40,7 +40,7 @@ def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[Fo
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
     from aromm.api import reduce
 
-    rom = reduce(system, order=order, basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
+    rom = reduce(system, order=order, **sc.reduction.options(),
                  progress=tty)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene)}
     info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
@@ -75,7 +75,9 @@ def _table(result: Identification) -> str:
                  + ("systematic (see the warning)" if unc.residuals.systematic else "consistent with white noise"))
     for i, a in enumerate(unc.names):
         for j in range(i + 1, len(unc.names)):
-            lines.append(f"correlation {a} / {unc.names[j]}: {unc.correlation[i, j]:+.3f}")
+            rho = unc.correlation[i, j]
+            lines.append(f"correlation {a} / {unc.names[j]}: "
+                         + (f"{rho:+.3f}" if math.isfinite(rho) else "undefined (a parameter is not identifiable)"))
     lines.append("model: " + ", ".join(f"{k} {v}" for k, v in result.model.items() if k in ("kind", "order")))
     if result.posterior is not None:
         lines.append(_posterior_table(result.posterior))

@@ -23,8 +23,10 @@ from aromm.scene.scene_file import assemble
               help="Reduced order ñ (number of amalgamated modes, [Chavez2020, eq. 9]).")
 @click.option("--modes", type=click.IntRange(min=1), default=None,
               help="Detailed basis size Ñ (Dirichlet + Steklov modes); default 1.5 × order + 20.")
-@click.option("--method", type=click.Choice(REDUCTIONS), default="aromm", show_default=True,
-              help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots.")
+@click.option("--method", type=click.Choice(REDUCTIONS), default=None,
+              help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots; "
+                   "greedy: POD-greedy; krylov: eigen-free rational Krylov over the scene's [reduction] bounds. "
+                   "Default: the scene's [reduction] method, else aromm.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
               help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
 @engine_cli.SOLVER
@@ -37,8 +39,8 @@ from aromm.scene.scene_file import assemble
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")
 @REFINE
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
-def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, references: tuple[Path, ...], solver: str,
-               eigensolver: str, engine: str, cache_dir: Path | None, no_cache: bool, refine: int,
+def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None, references: tuple[Path, ...],
+               solver: str, eigensolver: str, engine: str, cache_dir: Path | None, no_cache: bool, refine: int,
                as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant).
 
@@ -51,9 +53,9 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, refer
     if engine == "scipy":
         refs = [assemble(r) for r in refs]
     cache = False if no_cache else NpzCache(cache_dir)
-    rom = reduce(system, order=order, modes=modes, references=refs, method=method, solver=solver, cache=cache,
-                 basis_values=sc.reduction.basis, reference_values=sc.reduction.reference,
-                 progress=sys.stderr.isatty() and is_root(engine), engine=engine, eigensolver=eigensolver)
+    rom = reduce(system, order=order, modes=modes, references=refs, solver=solver, cache=cache,
+                 **sc.reduction.options(method), progress=sys.stderr.isatty() and is_root(engine), engine=engine,
+                 eigensolver=eigensolver)
     if not is_root(engine):
         return
     info = dict(rom.info)
@@ -61,9 +63,14 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str, refer
     if as_json:
         echo_json({**info, "outputs": list(rom.outputs), "parameters": sorted(rom.parameter_names)})
         return
-    click.echo(f"reduced model of {scene}: order ñ = {rom.order} from Ñ = {info.get('modes')} modes "
-               f"({info.get('n_dirichlet')} Dirichlet, {info.get('n_steklov')} Steklov incl. constants), "
-               f"method {info.get('method')}")
+    if info.get("method") == "krylov":
+        click.echo(f"reduced model of {scene}: order ñ = {rom.order} from a rational Krylov span of "
+                   f"{info.get('modes')} columns at {info.get('krylov_points')} parameter points "
+                   f"({info.get('solves')} shifted solves, {info.get('solver')}), method krylov")
+    else:
+        click.echo(f"reduced model of {scene}: order ñ = {rom.order} from Ñ = {info.get('modes')} modes "
+                   f"({info.get('n_dirichlet')} Dirichlet, {info.get('n_steklov')} Steklov incl. constants), "
+                   f"method {info.get('method')}")
     if info.get("cached"):
         click.echo(f"loaded from the cache in {info['cache_dir']}")
     else:

@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import numpy as np
 
@@ -188,6 +188,14 @@ def atomic_path(path: PathLike, what: str) -> Iterator[Path]:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+def save_figure(figure: Any, path: PathLike, what: str, dpi: int = 120) -> Path:
+    """Write a matplotlib figure to ``path`` atomically (:func:`atomic_path`), the format from the suffix."""
+    p = Path(path)
+    with atomic_path(p, what) as tmp:
+        figure.savefig(tmp, dpi=dpi, format=p.suffix.lstrip(".").lower() or None)
+    return p
 
 
 @contextmanager

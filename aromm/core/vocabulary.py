@@ -14,6 +14,9 @@ condition           term                                 coefficient          ro
 ==================  ===================================  ===================  ==========
 phase p, k          ``K_p`` = ∫_p ∇φ_a·∇φ_b              ``p.k``              conduction
 phase p, (kx,...)   ``K_p_x`` = ∫_p ∂_xφ_a ∂_xφ_b        ``p.k_x``            conduction
+phase p, tensor     ``K_p_1`` = ∫_p ∇φ_a·v_1v_1ᵀ∇φ_b     ``p.k_1`` (2, 3)     conduction
+phase p, fibre      ``K_p_k_axial`` = ∫_p ∇φ_a·aaᵀ∇φ_b   ``p.k_axial``        conduction
+                    ``K_p_k_transverse`` (I − aaᵀ)       ``p.k_transverse``   conduction
 phase p, c          ``C_p`` = ∫_p φ_a φ_b                ``p.c``              capacity
 phase p, q          ``Q_p`` = ∫_p φ_a                    ``p.q``              load
 face f, flux φ      ``U_f`` = ∫_f φ_a                    ``f.flux``           load
@@ -43,6 +46,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.core.anisotropy import PhaseTensor
 from aromm.core.errors import InputError
 from aromm.core.profiles import Profile
 from aromm.core.system import Coefficient, Dirichlet, FloatArray, Term
@@ -54,13 +58,17 @@ IntArray = npt.NDArray[np.int64]
 
 @dataclass(frozen=True)
 class PhaseSpec:
-    """A phase: image label, conductivity (W/(m K), scalar or (kx, ky, kz)), capacity (J/(m³ K)), source (W/m³)."""
+    """A phase: image label, conductivity (W/(m K), scalar or (kx, ky, kz)), capacity (J/(m³ K)), source (W/m³).
+
+    An anisotropic phase (aromm.core.anisotropy) has a ``tensor``; its conductivity is then that tensor's, and ``k``
+    holds only its largest value (a scale for messages)."""
 
     name: str
     label: int
     k: float | tuple[float, float, float]
     c: float | None = None
     q: float | None = None
+    tensor: PhaseTensor | None = None
 
     @property
     def orthotropic(self) -> bool:
@@ -134,7 +142,9 @@ def parameter_values(phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], 
     """
     out: dict[str, float] = {"initial.T": float(initial_T)}
     for ph in phases:
-        if isinstance(ph.k, tuple):
+        if ph.tensor is not None:
+            out.update({f"{ph.name}.{n}": float(k) for n, k in zip(ph.tensor.names, ph.tensor.values, strict=True)})
+        elif isinstance(ph.k, tuple):
             out.update({f"{ph.name}.k_{ax}": float(k) for ax, k in zip(AXES, ph.k, strict=True)})
         else:
             out[f"{ph.name}.k"] = float(ph.k)
@@ -155,7 +165,7 @@ def parameter_values(phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], 
 
 
 #: Properties positive by nature: conductivity (or one of its axes), capacity, exchange coefficient.
-POSITIVE_PROPERTIES = ("k", "k_x", "k_y", "k_z", "c", "h")
+POSITIVE_PROPERTIES = ("k", "k_x", "k_y", "k_z", "k_1", "k_2", "k_3", "k_axial", "k_transverse", "c", "h")
 
 
 def is_positive(name: str) -> bool:
@@ -184,10 +194,13 @@ class Discretisation(FaceDiscretisation, Protocol):
     """The operators a finite-element discretisation provides to :func:`phase_terms` and :func:`face_terms`.
 
     ``conduction(i, axis)`` is ``∫_{phase i} ∂_axis φ_a ∂_axis φ_b`` (axis ``"x"``, ``"y"``, ``"z"``) or
-    ``∫ ∇φ_a·∇φ_b`` (axis None); ``mass(i)`` is ``∫_{phase i} φ_a φ_b``.
+    ``∫ ∇φ_a·∇φ_b`` (axis None); ``mass(i)`` is ``∫_{phase i} φ_a φ_b``; ``tensor_conduction(i, spec)`` the
+    matrices ``∫_{phase i} ∇φ_a·A_j∇φ_b`` of the unit tensors of an anisotropic phase (aromm.core.anisotropy).
     """
 
     def conduction(self, phase: int, axis: str | None) -> sp.csr_array: ...
+
+    def tensor_conduction(self, phase: int, spec: PhaseTensor) -> list[sp.csr_array]: ...
 
     def mass(self, phase: int) -> sp.csr_array: ...
 
@@ -198,7 +211,10 @@ def phase_terms(disc: Discretisation, phases: Sequence[PhaseSpec], present: Sequ
     terms: list[Term] = []
     for i in present:
         ph = phases[i]
-        if isinstance(ph.k, tuple):
+        if ph.tensor is not None:
+            terms.extend(Term(f"K_{ph.name}_{n}", Coefficient((f"{ph.name}.{n}",)), op, "conduction")
+                         for n, op in zip(ph.tensor.names, disc.tensor_conduction(i, ph.tensor), strict=True))
+        elif isinstance(ph.k, tuple):
             terms.extend(Term(f"K_{ph.name}_{ax}", Coefficient((f"{ph.name}.k_{ax}",)), disc.conduction(i, ax),
                               "conduction") for ax in AXES)
         else:

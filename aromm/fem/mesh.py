@@ -42,6 +42,7 @@ from skfem import (
 )
 from skfem.helpers import dot, grad
 
+from aromm.core.anisotropy import PhaseTensor
 from aromm.core.errors import InputError
 from aromm.core.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
 from aromm.core.vocabulary import (
@@ -226,6 +227,10 @@ class SimplexMesh:
 
     def mass(self, phase: int) -> sp.csr_array:
         return _relabel(_mass.assemble(self._basis(phase)), self.split.dof[:, phase], self.n)
+
+    def tensor_conduction(self, phase: int, spec: PhaseTensor) -> list[sp.csr_array]:
+        raise InputError(f"phase {self.names[phase]!r}: a conductivity tensor or fibre phase needs a voxel image "
+                         "(geometry.image); mesh phases take k or [kx, ky, kz]")
 
     @functools.cached_property
     def _bounds(self) -> tuple[FloatArray, FloatArray]:

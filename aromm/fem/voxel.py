@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.core.anisotropy import PhaseTensor, element_units
 from aromm.core.errors import InputError
 from aromm.core.system import Affine, FloatArray, Geometry, ThermalSystem, TimeGrid
 from aromm.core.vocabulary import (
@@ -65,6 +66,30 @@ def element_matrices(voxel_size: Sequence[float]) -> dict[str, FloatArray]:
     }
 
 
+def gradient_products(voxel_size: Sequence[float]) -> FloatArray:
+    """(3, 3, 8, 8) reference matrices ``∫ ∂_i φ_a ∂_j φ_b`` of one box, so that an element of conductivity tensor
+    A has the matrix ``Σ_ij A_ij M[i, j]``.  Tensor products of 1-D factors: the mass, the stiffness (i = j) and
+    ``G = ∫ φ_a' φ_b = [[-1/2, -1/2], [1/2, 1/2]]`` (its transpose on the j side); ``M[i, i]`` are the
+    ``kx``, ``ky``, ``kz`` of :func:`element_matrices`.
+    """
+    g = np.array([[-0.5, -0.5], [0.5, 0.5]])
+    out = np.empty((3, 3, 8, 8))
+    for i in range(3):
+        for j in range(3):
+            factors = []
+            for axis, h in enumerate(voxel_size):
+                if axis == i == j:
+                    factors.append(_stiff_1d(h))
+                elif axis == i:
+                    factors.append(g)
+                elif axis == j:
+                    factors.append(g.T)
+                else:
+                    factors.append(_mass_1d(h))
+            out[i, j] = np.kron(factors[2], np.kron(factors[1], factors[0]))
+    return out
+
+
 def node_index(shape: tuple[int, int, int], i: npt.ArrayLike, j: npt.ArrayLike, k: npt.ArrayLike) -> np.ndarray:
     nx, ny, _ = shape
     return np.asarray(i) + (nx + 1) * (np.asarray(j) + (ny + 1) * np.asarray(k))
@@ -78,14 +103,24 @@ def connectivity(shape: tuple[int, int, int], voxels: npt.NDArray[np.int64]) -> 
 
 
 def scatter(conn: npt.NDArray[np.int64], local: npt.NDArray[np.floating], n: int) -> sp.csr_array:
-    """Global matrix = sum over elements of the same local matrix placed at ``conn`` rows/cols."""
+    """Global matrix = sum over elements of the local matrix (one for all, or one per element (n_el, m, m))
+    placed at ``conn`` rows/cols."""
     m = conn.shape[1]
     rows = np.repeat(conn, m, axis=1).ravel()
     cols = np.tile(conn, (1, m)).ravel()
-    data = np.tile(local.ravel(), conn.shape[0])
+    data = np.tile(local.ravel(), conn.shape[0]) if local.ndim == 2 else local.ravel()
     out = sp.csr_array(sp.coo_array((data, (rows, cols)), shape=(n, n)))
     out.sum_duplicates()
     return out
+
+
+def tensor_conduction(conn: npt.NDArray[np.int64], voxel_size: Sequence[float], unit: FloatArray,
+                      n: int) -> sp.csr_array:
+    """``∫ ∇φ_a · A ∇φ_b`` over the elements ``conn`` for a tensor A (3, 3) or one per element (n_el, 3, 3)."""
+    ref = gradient_products(voxel_size)
+    if unit.ndim == 2:
+        return scatter(conn, np.einsum("ij,ijab->ab", unit, ref), n)
+    return scatter(conn, np.einsum("eij,ijab->eab", unit, ref), n)
 
 
 def face_nodes_and_quads(shape: tuple[int, int, int], face: str) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
@@ -152,6 +187,11 @@ class VoxelGrid:
 
     def mass(self, phase: int) -> sp.csr_array:
         return scatter(self._connectivity(phase), self._reference["mass"], self.n)
+
+    def tensor_conduction(self, phase: int, spec: PhaseTensor) -> list[sp.csr_array]:
+        mask = (self.phase == phase).reshape(self.shape)
+        conn = self._connectivity(phase)
+        return [tensor_conduction(conn, self.voxel_size, unit, self.n) for unit in element_units(spec, mask)]
 
     def face_mass(self, face: str) -> sp.csr_array:
         if face not in self._faces:

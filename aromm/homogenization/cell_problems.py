@@ -24,7 +24,9 @@ whose weight falls like 1/n with the image size n [Huet1990] [Kanit2003]:
 ``flux`` and ``temperature`` give the principal values along the image axes (off-diagonal zero).  Solvers:
 ``mg`` (geometric multigrid CG, :mod:`aromm.linalg.multigrid`, ≈ 200 B/voxel) or a direct/AMG method of
 :mod:`aromm.linalg.direct` on the assembled operator; ``auto`` takes ``mg`` from ``MG_CROSSOVER_VOXELS`` (20³) voxels on
-(benchmarks/homogenize_peers.py measures the crossover).
+(benchmarks/homogenize_peers.py measures the crossover).  Images with a conductivity tensor or a fibre phase
+(aromm.core.anisotropy) are solved on the assembled operator instead (:mod:`aromm.homogenization.anisotropic_cells`;
+``mg`` becomes ``amg``).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
+from aromm.homogenization.anisotropic_cells import anisotropic, assembled_cell
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS, check_residual, factorize, resolve_method
 from aromm.linalg.multigrid.hierarchy import assembled_matrix
 from aromm.linalg.multigrid.operator import VoxelOperator
@@ -101,6 +104,9 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
     if boundary not in BOUNDARIES:
         raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
     name = resolve_solver(method, int(np.asarray(_image(scene).labels).size))
+    if anisotropic(scene):  # full or per-voxel tensors: the assembled operator (aromm.homogenization.anisotropic_cells)
+        name = "amg" if name == "mg" else name
+        return CellResult(assembled_cell(scene, boundary, name, rtol), boundary, name)
     result = CellResult(np.zeros((3, 3)), boundary, name)
     if boundary == "periodic":
         _periodic(scene, name, rtol, result)

@@ -82,18 +82,20 @@ def check_residual(a: sp.csr_array, x: FloatArray, b: FloatArray, rtol: float, m
 
 
 def factorize(a: sp.spmatrix | sp.sparray, method: str = "auto", rtol: float = DEFAULT_RTOL,
-              points: FloatArray | None = None) -> Factorization:
+              points: FloatArray | None = None, ordering: npt.NDArray[np.int64] | None = None) -> Factorization:
     """Factorise a sparse SPD matrix once for repeated solves.
 
     ``points`` (one coordinate row per unknown) enables the geometric nested-dissection
     ordering of aromm.linalg.orderings for the direct methods (13x less factorisation time than
-    AMD at 1e5 voxel unknowns); without them CHOLMOD orders by AMD and SuperLU by MMD.
+    AMD at 1e5 voxel unknowns); without them CHOLMOD orders by AMD and SuperLU by MMD.  ``ordering``: that
+    permutation computed once for many matrices of one sparsity pattern (shifted operators), instead of points.
     """
     a = sp.csr_array(a)
     name = resolve_method(method)
     if a.shape[0] == 0:
         return Factorization(a, name, np.zeros_like, rtol)
-    perm = nested_dissection(a, points) if points is not None and name in ("cholmod", "splu") else None
+    perm = ordering if ordering is not None else \
+        nested_dissection(a, points) if points is not None and name in ("cholmod", "splu") else None
     if name == "cholmod":
         return Factorization(a, name, _cholmod(a, perm), rtol)
     if name == "splu":

@@ -217,6 +217,41 @@ def _read_raw(path: Path, shape: tuple[int, int, int], dtype: npt.DTypeLike) -> 
     return np.fromfile(path, dtype=kind).reshape(shape, order="F")
 
 
+def read_array(
+    path: str | Path,
+    shape: Sequence[int] | None = None,
+    dtype: npt.DTypeLike | None = None,
+) -> tuple[np.ndarray, VoxelSize | None]:
+    """The 3-D array ``[x, y, z]`` stored in ``path`` as it is (any dtype: labels, or 8-, 16-bit or float grey
+    levels for :mod:`aromm.microstructure.segmentation`) and the voxel size stored with it (or None).
+
+    Formats and refusals as :func:`load_image`, which checks the array as labels.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file or directory")
+    suffix = path.suffix.lower()
+    voxel_size: VoxelSize | None = None
+    raw = not path.is_dir() and suffix not in (".npy", ".npz", *TIFF_SUFFIXES)
+    if dtype is not None and not raw:
+        raise InputError(f"{path}: dtype applies to raw files only; {suffix or 'a directory'} stores its own")
+    if path.is_dir():
+        array = _read_tiff_directory(path)
+    elif suffix == ".npy":
+        array = _read_npy(path)
+    elif suffix == ".npz":
+        array, voxel_size = _read_npz(path)
+    elif suffix in TIFF_SUFFIXES:
+        array = _read_tiff(path)
+    elif shape is None:
+        raise InputError(f"{path}: unknown image format {suffix!r}; allowed: {FORMATS}")
+    else:
+        array = _read_raw(path, _as_shape(shape, str(path)), "uint8" if dtype is None else dtype)
+    if shape is not None and np.shape(array) != _as_shape(shape, str(path)):
+        raise InputError(f"{path}: image shape {np.shape(array)} differs from the requested shape {tuple(shape)}")
+    return array, voxel_size
+
+
 def load_image(
     path: str | Path,
     shape: Sequence[int] | None = None,
@@ -239,30 +274,8 @@ def load_image(
     >>> int(labels[1, 0, 0]), int(labels[0, 1, 0]), int(labels[0, 0, 1]), voxel
     (1, 2, 6, None)
     """
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: no such file or directory")
-    suffix = path.suffix.lower()
-    voxel_size: VoxelSize | None = None
-    raw = not path.is_dir() and suffix not in (".npy", ".npz", *TIFF_SUFFIXES)
-    if dtype is not None and not raw:
-        raise InputError(f"{path}: dtype applies to raw files only; {suffix or 'a directory'} stores its own")
-    if path.is_dir():
-        array = _read_tiff_directory(path)
-    elif suffix == ".npy":
-        array = _read_npy(path)
-    elif suffix == ".npz":
-        array, voxel_size = _read_npz(path)
-    elif suffix in TIFF_SUFFIXES:
-        array = _read_tiff(path)
-    elif shape is None:
-        raise InputError(f"{path}: unknown image format {suffix!r}; allowed: {FORMATS}")
-    else:
-        array = _read_raw(path, _as_shape(shape, str(path)), "uint8" if dtype is None else dtype)
-    labels = as_labels(array, str(path))
-    if shape is not None and labels.shape != _as_shape(shape, str(path)):
-        raise InputError(f"{path}: image shape {labels.shape} differs from the requested shape {tuple(shape)}")
-    return labels, voxel_size
+    array, voxel_size = read_array(path, shape, dtype)
+    return as_labels(array, str(path)), voxel_size
 
 
 def save_image(path: str | Path, labels: npt.ArrayLike, voxel_size: object | None = None) -> Path:

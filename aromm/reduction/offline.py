@@ -34,18 +34,21 @@ from aromm.linalg.eigensolvers import EigenProgress, PairsBar, ProgressCallback,
 from aromm.reduction.amalgam import AmalgamReductor
 from aromm.reduction.corrections import correction_samples, with_corrections
 from aromm.reduction.greedy import PodGreedy
+from aromm.reduction.krylov import KrylovReductor
 from aromm.reduction.lifting import lift, liftings
 from aromm.reduction.modal_bases import ModalBasis, boundary_of, compute_basis, split_modes
 from aromm.reduction.pod import PodReductor
 from aromm.reduction.reductors import DetailedModel, Reductor, snapshot_times
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
+from aromm.scene.reduction_section import REDUCTION_METHODS
 from aromm.scene.scene_file import Scene, assemble
 
 log = logging.getLogger(__name__)
 
 #: The reductors known by name; any object implementing :class:`~aromm.reduction.reductors.Reductor` is accepted too.
 REDUCTORS: Mapping[str, Reductor] = {r.name: r for r in (AmalgamReductor(), PodReductor(), PodGreedy())}
-METHODS = tuple(REDUCTORS)
+#: Every method by name: the reductors, and "krylov" (eigen-free, no detailed basis: aromm.reduction.krylov).
+METHODS = REDUCTION_METHODS
 #: Relaxation reference case [Chavez2020, § 3.2]: initially at 30 °C, cooled on all faces (h in W/(m² K)).
 RELAXATION_T0 = 30.0
 RELAXATION_H = 20.0
@@ -94,7 +97,7 @@ def resolve_cache(cache: bool | str | os.PathLike[str] | NpzCache | None) -> Npz
     return NpzCache(cache)
 
 
-def resolve_reductor(method: str | Reductor) -> Reductor:
+def resolve_reductor(method: str | Reductor | KrylovReductor) -> Reductor:
     """The reductor named ``method`` (:data:`REDUCTORS`), or ``method`` itself when it is one."""
     if isinstance(method, str):
         if method not in REDUCTORS:
@@ -135,7 +138,8 @@ def reduce(
     references: Sequence[ThermalSystem | ReferenceCase] = (),
     relaxation: bool = True,
     corrections: bool | Sequence[Mapping[str, float]] = True,
-    method: str | Reductor = "aromm",
+    method: str | Reductor | KrylovReductor = "aromm",
+    bounds: Mapping[str, tuple[float, float]] | None = None,
     solver: str = "auto",
     eigensolver: str = "auto",
     basis_storage: str = "float64",
@@ -165,8 +169,10 @@ def reduce(
       method of
       the paper exactly).
     * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline, refused
-      beyond the rank of its snapshots; ``"greedy"``: multi-point POD-greedy, :mod:`aromm.reduction.greedy`) or object
-      (its ``cache_key``, when it has one, keys the cache; else its ``name``).
+      beyond the rank of its snapshots; ``"greedy"``: multi-point POD-greedy, :mod:`aromm.reduction.greedy`;
+      ``"krylov"``: eigen-free rational Krylov over the box ``bounds``, :mod:`aromm.reduction.krylov`, none of the
+      modal options apply) or object (its ``cache_key``, when it has one, keys the cache; else its ``name``).
+    * ``bounds``: name → (lower, upper), the identification box of ``method="krylov"`` (refused otherwise).
     * ``cache``: True (default folder), a folder, an NpzCache, or False.  Bases and reduced models are
       stored by content hash; a second call with the same inputs loads the result.
     * ``eigensolver``: ``"arpack"`` (shift-invert on a sparse factorisation ``solver``), ``"lobpcg"``
@@ -180,9 +186,13 @@ def reduce(
       detailed basis (Ñ × r) apart from the model; a cached model asked for ``fields`` rebuilds Ψ from the
       cached detailed basis.
     """
+    if bounds and method != "krylov":
+        raise InputError("reduce: bounds (the identification box) belong to method 'krylov'")
     if isinstance(system, Scene):
         system = assemble(system)
-    reductor = resolve_reductor(method)
+    krylov = (method if isinstance(method, KrylovReductor) else KrylovReductor.over(bounds)) \
+        if method == "krylov" or isinstance(method, KrylovReductor) else None
+    reductor = resolve_reductor(method) if krylov is None else None
     for label, given in (("basis_values", basis_values), ("reference_values", reference_values)):
         unknown = sorted(set(given or {}) - system.parameter_names)
         if unknown:
@@ -191,6 +201,12 @@ def reduce(
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise InputError(f"order must be a positive integer, got {order!r}")
     basis_values = dict(basis_values or {})
+    if krylov is not None:
+        from aromm.reduction.krylov_offline import reduce_krylov
+
+        return reduce_krylov(system, int(order), krylov, basis_values=basis_values, solver=solver,
+                             store=resolve_cache(cache), progress=progress, fields=fields, with_fields=_with_fields)
+    assert reductor is not None
     fixed = len(system.dirichlet)
     original = system
     system = lift(system, basis_values, solver)  # fixed temperatures: the free unknowns (aromm.reduction.lifting)
@@ -402,7 +418,7 @@ class _Stages:
 
     def within(self, fraction: float) -> None:
         """Progress within the current stage (0 to 1): the bar moves during a long stage."""
-        self.bar.n = int(self.bar.n) + min(max(fraction, 0.0), 0.99)
+        self.bar.n = int(self.bar.n) + round(min(max(fraction, 0.0), 0.99), 2)
         self.bar.refresh()
 
     def close(self) -> None:

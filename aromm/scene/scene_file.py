@@ -16,7 +16,7 @@ from typing import Any
 import meshio
 import numpy as np
 
-from aromm import microstructure
+from aromm.core.anisotropy import FIBRE_KEYS, phase_tensor
 from aromm.core.errors import InputError
 from aromm.core.labcsv import read_lab_csv
 from aromm.core.profiles import Profile
@@ -24,23 +24,18 @@ from aromm.core.resources import MAX_TIME_STEPS, available_memory
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
 from aromm.microstructure.generators import GENERATORS
+from aromm.microstructure.segmentation import SegmentationReport, prepare_image
+from aromm.scene.contact_resistances import parse_interfaces
 from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
+from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.scene.toml import TableReader, where
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
-PHASE_KEYS = ("label", "k", "c")
+PHASE_KEYS = ("label", "k", "c", *FIBRE_KEYS)
 FACE_KEYS = ("flux", "h", "T_ext", "T")
+IMAGE_KEYS = ("image", "voxel_size", "shape", "dtype", "segment", "crop", "downsample")
 REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
-
-
-@dataclass(frozen=True)
-class ReductionSettings:
-    """``[reduction]``: reference properties of the modal bases (``basis``) and of the reference simulation
-    (``reference``), as overrides of the scene's parameters (e.g. ``{"fibre.k": 0.53}``; [Chavez2020, § 3])."""
-
-    basis: Mapping[str, float] = field(default_factory=dict)
-    reference: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,8 +52,9 @@ class Scene:
     outputs: tuple[str, ...] = ()
     interfaces: Mapping[tuple[str, str], float] = field(default_factory=dict)
     path: Path | None = None
-    reduction: ReductionSettings = ReductionSettings()
+    reduction: ReductionSettings = field(default_factory=ReductionSettings)
     sensors: tuple[Sensor, ...] = ()
+    segmentation: SegmentationReport | None = None  # a grey image's (aromm.microstructure.segmentation)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -186,9 +182,17 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     if unknown:
         raise r.fail(str(unknown[0]), f"unknown section; allowed: {', '.join(SECTIONS)}")
     geo = r.table(data, "geometry", None)
-    geometry: SceneGeometry = MeshGeometry(*_mesh(r, geo, path)) if "mesh" in geo else VoxelGeometry(
-        *_geometry(r, geo, path, image))
+    report = None
+    if "mesh" in geo:
+        geometry: SceneGeometry = MeshGeometry(*_mesh(r, geo, path))
+    else:
+        labels, voxel, report = _geometry(r, geo, path, image)
+        geometry = VoxelGeometry(labels, voxel)
     phases = _phases(r, data, geometry.present())
+    from_image = [ph.name for ph in phases if ph.tensor is not None and ph.tensor.axes is None]
+    if from_image and image is not None:
+        raise r.fail(f"phases.{from_image[0]}.axis", "a fibre axis from the image needs the whole image: use the "
+                                                     "scipy engine, or give the axis as [x, y, z]")
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
     initial_T = r.number(initial.get("T", 0.0), "initial.T")
@@ -204,30 +208,34 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     singular = singular_boundary(boundary, time)
     if singular and ("boundary" in data or outputs or sensors):  # without either, a material for `aromm homogenize`
         raise InputError(f"{where(path)}{singular}")
-    interfaces = _interfaces(r, data, {ph.name for ph in phases})
+    interfaces = parse_interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
-    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, _reduction(r, data, allowed),
-                 sensors)
+    reduction = parse_reduction(r, data, allowed)
+    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report)
 
 
 def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
               image: tuple[np.ndarray, tuple[float, float, float] | None] | None = None,
-              ) -> tuple[np.ndarray, tuple[float, float, float]]:
+              ) -> tuple[np.ndarray, tuple[float, float, float], SegmentationReport | None]:
     if not geo:
         raise r.fail("geometry", "missing: give image = \"file\" or generator = \"name\" with voxel_size")
     if ("image" in geo) == ("generator" in geo):
         raise r.fail("geometry", "give exactly one of image or generator")
     file_voxel: tuple[float, float, float] | None = None
+    factor, report = 1, None
     if image is not None:
         if "image" in geo:  # the keys are checked as below; the file itself is read by the caller
-            _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
+            _input_file(r, geo, "image", IMAGE_KEYS, path)
+            prepared = sorted(set(geo) & {"segment", "crop", "downsample"})
+            if prepared:
+                raise r.fail(f"geometry.{prepared[0]}", "a grey image, crop or down-sampling is read whole: use the "
+                                                        "scipy engine, or save the prepared labels first")
         labels, vs = image
         file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
     elif "image" in geo:
-        file = _input_file(r, geo, "image", ("image", "voxel_size", "shape", "dtype"), path)
-        shape = geo.get("shape")
-        labels, vs = microstructure.load_image(file, shape=tuple(shape) if shape else None, dtype=geo.get("dtype"))
+        file = _input_file(r, geo, "image", IMAGE_KEYS, path)
+        labels, vs, factor, report = prepare_image(file, geo, r.fail)
         file_voxel = _voxel_triple(r, vs, "geometry.image (voxel_size stored in the file)") if vs is not None else None
     else:
         name = geo["generator"]
@@ -257,7 +265,7 @@ def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
         voxel = file_voxel
     else:
         raise r.fail("geometry.voxel_size", "missing: give the voxel edge in m, a number or [dx, dy, dz]")
-    return labels, voxel
+    return labels, (voxel[0] * factor, voxel[1] * factor, voxel[2] * factor), report
 
 
 
@@ -313,14 +321,20 @@ def _phases(r: TableReader, data: Mapping[str, Any], present: set[int]) -> tuple
             raise r.fail(f"{key}.label", "missing or not an integer image label")
         if spec["label"] not in present:
             raise r.fail(f"{key}.label", f"label {spec['label']} is absent from the image (labels: {sorted(present)})")
-        if "k" not in spec:
-            raise r.fail(f"{key}.k", "missing conductivity in W/(m K)")
-        k_raw = spec["k"]
-        if isinstance(k_raw, list):
+        try:
+            tensor = phase_tensor(spec, key)
+        except InputError as err:
+            raise InputError(f"{where(r.path)}{err}") from None
+        if "k" not in spec and tensor is None:
+            raise r.fail(f"{key}.k", "missing conductivity in W/(m K) (or k_axial, k_transverse and axis of a fibre)")
+        k_raw = spec.get("k")
+        if tensor is not None:
+            k: float | tuple[float, float, float] = max(tensor.values)
+        elif isinstance(k_raw, list):
             if len(k_raw) != 3:
                 raise r.fail(f"{key}.k", "orthotropic k must be [kx, ky, kz]")
             kx, ky, kz = (r.number(v, f"{key}.k", positive=True) for v in k_raw)
-            k: float | tuple[float, float, float] = (kx, ky, kz)
+            k = (kx, ky, kz)
         else:
             k = r.number(k_raw, f"{key}.k", positive=True)
         c = r.number(spec["c"], f"{key}.c", positive=True) if "c" in spec else None
@@ -328,7 +342,7 @@ def _phases(r: TableReader, data: Mapping[str, Any], present: set[int]) -> tuple
         if name in sources:
             src = r.table(sources, f"source.{name}", ("q",), name)
             q = r.number(src.get("q"), f"source.{name}.q")
-        phases.append(PhaseSpec(name, int(spec["label"]), k, c, q))
+        phases.append(PhaseSpec(name, int(spec["label"]), k, c, q, tensor))
     unknown_sources = sorted(set(sources) - set(table))
     if unknown_sources:
         raise r.fail(f"source.{unknown_sources[0]}", f"no such phase; phases: {', '.join(table)}")
@@ -409,30 +423,3 @@ def _outputs(r: TableReader, data: Mapping[str, Any],
     named = {k: v for k, v in out.items() if k != "mean_T"}
     return tuple(faces), parse_sensors(named, box(geometry), faces, where(r.path),
                                        voxels=isinstance(geometry, VoxelGeometry))
-
-
-def _interfaces(r: TableReader, data: Mapping[str, Any], names: set[str]) -> dict[tuple[str, str], float]:
-    table = r.table(data, "interfaces", None)
-    out = {}
-    for pair in table:
-        key = f'interfaces."{pair}"'
-        parts = pair.split("|")
-        if len(parts) != 2 or not set(parts) <= names:
-            raise r.fail(key, f'must name two phases as "a|b", phases: {", ".join(sorted(names))}')
-        spec = r.table(table, key, ("R",), pair)
-        out[(parts[0], parts[1])] = r.number(spec.get("R"), f"{key}.R", positive=True)
-    return out
-
-
-def _reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
-    """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers)."""
-    table = r.table(data, "reduction", ("basis", "reference"))
-    out: dict[str, dict[str, float]] = {}
-    for part in ("basis", "reference"):
-        given = r.table(table, f"reduction.{part}", None, part)
-        unknown = sorted(set(given) - set(parameters))
-        if unknown:
-            raise r.fail(f"reduction.{part}", f"unknown parameter(s) {unknown}; the scene has "
-                                              f"{', '.join(sorted(parameters))}")
-        out[part] = {k: r.number(v, f"reduction.{part}.{k}", positive=True) for k, v in given.items()}
-    return ReductionSettings(out["basis"], out["reference"])
