@@ -43,7 +43,7 @@ __all__ = ["BOUNDARIES", "Fluxmetric", "fluxmetric", "homogeneous_twin", "homoge
 
 class ProbeScene(Protocol):
     """What the homogenisation probes need of a scene: its box and the same material under other faces
-    (a :class:`~aromm.scene.scene_file.Scene`, or the petsc engine's slab-read VoxelProblem)."""
+    (a :class:`~aromm.scene.scene_file.Scene`, or the petsc engine's box-read VoxelProblem)."""
 
     @property
     def size(self) -> tuple[float, float, float]: ...
