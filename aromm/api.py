@@ -28,6 +28,7 @@ from aromm.full import solve
 from aromm.homogenization import properties
 from aromm.homogenization.properties import PROBE_BOUNDARIES, conductivity
 from aromm.reduction import offline
+from aromm.reduction.krylov import KrylovReductor
 from aromm.reduction.rom import ReducedModel
 from aromm.scene.scene_file import Scene
 
@@ -70,14 +71,21 @@ def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "sc
 
     ``engine="petsc"``: the offline work on PETSc/SLEPc under ``mpiexec`` (collective,
     :func:`aromm.engines.petsc.reduction.reduce`; ``system`` may then be a voxel Scene and ``solver`` is ``gamg``
-    or ``mumps``); it keeps no fields, and the eigensolver and basis storage are SLEPc's."""
+    or ``mumps``); it keeps no fields, and the eigensolver and basis storage are SLEPc's.  With
+    ``method="krylov"`` the Krylov reductor runs on KSP solves only, no SLEPc
+    (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`)."""
     if check_engine(engine) == "petsc":
         from aromm.engines.petsc.reduction import reduce as reduce_petsc
 
         if options.pop("fields", False):
             raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
-        if options.get("method") == "krylov":
-            raise InputError("reduce: method 'krylov' runs on the scipy engine only (so far)")
+        method = options.get("method")
+        if method == "krylov" or isinstance(method, KrylovReductor):
+            from aromm.engines.petsc.krylov_reduction import reduce_krylov
+
+            reductor = method if isinstance(method, KrylovReductor) else KrylovReductor.over(options.get("bounds"))
+            return reduce_krylov(system, order, reductor, solver=options.get("solver", "auto"),
+                                 cache=options.get("cache", True), progress=bool(options.get("progress")))
         if options.pop("eigensolver", "auto") != "auto" or options.pop("basis_storage", "float64") != "float64":
             raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
         for name in ("progress", "eigen_progress"):

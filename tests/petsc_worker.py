@@ -1,7 +1,9 @@
-"""Run :func:`petsc_cases.results` under MPI and save them from rank 0: ``mpiexec -n P python petsc_worker.py OUT``."""
+"""Run the ``results`` of a cases module (:mod:`petsc_cases` by default) under MPI and save them from rank 0:
+``mpiexec -n P python petsc_worker.py OUT [MODULE]``."""
 
 from __future__ import annotations
 
+import importlib
 import sys
 from pathlib import Path
 
@@ -9,17 +11,15 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import petsc_cases
-
 from aromm.engines.petsc import runtime
 
 
-def main(out: str) -> None:
+def main(out: str, module: str = "petsc_cases") -> None:
     comm = runtime.world()
-    found = petsc_cases.results(comm)
+    found = importlib.import_module(module).results(comm)
     if runtime.is_root(comm):
         np.savez(out, ranks=np.array(runtime.size(comm)), **found)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(*sys.argv[1:3])

@@ -41,6 +41,32 @@ GRAM_DROP = 1e-14
 SOLVERS = ("auto", "cholmod", "splu", "mg")
 
 
+def input_coefficients(system: ThermalSystem, initial: bool, width: int, values: Mapping[str, float]) -> FloatArray:
+    """A(μ) (``width`` × q) of :meth:`~aromm.reduction.engine_protocol.ReductionEngine.input_coefficients` for input
+    terms laid out as the engines lay them: the load terms, then (``initial``) every capacity term times the uniform
+    field and times each initial field of ``system``."""
+    loads = len(system.load.terms)
+    caps = system.capacity.terms
+    fields = 1 + len(system.initial.terms) if initial else 0
+    a = np.zeros((width, loads + fields))
+    a[:loads, :loads] = np.eye(loads)
+    v = system.values(values)
+    c = np.array([float(t.coefficient(v)) for t in caps])
+    for i in range(fields):
+        a[loads + i * len(caps): loads + (i + 1) * len(caps), loads + i] = c
+    return a
+
+
+def input_weights(system: ThermalSystem, initial: bool, values: Mapping[str, float]) -> FloatArray:
+    """The q inputs' scalar factors at μ of :meth:`~aromm.reduction.engine_protocol.ReductionEngine.input_weights`:
+    each load term's coefficient, then (``initial``) the initial temperature and each initial field's coefficient."""
+    v = system.values(values)
+    weights = [float(t.coefficient(v)) for t in system.load.terms]
+    if initial:
+        weights += [float(v["initial.T"])] + [float(t.coefficient(v)) for t in system.initial.terms]  # type: ignore[arg-type]
+    return np.array(weights)
+
+
 class ScipyEngine:
     """:class:`~aromm.reduction.engine_protocol.ReductionEngine` for one process; ``system`` has no fixed temperatures
     left (lift them first), ``solver`` one of :data:`SOLVERS` (``auto``: by :data:`DIRECT_BELOW`)."""
@@ -80,23 +106,10 @@ class ScipyEngine:
         return self._terms
 
     def input_coefficients(self, values: Mapping[str, float]) -> FloatArray:
-        loads = len(self.system.load.terms)
-        caps = self.system.capacity.terms
-        fields = 1 + len(self.system.initial.terms) if self.initial else 0
-        a = np.zeros((self._terms.shape[1], loads + fields))
-        a[:loads, :loads] = np.eye(loads)
-        v = self.system.values(values)
-        c = np.array([float(t.coefficient(v)) for t in caps])
-        for i in range(fields):
-            a[loads + i * len(caps): loads + (i + 1) * len(caps), loads + i] = c
-        return a
+        return input_coefficients(self.system, self.initial, int(self._terms.shape[1]), values)
 
     def input_weights(self, values: Mapping[str, float]) -> FloatArray:
-        v = self.system.values(values)
-        weights = [float(t.coefficient(v)) for t in self.system.load.terms]
-        if self.initial:
-            weights += [float(v["initial.T"])] + [float(t.coefficient(v)) for t in self.system.initial.terms]  # type: ignore[arg-type]
-        return np.array(weights)
+        return input_weights(self.system, self.initial, values)
 
     def inputs(self, values: Mapping[str, float]) -> FloatArray:
         return self._terms @ self.input_coefficients(values)

@@ -14,7 +14,8 @@ Modules: ``runtime`` (imports, communicator helpers), ``layout`` (who owns what)
 the image for box reading), ``problem`` (a voxel scene whose image is read by boxes), ``assembly`` (the
 distributed ThermalSystem), ``linear`` (KSP solvers), ``eigen`` (SLEPc bases), ``basis`` (the detailed
 modal basis and its correction modes), ``projection`` (Galerkin projection onto a distributed basis),
-``reduction`` (``reduce``), ``steady`` and ``transient`` (full-order solves), ``homogenization`` (eq. 13
-probes).
+``reduction`` (``reduce``), ``krylov_engine`` and ``krylov_reduction`` (the eigen-free Krylov reductor of
+:mod:`aromm.reduction.krylov` on KSP solves only), ``steady`` and ``transient`` (full-order solves), ``homogenization``
+(eq. 13 probes).
 Importing :mod:`aromm` never imports this package (petsc4py is an optional extra).
 """

@@ -52,10 +52,14 @@ def configure(ksp: Any, solver: str, rtol: float) -> None:
         ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
 
 
-def krylov(mat: Any, solver: str, rtol: float, prefix: str) -> Any:
-    """A KSP for ``mat`` configured by :func:`configure`; PETSc options with ``prefix`` override it."""
+def krylov(mat: Any, solver: str, rtol: float, prefix: str, grid: Any = None) -> Any:
+    """A KSP for ``mat`` configured by :func:`configure`; PETSc options with ``prefix`` override it.  ``grid`` (a
+    DMDA of the unknowns) lets the options choose geometric multigrid (``-<prefix>pc_type mg``)."""
     PETSc = runtime.petsc()
     ksp = PETSc.KSP().create(comm=mat.getComm())
+    if grid is not None:
+        ksp.setDM(grid)
+        ksp.setDMActive(False)  # the operators are ours; the DMDA only gives the grid hierarchy
     ksp.setOperators(mat)
     ksp.setOptionsPrefix(prefix)
     configure(ksp, solver, rtol)

@@ -42,7 +42,7 @@ def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatA
             if key not in memo:
                 memo[key] = (convert.gram(basis, convert.array(t.operator), comm) if vector
                              else convert.quadratic(t.operator, basis, basis, comm))
-            out.append(Term(t.name, t.coefficient, memo[key], t.role))
+            out.append(Term(t.name, t.coefficient, memo[key], t.role, template.load[t.name].time if vector else None))
         return Affine(tuple(out))
 
     ones = np.ones(rows.local)

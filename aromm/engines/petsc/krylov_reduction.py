@@ -1,0 +1,75 @@
+"""``aromm.reduce(..., method="krylov", engine="petsc")``: the eigen-free Krylov reduced model built on PETSc KSP.
+
+The source is assembled by boxes (a voxel scene) or distributed by rows (a ThermalSystem every rank holds)
+as for the engine's other reductions (:func:`aromm.engines.petsc.reduction.distributed`); the reduction is
+:func:`aromm.reduction.krylov.krylov_model` itself on :class:`~aromm.engines.petsc.krylov_engine.PetscKrylovEngine`,
+so it
+builds the span of the scipy engine (same parameter points, shifts, moments and compression) with CG + GAMG
+solves and sums over the ranks.  Collective: every rank calls it and returns the same model; rank 0 alone
+reads and writes the cache (keyed by the content of the image, the scene and every option, not by the number
+of ranks).  No SLEPc call is made.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from aromm.core.cache import NpzCache, content_key
+from aromm.core.errors import InputError
+from aromm.engines.petsc import runtime
+from aromm.engines.petsc.krylov_engine import SOLVERS, PetscKrylovEngine
+from aromm.engines.petsc.memory import StageMemory
+from aromm.engines.petsc.reduction import Source, _cached, distributed
+from aromm.reduction.krylov import KrylovReductor, krylov_model
+from aromm.reduction.offline import resolve_cache
+from aromm.reduction.rom import ReducedModel, one_blas_thread, to_arrays
+
+_VERSION = 1
+
+
+def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solver: str = "auto",
+                  cache: bool | str | os.PathLike[str] | NpzCache | None = True, progress: bool = False,
+                  comm: Any = None) -> ReducedModel:
+    """The Krylov reduced model of ``source`` at order ≤ ``order`` (options of :class:`KrylovReductor`).
+
+    ``solver``: the shifted solves' PETSc solver (:data:`~aromm.engines.petsc.krylov_engine.SOLVERS`: ``"auto"``
+    geometric multigrid on the DMDA where the grid halves, else GAMG), unless the reductor names one itself."""
+    reductor.check()
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
+        raise InputError(f"order must be a positive integer, got {order!r}")
+    linear_solver = reductor.solver if reductor.solver != "auto" else solver
+    if linear_solver not in SOLVERS:
+        raise InputError(f"krylov reduction on the petsc engine: unknown solver {linear_solver!r}; allowed: "
+                         f"{', '.join(SOLVERS)}")
+    comm = comm if comm is not None else runtime.world()
+    start = time.perf_counter()
+    cpu = time.process_time()
+    memory = StageMemory(comm)
+    memory.start("assembly")
+    system = distributed(source, comm)
+    assembly = time.perf_counter() - start
+    key = content_key("petsc-krylov", _VERSION, system.fingerprint, int(order), reductor.cache_key, linear_solver)
+    store = resolve_cache(cache)
+    found = _cached(store, key, comm)
+    if found is not None:
+        return found
+    memory.start("krylov")
+    engine = PetscKrylovEngine(system, linear_solver)
+    try:
+        with one_blas_thread():
+            rom, _, info = krylov_model(engine, system.template, reductor, int(order),
+                                        progress=progress and runtime.is_root(comm))
+    finally:
+        engine.close()
+    info.update({"offline_seconds": time.perf_counter() - start, "assembly_seconds": assembly,
+                 "offline_cpu_seconds": runtime.allmax(time.process_time() - cpu, comm), "cached": 0, "key": key,
+                 "engine": "petsc", "ranks": runtime.size(comm), **memory.record()})
+    rom = replace(rom, info=info)
+    if store is not None and runtime.is_root(comm):
+        store.save("rom", key, to_arrays(rom))
+    return rom
