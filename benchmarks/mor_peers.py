@@ -51,6 +51,24 @@ refused: pod "POD order 100 is more than the snapshots hold: 75 available (17 ke
 at …").  bt 41 CPU s (Gramians, every order); irka (20 iterations, not converged): 9.2e-2 / 7.3e-1 at
 r = 5, 1.9e-3 / 1.2e-1 at r = 10.  Online: 0.3–2 ms per evaluation up to ñ = 20.
 
+``krylov`` (aromm.reduction.krylov, eigen-free, box k_F ∈ [0.1, 1] × c_F ∈ [1e6, 1e7]), measured 2026-12-01 on the
+same 24³ VER
+(``python benchmarks/mor_peers.py --methods krylov --orders 20 30 40 50 100 --krylov-compressions auto``, i.e.
+the greedy stopped at an output change of 1e-7 °C, load average 7–11 on 2 cores, CHOLMOD solves): a span of 103
+columns at 7 parameter points (252 shifted solves, 20.2 CPU s), worst error over the grid 1.1e-7 °C; compressed
+(auto) to ñ = 20 / 30 / 40: 1.4e-5 / 4.1e-6 / 4.5e-7 °C (ñ = 50 keeps 40 columns, 4.5e-7), 22.9 CPU s offline in
+all; peak 0.34 GB.
+Without the outputs' moments (``--krylov-no-dual``, span of 83 at 10 points) the floor is 2.2e-6 °C, and the
+compressions compare as (worst °C at ñ = 20 / 30 / 40 / 50): gramian 1.2e-3 / 5.3e-5 / 8.0e-6 / 2.3e-6, POD-greedy
+3.5e-5 / 2.1e-5 / 6.0e-6 / 9.7e-7, POD of the moments 1.8e-4 / 1.0e-5 / 3.0e-6 / 2.0e-6, trajectory POD
+5.1e-5 / 1.5e-4 / 6.2e-6 / 2.9e-6: none wins everywhere, hence ``auto`` (the smallest loss measured on the
+training grid).
+On the shipped 46³ VER (``--shipped --methods krylov --orders 30 40 50 100 --krylov-compressions auto gramian
+greedy pod``, same day, load average 4–10; multigrid-PCG solves): a span of 88 columns at 6
+points, 216 solves (CG 8–16 iterations at rtol 1e-10), 120.8 CPU s (1,092 s wall), worst over the grid 1.1e-7 °C;
+auto at ñ = 30 / 40 (32 kept) / 50: 1.3e-6 / 1.2e-6 / 5.3e-7 °C; gramian 3.6e-5 / 9.0e-6 / 9.9e-7, greedy
+9.0e-6 / 6.3e-6 / 7.5e-7, pod 1.3e-6 / 1.5e-6 / 5.3e-7; peak 1.00 GB.  Truth: own error 1.2e-10 °C, 511 CPU s.
+
 The amalgam, POD and the greedy all stop at the error of the detailed basis Φ (1e-3 °C at the slow corner
 of the grid); the greedy gets there at ñ = 10 instead of 50.  Shifted-solve corrections at the corners of
 the training box lower that floor 250× (greedy+shifts, 3.8e-6 at ñ = 200).  The 16³ run (same day) gave the
@@ -311,7 +329,7 @@ KRYLOV_BOX = {"fibre.k": (0.1, 1.0), "fibre.c": (1e6, 1e7)}
 
 
 def krylov_rows(study: Study, orders: Sequence[int], compressions: Sequence[str], *, tolerance: float,
-                solver: str, max_points: int, highest: float) -> list[Row]:
+                solver: str, max_points: int, highest: float, dual: bool) -> list[Row]:
     """aromm.reduction.krylov: one greedy rational-Krylov span over KRYLOV_BOX (timed once, counted in every row), then
     each compression to each order (its own time added); ``krylov-span`` is the whole span (the floor)."""
     from aromm.reduction.compression import compress, loss
@@ -322,7 +340,7 @@ def krylov_rows(study: Study, orders: Sequence[int], compressions: Sequence[str]
     system = study.system
     assert system.time is not None
     reductor = KrylovReductor.over(KRYLOV_BOX, tolerance=tolerance, solver=solver, max_points=max_points,
-                                   highest=highest)
+                                   highest=highest, dual=dual)
     box = material_box(system, reductor.bounds)
     shifts = reductor.shift_values(system.time)
     training = training_set(box, reductor.per_axis)
@@ -352,7 +370,8 @@ def krylov_rows(study: Study, orders: Sequence[int], compressions: Sequence[str]
             lost = loss(span.model, a, training, study.times)
             rows.append(study.row(f"krylov-{method}", order, (shared[0] + own[0], shared[1] + own[1]),
                                   lambda mu, rom=rom: rom.simulate(mu, study.times).as_array(),
-                                  f"span {span.model.order}, loss {lost:.1e} on the training grid"))
+                                  f"span {span.model.order}, loss {lost:.1e} on the training grid"
+                                  + (f", ñ={rom.order}" if rom.order != order else "")))
             print(format_row(rows[-1]), flush=True)
     return rows
 
@@ -457,6 +476,7 @@ def main() -> None:
     parser.add_argument("--krylov-tolerance", type=float, default=1e-6, help="greedy tolerance of krylov (°C)")
     parser.add_argument("--krylov-points", type=int, default=10, help="most parameter points of krylov")
     parser.add_argument("--krylov-highest", type=float, default=3.0, help="largest krylov shift × t_first")
+    parser.add_argument("--krylov-no-dual", action="store_true", help="krylov: no moments of the outputs")
     parser.add_argument("--krylov-solver", default="auto", help="shifted solves of krylov: auto, cholmod, mg")
     parser.add_argument("--pymor-solver", choices=("aromm", "default"), default="aromm",
                         help="sparse solver inside pyMOR: aromm's CHOLMOD/nested dissection (benchmarks/mor_solver.py, "
@@ -487,7 +507,7 @@ def main() -> None:
     if "krylov" in args.methods:
         rows += krylov_rows(study, args.orders, args.krylov_compressions, tolerance=args.krylov_tolerance,
                             solver=args.krylov_solver, max_points=args.krylov_points,
-                            highest=args.krylov_highest)
+                            highest=args.krylov_highest, dual=not args.krylov_no_dual)
     peers = [m for m in args.methods if m in ("bt", "irka", "gramian-pod")]
     if peers:
         rows += pymor_rows(study, args.orders, args.irka_orders, peers, irka_maxit=args.irka_maxit,

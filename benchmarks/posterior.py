@@ -16,6 +16,11 @@ less and the model is less linear over the posterior) it prints:
     python benchmarks/posterior.py                          # n = 12, order 40, 2000 steps × 32 walkers
     python benchmarks/posterior.py --size 16 --steps 4000 --json out.json
     python benchmarks/posterior.py --method krylov          # the eigen-free model (aromm.reduction.krylov) over BOUNDS
+
+Measured 2026-12-01 at 24³ (``--size 24 --steps 100``, load average 5–13 on 2 shared cores): krylov order 50 against
+the amalgam at order 200 — the identification (60 s experiment, 645 / 650 evaluations) 0.73 vs 8.67 CPU s, an
+evaluation in the posterior 1.07 vs 11.4 ms CPU (a 1e4-sample posterior ≈ 11 vs 114 CPU s), the same estimates to
+six digits (k_F 0.299978, c_F 4.00047e6; twin data of each model, so this checks the inverse loop, not accuracy).
 """
 
 from __future__ import annotations

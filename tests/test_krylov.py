@@ -7,6 +7,7 @@ function at the interpolation points (moment matching), energy conservation at c
 from __future__ import annotations
 
 import ast
+import json
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -98,12 +99,13 @@ def test_moments_match_the_full_transfer_function_at_the_interpolation_points() 
 def test_converges_to_the_exact_full_model_over_the_box(contrast: float) -> None:
     """Against the exact full model (dense eigendecomposition, exact in time): the whole span (no compression)
     is within 1e-6 of the output range at the corners and centre of the box, at contrast 1 and 1e3, and the
-    output-aware compression to order 80 stays within 1e-5 of it (measured at 7³: span 1.2e-8 °C, order 80 5.7e-8 °C
-    at contrast 1e3, range 30 °C).  Every modal rate is >= 0: the Galerkin model stays stable."""
+    output-aware Gramian compression to order 80 stays within 1e-5 of it (measured at 7³: span 1.2e-8 °C, order 80
+    5.7e-8 °C at contrast 1e3, range 30 °C).  Every modal rate is >= 0: the Galerkin model stays stable."""
     system = two_phase(6, contrast)
     times = system.time.times if system.time is not None else np.zeros(0)
     whole = reduce(system, order=10**4, method=KrylovReductor.over(BOX, tolerance=1e-7), cache=False)
-    small = reduce(system, order=80, method=KrylovReductor.over(BOX, tolerance=1e-7), cache=False)
+    small = reduce(system, order=80, method=KrylovReductor.over(BOX, tolerance=1e-7, compression="gramian"),
+                   cache=False)
     assert small.order == 80 < whole.order
     for values in (*CORNERS, {}):
         ref = exact_outputs(system, values, times)
@@ -148,9 +150,9 @@ def test_slab_between_fixed_temperatures_is_lifted_and_exact() -> None:
         assert np.abs(rom.simulate({"steel.k": kk}, times).as_array()[:, 0] - planes @ weights).max() < 1e-6
 
 
-def test_cache_fields_and_scene_key(tmp_path) -> None:
+def test_cache_fields_and_scene_key(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     """A second build is loaded from the cache; fields reproduce the outputs; the scene's [reduction] method and
-    bounds select the reductor and bad values are refused naming the key."""
+    bounds select the reductor (also for `aromm reduce`) and bad values are refused naming the key."""
     system = two_phase(4, 10.0)
     first = reduce(system, order=10, method="krylov", bounds=BOX, cache=tmp_path)
     again = reduce(system, order=10, method="krylov", bounds=BOX, cache=tmp_path)
@@ -170,6 +172,12 @@ def test_cache_fields_and_scene_key(tmp_path) -> None:
     scene.write_text(text + 'bounds = { "fibre.k" = [0.1, 1.0] }\n')
     sc = load_scene(scene)
     assert sc.reduction.options()["method"] == "krylov" and sc.reduction.bounds == {"fibre.k": (0.1, 1.0)}
+    from aromm.cli import main
+
+    assert main(["reduce", str(scene), "--order", "8", "--cache-dir", str(tmp_path / "c"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["method"] == "krylov" and out["order"] <= 8 and out["solves"] > 0
+    assert out["compression"].split("@")[0] in ("gramian", "greedy", "pod")  # the rule auto kept
     for bad, key in (('bounds = { "fibre.k" = [1.0, 0.1] }', "reduction.bounds.fibre.k"),
                      ('bounds = { "nope.k" = [0.1, 1.0] }', "reduction.bounds.nope.k")):
         scene.write_text(text + bad + "\n")

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 from aromm.core.cache import NpzCache, content_key
 from aromm.core.system import FloatArray, ThermalSystem
-from aromm.reduction.krylov import KrylovReductor, krylov_model
+from aromm.reduction import krylov
 from aromm.reduction.lifting import lift
 from aromm.reduction.rom import ReducedModel, from_arrays, one_blas_thread, to_arrays
 from aromm.reduction.scipy_engine import SOLVERS, ScipyEngine
@@ -22,8 +22,8 @@ _VERSION = 1
 WithFields = Callable[[ReducedModel, ThermalSystem, FloatArray, Mapping[str, float], str], ReducedModel]
 
 
-def reduce_krylov(system: ThermalSystem, order: int, reductor: KrylovReductor, *, basis_values: Mapping[str, float],
-                  solver: str, store: NpzCache | None, progress: bool, fields: bool,
+def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovReductor, *,
+                  basis_values: Mapping[str, float], solver: str, store: NpzCache | None, progress: bool, fields: bool,
                   with_fields: WithFields) -> ReducedModel:
     """The Krylov reduced model of ``system`` (fixed temperatures lifted here), from the cache when it is there.
 
@@ -44,7 +44,7 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: KrylovReductor, *
     lifted = lift(system, basis_values, solver)
     engine = ScipyEngine(lifted, linear)
     with one_blas_thread():  # small dense algebra dominates: threaded BLAS only fights for the shared cores
-        rom, psi, info = krylov_model(engine, lifted, reductor, order, progress=progress)
+        rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress)
     info.update({"offline_seconds": time.perf_counter() - start, "cached": 0, "key": key,
                  "lifted_faces": len(system.dirichlet)})
     rom = replace(rom, info=info)

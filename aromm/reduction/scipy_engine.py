@@ -30,12 +30,13 @@ from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.rom import ReducedModel
 
 #: Below this many unknowns a sparse Cholesky factorisation of each shifted operator beats multigrid-PCG.
-#: Measured on the 24³ wood VER (15,625 unknowns, rtol 1e-10, one BLAS thread, load ≈ 7 on 2 cores): one
-#: CHOLMOD set-up (nested dissection reused) 128 ms + 7.5 ms per right-hand side, one multigrid hierarchy 43 ms
-#: + 27 ms per right-hand side (10 CG iterations): equal at 4 right-hand sides per shift at that size, and
-#: the factorisation grows faster than N (N^1.3–1.6, docs/notes) while multigrid stays ≈ N.  Issue 25 measured
-#: 86 CPU s (multigrid) against 328 s (CHOLMOD) for the same 60 vectors at 46³.
-DIRECT_BELOW = 30_000
+#: benchmarks/krylov_solvers.py on the wood VERs of aromm.studies.chavez2020.small_wood (rtol 1e-10, one BLAS thread,
+#: load ≈ 4.3 on 2 cores), CPU s of a set-up / of one right-hand side, CHOLMOD (nested dissection reused) vs
+#: multigrid (9–10 CG iterations): 16³ (4,913 unknowns) 0.052 / 0.0017 vs 0.020 / 0.0088; 24³ (15,625) 0.136 /
+#: 0.0070 vs 0.049 / 0.0246; 32³ (35,937) 0.541 / 0.0227 vs 0.130 / 0.0759; 40³ (68,921) 1.850 / 0.0536 vs 0.317 /
+#: 0.1317: break-even at 4.4, 5.0, 7.7 and 19.6 right-hand sides per set-up; the Krylov reduction solves 6 per
+#: set-up (the load and the two outputs, two steps each).
+DIRECT_BELOW = 20_000
 #: Eigenvalues of a new block's Gram matrix below this fraction of the largest are dependent directions.
 GRAM_DROP = 1e-14
 SOLVERS = ("auto", "cholmod", "splu", "mg")
