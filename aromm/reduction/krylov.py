@@ -25,10 +25,9 @@ the identification box ``bounds`` (a log-spaced training grid 𝒫):
    μ*, where the old one was worst (by η), so the change estimates the old model's worst error (the
    saturation assumption of greedy methods); stop when it is below ``tolerance`` / :data:`ESTIMATE_SAFETY` (°C)
    or after ``max_points``;
-4. compress the span to the order asked (:mod:`aromm.reduction.compression`: by default the best measured of an
-output-aware
-   Gramian compression, POD-greedy on output errors and POD of the moments); the
-   loss of the compression is measured on 𝒫 and recorded.
+4. compress the span to the order asked (:mod:`aromm.reduction.compression`: by default the best measured of
+   an output-aware Gramian compression, POD-greedy on output errors and POD of the moments); the loss of the
+   compression is measured on 𝒫 and recorded.
 
 The result is the ordinary :class:`~aromm.reduction.rom.ReducedModel` (exact modal time integration).  Every solve is
 ``engine.shifted_solve`` to the relative residual ``rtol`` (default 1e-10): CHOLMOD or multigrid-PCG in the
