@@ -28,11 +28,7 @@ from aromm.linalg.multigrid.assembled import GridMatrix, galerkin
 from aromm.linalg.multigrid.hierarchy import ElementLevel, prolongation_1d
 from aromm.linalg.multigrid.operator import VoxelOperator
 
-# The direct solve of the coarsest grid grows fast with its size: at most 10,000 nodes (a 21³ grid).  Periodic sphere
-# at 48³, one thread, fresh processes: 0.8–1.0 CPU s for the tensor with 8,000 against 1.7–1.8 with 20,000 (its 24³
-# grid); 32³ and 40³ unchanged; below 9,261 (40³ with fixed temperatures) or at 2,000, one more V-cycle iteration
-# costs more than the smaller factorisation saves
-COARSEST_NODES = 10_000
+COARSEST_NODES = 20_000
 DEGREE = 2
 SPREAD = 8.0  # Chebyshev interval [λ/SPREAD, λ]: the upper part of the spectrum, which the coarse grid cannot see
 MAX_ITERATIONS = 500
