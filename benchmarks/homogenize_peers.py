@@ -3,7 +3,13 @@
 Every case runs in a fresh process (one at a time) that reports CPU seconds (all threads), wall seconds and
 its peak resident memory; the baseline (interpreter, libraries and the image, before any solver work) is
 measured in the same process, so "state" bytes/voxel = (peak − baseline)/voxels and "all-in" = peak/voxels.
-The machine is shared (2 cores): the load average is printed with every row.
+The machine is shared (2 cores): the 1-minute load average before → after each case is printed with every row.
+
+Like for like: every tool runs on the same number of threads (``--threads N``, one by default), printed in every
+row as the count the process actually had: each worker starts with OMP_NUM_THREADS, OPENBLAS_NUM_THREADS and
+MKL_NUM_THREADS = N, aromm's workers also under ``threadpoolctl.threadpool_limits(N)``, taufactor's after
+``torch.set_num_threads(N)``.  (Left on torch's default of one thread per core, taufactor spent several times
+the CPU seconds of a one-thread run for the same answer.)  The ratio lines compare CPU seconds per direction.
 
 Tables:
 
@@ -19,8 +25,10 @@ Tables:
 3. big (``--big 256``) — the random medium at 256³ with the multigrid: tensor, seconds per direction,
    peak GB and bytes/voxel.
 
-Usage: python benchmarks/homogenize_peers.py [--quick] [--crossover] [--big 256] [--no-peers]
-taufactor is optional (pip install ".[peers]", with torch==2.13.0 for a CPU build); absent, its rows say so.
+Usage: nice python benchmarks/homogenize_peers.py [--threads N] [--cases sphere:40 random:100 …] [--quick]
+[--crossover] [--big 256] [--no-peers]
+taufactor is optional (pip install ".[peers]"; a CPU build of torch avoids the CUDA wheels); absent, its rows
+say so.
 """
 
 from __future__ import annotations
@@ -55,15 +63,20 @@ def image(case: str, n: int) -> tuple[np.ndarray, tuple[float, float], dict[str,
     return (field > np.quantile(field, 0.6)).astype(np.uint8), (K_GAS, K_FIBRE), {}
 
 
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
 def worker(spec: dict[str, object]) -> dict[str, object]:
     tool, case, n = str(spec["tool"]), str(spec["case"]), int(spec["n"])  # type: ignore[call-overload]
+    threads = int(spec["threads"])  # type: ignore[call-overload]
     labels, (k0, k1), exact = image(case, n)
     if tool == "taufactor":
         try:
             import taufactor
             import torch
         except ImportError:
-            return {"skipped": "taufactor/torch not installed (pip install '.[peers]', torch==2.13.0 for CPU)"}
+            return {"skipped": "taufactor/torch not installed (pip install '.[peers]', a CPU torch)"}
+        torch.set_num_threads(threads)
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         cpu, wall = time.process_time(), time.perf_counter()
         solver = taufactor.MultiPhaseSolver(labels + 1, cond={1: k0, 2: k1}, device="cpu")
@@ -74,6 +87,8 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
                "wall_per_direction": time.perf_counter() - wall, "iterations": [solver.iter],
                "threads": torch.get_num_threads()}
     else:
+        from threadpoolctl import threadpool_info, threadpool_limits
+
         from aromm.core.vocabulary import PhaseSpec
         from aromm.homogenization.cell_problems import effective_conductivity
         from aromm.scene.geometry import VoxelGeometry
@@ -82,68 +97,93 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
         scene = Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)))
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         method, boundary = tool.split("-")
-        cpu, wall = time.process_time(), time.perf_counter()
-        result = effective_conductivity(scene, boundary, method)
-        out = {"k": result.k.tolist(), "cpu_per_direction": (time.process_time() - cpu) / 3,
-               "wall_per_direction": (time.perf_counter() - wall) / 3, "iterations": result.iterations,
-               "setup_cpu": result.setup_cpu_seconds}
+        with threadpool_limits(limits=threads):
+            cpu, wall = time.process_time(), time.perf_counter()
+            result = effective_conductivity(scene, boundary, method)
+            cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+            pools = [int(pool["num_threads"]) for pool in threadpool_info()]
+        out = {"k": result.k.tolist(), "cpu_per_direction": cpu / 3, "wall_per_direction": wall / 3,
+               "iterations": result.iterations, "setup_cpu": result.setup_cpu_seconds,
+               "threads": max(pools, default=1)}
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return {**out, "exact": exact, "peak": peak, "base": base, "voxels": n**3}
 
 
 def run(spec: dict[str, object]) -> dict[str, object]:
+    """One case in a fresh process whose thread pools all start at ``spec["threads"]``."""
+    env = {**os.environ, **dict.fromkeys(THREAD_VARIABLES, str(spec["threads"]))}
+    load = os.getloadavg()[0]
     proc = subprocess.run([sys.executable, __file__, "--worker", json.dumps(spec)], capture_output=True, text=True,
-                          check=False)
+                          check=False, env=env)
     if proc.returncode != 0:
         last = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else f"exit {proc.returncode}"
         return {"skipped": f"failed: {last}"}
-    return {**json.loads(proc.stdout.strip().splitlines()[-1]), "load": os.getloadavg()[0]}
+    return {**json.loads(proc.stdout.strip().splitlines()[-1]), "load": (load, os.getloadavg()[0])}
 
 
 def row(label: str, spec: dict[str, object], res: dict[str, object]) -> str:
-    head = f"{label:<16}{spec['tool']!s:<22}{spec['n']!s:>5}"
+    head = f"{label:<10}{spec['tool']!s:<16}{spec['n']!s:>4}"
     if "skipped" in res:
         return f"{head}  {res['skipped']}"
     k = np.array(res["k"])
     exact: dict[str, float] = res["exact"]  # type: ignore[assignment]
     value = f"{k[0, 0]:.6f}" + (f" / zz {k[2, 2]:.6f}" if np.isfinite(k[2, 2]) else "")
-    errors = [f"{ax} {(k['xyz'.index(ax[0]), 'xyz'.index(ax[1])] / v - 1) * 100:+.3f} %" for ax, v in exact.items()]
+    errors = [f"{ax} {(k['xyz'.index(ax[0]), 'xyz'.index(ax[1])] / v - 1) * 100:+.3f} %" for ax, v in exact.items()
+              if np.isfinite(k["xyz".index(ax[0]), "xyz".index(ax[1])])]
     peak, base, voxels = float(res["peak"]), float(res["base"]), float(res["voxels"])  # type: ignore[arg-type]
     its = res.get("iterations", [])
-    return (f"{head}  {value:<28}{', '.join(errors) or '—':<26}{res['cpu_per_direction']:>8.2f}"
-            f"{res['wall_per_direction']:>8.2f}{peak / 1e9:>7.2f}{peak / voxels:>8.0f}{(peak - base) / voxels:>8.0f}"
-            f"  {its!s:<14}{res['load']:>5.1f}")
+    load_before, load_after = (float(v) for v in res["load"])  # type: ignore[attr-defined]
+    return (f"{head}{res['threads']!s:>4}  {value:<28}{', '.join(errors) or '—':<24}{res['cpu_per_direction']:>10.2f}"
+            f"{res['wall_per_direction']:>8.2f}{peak / 1e9:>6.2f}{peak / voxels:>7.0f}{(peak - base) / voxels:>7.0f}"
+            f"  {its!s:<14}{load_before:>5.1f} → {load_after:.1f}")
 
 
-HEADER = (f"{'case':<16}{'tool':<22}{'n':>5}  {'k_xx (W/(m K))':<28}{'error vs exact':<26}{'CPU s/dir':>8}"
-          f"{'wall s':>8}{'GB':>7}{'B/vox':>8}{'state':>8}  {'iterations':<14}{'load':>5}")
+HEADER = (f"{'case':<10}{'tool':<16}{'n':>4}{'thr':>4}  {'k_xx (W/(m K))':<28}{'error vs exact':<24}"
+          f"{'CPU s/dir':>10}{'wall s':>8}{'GB':>6}{'B/vox':>7}{'state':>7}  {'iterations':<14}{'load 1 min':>12}")
 
 
-def peers(quick: bool) -> None:
-    cases = [("sphere", 40), ("sphere", 80), ("laminate", 64), ("random", 100), ("random", 200)]
-    if quick:
-        cases = [("sphere", 40), ("laminate", 32), ("random", 64)]
-    print("\n1. aromm vs taufactor (CPU); aromm rtol 1e-8, taufactor default convergence (1e-2 flux spread)")
+def ratios(results: dict[str, dict[str, object]]) -> str:
+    """taufactor's CPU seconds per direction over each aromm row's, from rows of one case in one run."""
+    peer = results.get("taufactor", {})
+    if "cpu_per_direction" not in peer:
+        return ""
+    parts = [f"{float(peer['cpu_per_direction']) / float(res['cpu_per_direction']):.2f} vs {tool}"  # type: ignore[arg-type]
+             for tool, res in results.items() if tool != "taufactor" and "cpu_per_direction" in res]
+    return "  CPU s/dir taufactor / aromm: " + ", ".join(parts)
+
+
+PEER_CASES = ("sphere:40", "sphere:80", "laminate:64", "random:100", "random:200")
+QUICK_CASES = ("sphere:40", "laminate:32", "random:64")
+
+
+def peers(cases: list[str], threads: int) -> None:
+    print(f"\n1. aromm vs taufactor (CPU, {threads} thread(s) each); aromm rtol 1e-8, taufactor default "
+          "convergence (1e-2 flux spread)")
     print(HEADER)
-    for case, n in cases:
+    for case_size in cases:
+        case, n = case_size.split(":")
+        results = {}
         for tool in ("mg-periodic", "mg-temperature", "taufactor"):
-            spec = {"tool": tool, "case": case, "n": n}
-            print(row(f"{case}", spec, run(spec)), flush=True)
+            spec: dict[str, object] = {"tool": tool, "case": case, "n": int(n), "threads": threads}
+            results[tool] = run(spec)
+            print(row(case, spec, results[tool]), flush=True)
+        if line := ratios(results):
+            print(line, flush=True)
 
 
-def crossover(quick: bool) -> None:
+def crossover(quick: bool, threads: int) -> None:
     sizes = (16, 24, 32) if quick else (16, 24, 32, 40, 48, 64)  # CHOLMOD at 80³ needs ~5.5 GB
     print("\n2. crossover, periodic tensor of the random medium: CPU seconds per direction (setup included)")
     print(HEADER)
     for n in sizes:
         for tool in ("cholmod-periodic", "amg-periodic", "mg-periodic"):
-            spec = {"tool": tool, "case": "random", "n": n}
+            spec: dict[str, object] = {"tool": tool, "case": "random", "n": n, "threads": threads}
             print(row("random", spec, run(spec)), flush=True)
 
 
-def big(n: int) -> None:
+def big(n: int, threads: int) -> None:
     print(f"\n3. random medium at {n}³, multigrid, periodic (full tensor)")
-    spec = {"tool": "mg-periodic", "case": "random", "n": n}
+    spec: dict[str, object] = {"tool": "mg-periodic", "case": "random", "n": n, "threads": threads}
     res = run(spec)
     print(HEADER)
     print(row("random", spec, res))
@@ -160,18 +200,29 @@ def main() -> None:
     parser.add_argument("--no-peers", action="store_true")
     parser.add_argument("--crossover", action="store_true")
     parser.add_argument("--big", type=int, default=0, help="also the random medium at this size (e.g. 256)")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="threads of every tool, set in each fresh process (default 1: like for like)")
+    parser.add_argument("--cases", nargs="+", metavar="CASE:N",
+                        help=f"peer cases to run (default {' '.join(PEER_CASES)}; cases sphere, laminate, random)")
     args = parser.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
         return
-    print(f"python {sys.version.split()[0]}, numpy {np.__version__}, {os.cpu_count()} CPUs, "
-          f"load {os.getloadavg()[0]:.1f} (shared machine: CPU seconds are the robust figure)")
+    if args.threads < 1:
+        parser.error(f"--threads must be a positive integer, got {args.threads}")
+    cases = args.cases or list(QUICK_CASES if args.quick else PEER_CASES)
+    for case_size in cases:
+        case, _, n = case_size.partition(":")
+        if case not in ("sphere", "laminate", "random") or not n.isdigit() or int(n) < 2:
+            parser.error(f"--cases takes CASE:N with CASE sphere, laminate or random and N ≥ 2, got {case_size!r}")
+    print(f"python {sys.version.split()[0]}, numpy {np.__version__}, {os.cpu_count()} CPUs, {args.threads} "
+          f"thread(s) per tool, load {os.getloadavg()[0]:.1f} (shared machine: CPU seconds are the robust figure)")
     if not args.no_peers:
-        peers(args.quick)
+        peers(cases, args.threads)
     if args.crossover:
-        crossover(args.quick)
+        crossover(args.quick, args.threads)
     if args.big:
-        big(args.big)
+        big(args.big, args.threads)
 
 
 if __name__ == "__main__":
