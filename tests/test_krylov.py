@@ -1,6 +1,5 @@
 """The eigen-free rational-Krylov reductor (aromm.reduction.krylov, method="krylov") against independent truths: the
-exact
-solution of the full semi-discrete model (dense eigendecomposition, tests/test_reduced.py), the exact 1-D
+exact solution of the full semi-discrete model (dense eigendecomposition, tests/test_reduced.py), the exact 1-D
 solution of a layered body and of a slab between fixed temperatures (tests/slab1d.py), the full transfer
 function at the interpolation points (moment matching), energy conservation at contrast 1e3."""
 

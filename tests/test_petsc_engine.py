@@ -3,8 +3,7 @@ oversubscribed cores of CI), 1 rank, scipy; the CLI at 2 ranks (z-slabs, the pro
 
 Independent truths: ARPACK (scipy's eigsh, shift-invert, no code of ours) for the Dirichlet and Steklov
 eigenvalues of the definitions of aromm.reduction.modal_bases; the serial engine (CHOLMOD, scipy) for the reduced and
-full
-models, the homogenised k and the CLI.  Tolerances: eigenvalues 1e-10 relative (SLEPc converges to 1e-12 and
+full models, the homogenised k and the CLI.  Tolerances: eigenvalues 1e-10 relative (SLEPc converges to 1e-12 and
 the inner solves to 1e-13); full-model face means 1e-6 °C (CG to a relative residual of 1e-11); the reduced
 model 1e-6 °C with correction modes — the serial path itself moves by 2.8e-7 °C between CHOLMOD and SuperLU
 there (near-dependent correction directions amplify round-off) — and 1e-10 °C without them.

@@ -116,8 +116,7 @@ def test_cli_writes_a_paraview_series_of_reduced_fields(tmp_path: Path, capsys: 
 
 def test_fields_with_fixed_temperatures_hold_them_and_converge_to_the_full_model(tmp_path: Path) -> None:
     """A slab between faces at 25 and 100 °C: the reduced model carries them by lifting (aromm.reduction.lifting), so
-    its
-    field is Ψ X + Σ τ_d ℓ_d.  The fixed nodes hold their temperatures exactly; the field converges to the full
+    its field is Ψ X + Σ τ_d ℓ_d.  The fixed nodes hold their temperatures exactly; the field converges to the full
     model's (BDF2 at dt and dt/4, Richardson-extrapolated) with the order, and stays within 10× the error of a
     mid-depth thermocouple's reading (measured 2× at order 40, 4× at order 80; the face means are exact here)."""
     end = 0.2 * SLAB_TAU

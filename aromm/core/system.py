@@ -229,8 +229,7 @@ class ThermalSystem:
     ``capacity`` is empty for a steady system; ``observation`` maps an output name
     (a face, or a sensor of aromm.scene.sensors) to a row vector ``e`` with ``e @ T`` the output (e.g. the face-mean
     temperature, so ``e`` sums to one); sensor rows are sparse (1, n) CSR arrays.  ``parameters`` holds the
-    scene's values,
-    which callers override by name.  ``boundary`` is the boundary mass ``B = ∫_Γ φ_a φ_b`` (m²)
+    scene's values, which callers override by name.  ``boundary`` is the boundary mass ``B = ∫_Γ φ_a φ_b`` (m²)
     of the whole outer boundary Γ, attached by the assembler (the Steklov modes need it).
 
     Two optional groups serve systems derived from another one (the lifting of fixed temperatures,

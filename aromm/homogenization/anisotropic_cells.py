@@ -9,8 +9,7 @@ of the box, by a direct method or pyamg (aromm.linalg.direct), with the same thr
 * ``periodic`` — the nodes of opposite faces are identified by the 0/1 matrix P (box → periodic nodes); for the
   macroscopic gradient e_j, T = g_j + P T̃_j with g_j = x_j at the nodes, and Pᵀ K P T̃_j = b_j = −Pᵀ K g_j.  The
   full tensor is ``k_ij |Ω| = g_iᵀ K g_j − b_iᵀ T̃_j`` (energy identity, as in aromm.homogenization.cell_problems,
-  which reduces
-  to ``δ_ij ⟨k_j⟩`` for the first term when every tensor is diagonal);
+  which reduces to ``δ_ij ⟨k_j⟩`` for the first term when every tensor is diagonal);
 * ``flux`` — [Chavez2020, eq. 13]: flux q into face i0, T = 0 on i1: k_ii = q L_i / (T̄_i0 − T̄_i1);
 * ``temperature`` — T = 1 on i0, 0 on i1: k_ii = (Tᵀ K T) L_i / A_i (the heat flow for ΔT = 1 K).
 

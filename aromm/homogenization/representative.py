@@ -2,8 +2,7 @@
 
 For sub-volumes (cubes) of growing edge e, cut at several positions of the image, the apparent conductivity tensor
 is computed with periodic conditions (:mod:`aromm.homogenization.cell_problems`, geometric multigrid from 20³ voxels
-on) and the
-mean capacity c̄ by volume average [Chavez2020, eq. 14].  Their *spread* at edge e is the relative standard
+on) and the mean capacity c̄ by volume average [Chavez2020, eq. 14].  Their *spread* at edge e is the relative standard
 deviation over the positions, ``s(e) = max_i std_p(k_ii) / mean_p(k_ii)``: the statistical REV of [Kanit2003],
 whose relative error on the mean of n sub-volumes is 2 s / √n.  The REV edge is the smallest studied edge from
 which s stays below the tolerance; the recommended crop is the centred cube of that edge (``geometry.crop``).

@@ -166,8 +166,7 @@ def reduce(
       system's loads (:func:`aromm.reduction.corrections.with_corrections`; an extension of [Chavez2020]) at the
       samples of
       :func:`aromm.reduction.corrections.correction_samples` (True), at given samples, or not at all (False: the
-      method of
-      the paper exactly).
+      method of the paper exactly).
     * ``method``: a reductor name (``"aromm"``: amalgam, eq. 9; ``"pod"``: POD–Galerkin baseline, refused
       beyond the rank of its snapshots; ``"greedy"``: multi-point POD-greedy, :mod:`aromm.reduction.greedy`;
       ``"krylov"``: eigen-free rational Krylov over the box ``bounds``, :mod:`aromm.reduction.krylov`, none of the

@@ -17,8 +17,7 @@ solution is exact at any time::
     Y(t) = e^{−Λt} Y0 + (1 − e^{−Λt})/Λ · Wᵀ N     (→ Y0 + t WᵀN for Λ = 0),
 
 and it stays exact for load histories that are piecewise linear in time (:mod:`aromm.reduction.modal_integration`),
-so the
-reduced model has no time-step error.  The steady limit (when A is invertible) is ``X∞ = A⁻¹ N`` with
+so the reduced model has no time-step error.  The steady limit (when A is invertible) is ``X∞ = A⁻¹ N`` with
 the histories held at their final values.  ``D(p, t)`` is the feedthrough of a system whose fixed
 temperatures were lifted (:mod:`aromm.reduction.lifting`), zero otherwise.  A whole swarm of parameter sets is
 evaluated in one call with stacked (batched) Cholesky, inverse and eigh.  The offline construction of Ψ

@@ -3,8 +3,7 @@
 The source is assembled by boxes (a voxel scene) or distributed by rows (a ThermalSystem every rank holds)
 as for the engine's other reductions (:func:`aromm.engines.petsc.reduction.distributed`); the reduction is
 :func:`aromm.reduction.krylov.krylov_model` itself on :class:`~aromm.engines.petsc.krylov_engine.PetscKrylovEngine`,
-so it
-builds the span of the scipy engine (same parameter points, shifts, moments and compression) with CG + GAMG
+so it builds the span of the scipy engine (same parameter points, shifts, moments and compression) with CG + GAMG
 solves and sums over the ranks.  Collective: every rank calls it and returns the same model; rank 0 alone
 reads and writes the cache (keyed by the content of the image, the scene and every option, not by the number
 of ranks).  No SLEPc call is made.

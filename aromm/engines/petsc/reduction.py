@@ -5,8 +5,7 @@ The steps and defaults are those of :func:`aromm.reduction.offline.reduce` [Chav
 term is projected onto it (aromm.engines.petsc.projection), and from there on the work is on Ñ × Ñ matrices
 that every rank holds: reference cases, amalgam (or POD) and the reference error are
 :func:`aromm.reduction.offline.reduce_detailed` itself.  Collective: every rank calls it and returns the same model;
-rank 0
-alone reads and writes the cache (the key is a content hash of the image layers, the scene and the options,
+rank 0 alone reads and writes the cache (the key is a content hash of the image layers, the scene and the options,
 independent of the number of ranks).
 """
 
@@ -109,8 +108,7 @@ def reduce(
     """AROMM reduced model of ``source`` at order ``order`` on the petsc engine (options of aromm.reduce).
 
     ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or box-read :class:`VoxelProblem` (assembled by
-    boxes),
-    or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
+    boxes), or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
     and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky).
     """
     reductor = resolve_reductor(method)
