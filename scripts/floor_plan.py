@@ -16,6 +16,7 @@ import argparse
 import sys
 import tomllib
 from collections import Counter
+from dataclasses import dataclass
 from pathlib import Path
 
 import grimp
@@ -83,7 +84,19 @@ def strongly_connected(edges: dict[str, set[str]]) -> list[list[str]]:
     return groups
 
 
-def report(root: Path, layers: list[list[str]]) -> dict[str, object]:
+@dataclass(frozen=True)
+class FloorPlan:
+    """Counts of one tree: modules, modules per folder, import arrows, cycles and arrows up the layers."""
+
+    modules: int
+    folders: dict[str, int]
+    arrows: int
+    module_cycles: list[list[str]]
+    wing_cycles: list[list[str]]
+    upward: list[str]
+
+
+def report(root: Path, layers: list[list[str]]) -> FloorPlan:
     """Counts of the tree at ``root`` against ``layers``."""
     sys.path.insert(0, str(root))
     graph = grimp.build_graph(*[p for p in PACKAGES if (root / p).is_dir()], cache_dir=None)
@@ -103,9 +116,8 @@ def report(root: Path, layers: list[list[str]]) -> dict[str, object]:
                 wing_edges.setdefault(wa, set()).add(wb)
                 if wa in rank and wb in rank and rank[wb] < rank[wa]:
                     upward.append(f"{a} -> {b}")
-    return {"modules": len(modules), "folders": dict(sorted(folders.items())), "arrows": arrows,
-            "module_cycles": strongly_connected(edges), "wing_cycles": strongly_connected(wing_edges),
-            "upward": sorted(upward)}
+    return FloorPlan(len(modules), dict(sorted(folders.items())), arrows, strongly_connected(edges),
+                     strongly_connected(wing_edges), sorted(upward))
 
 
 def main() -> None:
@@ -119,19 +131,16 @@ def main() -> None:
             print(" | ".join(layer))
         return
     r = report(args.root.resolve(), layers)
-    print(f"{r['modules']} modules in {len(r['folders'])} folders; {r['arrows']} import arrows")  # type: ignore[arg-type]
-    for folder, count in r["folders"].items():  # type: ignore[attr-defined]
+    print(f"{r.modules} modules in {len(r.folders)} folders; {r.arrows} import arrows")
+    for folder, count in r.folders.items():
         print(f"  {folder:32s} {count}")
-    print(f"module cycles: {len(r['module_cycles'])}")  # type: ignore[arg-type]
-    for group in r["module_cycles"]:  # type: ignore[attr-defined]
-        print("  " + " <-> ".join(group))
-    print(f"wing cycles: {len(r['wing_cycles'])}")  # type: ignore[arg-type]
-    for group in r["wing_cycles"]:  # type: ignore[attr-defined]
-        print("  " + " <-> ".join(group))
-    print(f"arrows up the layers: {len(r['upward'])}")  # type: ignore[arg-type]
-    for arrow in r["upward"]:  # type: ignore[attr-defined]
+    for label, groups in (("module cycles", r.module_cycles), ("wing cycles", r.wing_cycles)):
+        print(f"{label}: {len(groups)}")
+        for group in groups:
+            print("  " + " <-> ".join(group))
+    print(f"arrows up the layers: {len(r.upward)}")
+    for arrow in r.upward:
         print("  " + arrow)
-
 
 if __name__ == "__main__":
     main()

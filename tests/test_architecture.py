@@ -52,8 +52,8 @@ def test_a_wrong_import_breaks_the_contract(tmp_path: Path) -> None:
 
 def test_no_cycle_between_wings_and_no_arrow_up() -> None:
     r = report(ROOT, contract_layers(ROOT / "pyproject.toml"))
-    assert r["wing_cycles"] == []
-    assert r["upward"] == []
+    assert r.wing_cycles == []
+    assert r.upward == []
 
 
 def _quoted_layers(page: Path) -> list[str]:
