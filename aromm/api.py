@@ -79,11 +79,10 @@ def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "sc
 
         if options.pop("fields", False):
             raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
-        method = options.get("method")
-        if method == "krylov" or isinstance(method, KrylovReductor):
+        reductor = KrylovReductor.named(options.get("method"), options.get("bounds"))
+        if reductor is not None:
             from aromm.engines.petsc.krylov_reduction import reduce_krylov
 
-            reductor = method if isinstance(method, KrylovReductor) else KrylovReductor.over(options.get("bounds"))
             return reduce_krylov(system, order, reductor, solver=options.get("solver", "auto"),
                                  cache=options.get("cache", True), progress=bool(options.get("progress")))
         if options.pop("eigensolver", "auto") != "auto" or options.pop("basis_storage", "float64") != "float64":

@@ -103,6 +103,14 @@ class KrylovReductor:
         out.check()
         return out
 
+    @classmethod
+    def named(cls, method: object, bounds: Mapping[str, tuple[float, float]] | None = None) -> KrylovReductor | None:
+        """The Krylov reductor that ``method`` asks for (``"krylov"`` over ``bounds``, or a KrylovReductor itself),
+        None for any other method."""
+        if isinstance(method, KrylovReductor):
+            return method
+        return cls.over(bounds) if method == "krylov" else None
+
     def check(self) -> None:
         for name, lo, hi in self.bounds:
             if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):

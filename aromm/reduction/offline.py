@@ -189,8 +189,7 @@ def reduce(
         raise InputError("reduce: bounds (the identification box) belong to method 'krylov'")
     if isinstance(system, Scene):
         system = assemble(system)
-    krylov = (method if isinstance(method, KrylovReductor) else KrylovReductor.over(bounds)) \
-        if method == "krylov" or isinstance(method, KrylovReductor) else None
+    krylov = KrylovReductor.named(method, bounds)
     reductor = resolve_reductor(method) if krylov is None else None
     for label, given in (("basis_values", basis_values), ("reference_values", reference_values)):
         unknown = sorted(set(given or {}) - system.parameter_names)
