@@ -16,8 +16,10 @@ default) or to the petsc engine (collective: every rank calls it and gets the sa
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
+import numpy as np
 import numpy.typing as npt
 
 from aromm.core.errors import InputError
@@ -30,7 +32,11 @@ from aromm.homogenization.properties import PROBE_BOUNDARIES, conductivity
 from aromm.reduction import offline
 from aromm.reduction.krylov import KrylovReductor
 from aromm.reduction.rom import ReducedModel
+from aromm.scene.reduction_section import ReductionSettings
 from aromm.scene.scene_file import Scene
+
+#: Options of :func:`reduce` that say where and how a build reports, not what it builds.
+RUN_OPTIONS = ("references", "cache", "progress", "eigen_progress", "fields")
 
 __all__ = ["default_boundary", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
 
@@ -65,32 +71,47 @@ def simulate(system: ThermalSystem | Scene, values: ParamValues | None = None, t
     return solve.simulate(system, values, times, **options)
 
 
-def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "scipy", **options: Any) -> ReducedModel:
-    """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3]; ``options`` as
+def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: str = "scipy",
+           settings: ReductionSettings | None = None, **options: Any) -> ReducedModel:
+    """Reduced model of ``system`` at order ``order`` [Chavez2020, § 3]: ``settings``
+    (:class:`~aromm.scene.reduction_section.ReductionSettings`) with ``order`` and its fields among ``options``
+    replaced; the other ``options`` (``references``, ``cache``, ``progress``, ``eigen_progress``, ``fields``) as
     :func:`aromm.reduction.offline.reduce`.
 
     ``engine="petsc"``: the offline work on PETSc/SLEPc under ``mpiexec`` (collective,
     :func:`aromm.engines.petsc.reduction.reduce`; ``system`` may then be a voxel Scene and ``solver`` is ``gamg``
     or ``mumps``); it keeps no fields, and the eigensolver and basis storage are SLEPc's.  With
-    ``method="krylov"`` the Krylov reductor runs on KSP solves only, no SLEPc
-    (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`)."""
-    if check_engine(engine) == "petsc":
-        from aromm.engines.petsc.reduction import reduce as reduce_petsc
+    ``method="krylov"`` (and ``"auto"`` above the size where it pays) the Krylov reductor runs on KSP solves only,
+    no SLEPc (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`)."""
+    runtime_options = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
+    settings = (settings or ReductionSettings()).updated(order=order, **options)
+    if check_engine(engine) == "scipy":
+        return offline.reduce(system, settings=settings, **runtime_options)
+    if runtime_options.get("fields"):
+        raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
+    if settings.eigensolver != "auto" or settings.basis_storage != "float64":
+        raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
+    cache = runtime_options.get("cache", True)
+    method = settings.method_for(_unknowns(system), references=bool(runtime_options.get("references")))
+    reductor = KrylovReductor.named(method, settings.bounds)
+    if reductor is not None:
+        from aromm.engines.petsc.krylov_reduction import reduce_krylov
 
-        if options.pop("fields", False):
-            raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
-        reductor = KrylovReductor.named(options.get("method"), options.get("bounds"))
-        if reductor is not None:
-            from aromm.engines.petsc.krylov_reduction import reduce_krylov
+        return reduce_krylov(system, settings.order, reductor, solver=settings.solver, cache=cache,
+                             progress=bool(runtime_options.get("progress")))
+    from aromm.engines.petsc.reduction import reduce as reduce_petsc
 
-            return reduce_krylov(system, order, reductor, solver=options.get("solver", "auto"),
-                                 cache=options.get("cache", True), progress=bool(options.get("progress")))
-        if options.pop("eigensolver", "auto") != "auto" or options.pop("basis_storage", "float64") != "float64":
-            raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
-        for name in ("progress", "eigen_progress"):
-            options.pop(name, None)
-        return reduce_petsc(system, order, **options)
-    return offline.reduce(system, order, **options)
+    return reduce_petsc(system, replace(settings, method=method), references=runtime_options.get("references", ()),
+                        cache=cache)
+
+
+def _unknowns(system: Any) -> int:
+    """Unknowns of a system, else voxels of a voxel scene or box-read problem (what ``method="auto"`` compares;
+    0 for a mesh scene, which the petsc engine distributes as a ThermalSystem)."""
+    if isinstance(system, ThermalSystem):
+        return system.n
+    shape = getattr(system, "shape", None) or getattr(getattr(system, "geometry", None), "shape", None)
+    return int(np.prod(shape)) if isinstance(shape, tuple) else 0
 
 
 def default_boundary(scene: Scene, engine: str = "scipy") -> str:

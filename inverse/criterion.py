@@ -9,11 +9,13 @@ evaluates all the particles of a swarm (m parameter sets).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import dataclasses
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from aromm.core.clock import TIME_OFFSET, TimeShifted
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.forward_model import ForwardModel
 from aromm.core.system import FloatArray
@@ -27,6 +29,36 @@ class Scenario:
     model: ForwardModel
     measurements: Measurements
     name: str = ""
+
+
+
+ModelInput = ForwardModel | Sequence[tuple[ForwardModel, Measurements]]
+
+
+def scenarios_of(model: ModelInput, measurements: Measurements | None,
+                 parameters: Iterable[str] = ()) -> list[Scenario]:
+    """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit.
+
+    When ``parameters`` (the unknown and fixed names) hold the clock offset ``time_offset``, every model that
+    does not have it is wrapped in :class:`aromm.core.clock.TimeShifted` (one offset shared by every scenario).
+    """
+    if measurements is not None:
+        if not isinstance(model, ForwardModel):
+            raise InputError(f"model must be a forward model (FullModel, ReducedModel), got {type(model).__name__}")
+        out = [Scenario(model, measurements)]
+    elif isinstance(model, ForwardModel) or not isinstance(model, Sequence) or not model:
+        raise InputError("give measurements, or a non-empty list of (model, measurements) pairs for a joint fit")
+    else:
+        out = []
+        for i, pair in enumerate(model, start=1):
+            if not (isinstance(pair, tuple) and len(pair) == 2 and isinstance(pair[0], ForwardModel)
+                    and isinstance(pair[1], Measurements)):
+                raise InputError(f"scenario {i}: expected a (model, measurements) pair, got {type(pair).__name__}")
+            out.append(Scenario(pair[0], pair[1], str(i)))
+    if TIME_OFFSET in set(parameters):
+        out = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(sc.model))
+               for sc in out]
+    return out
 
 
 class LeastSquares:

@@ -14,22 +14,20 @@ import dataclasses
 import math
 import os
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from aromm.core.clock import TIME_OFFSET, TimeShifted
 from aromm.core.errors import InputError
-from aromm.core.forward_model import ForwardModel
 from aromm.core.labchecks import OVERFLOW
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import is_positive
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
-from inverse.criterion import LeastSquares, Scenario
+from inverse.criterion import LeastSquares, ModelInput, Scenario, scenarios_of
 from inverse.measurements import Measurements
 from inverse.residuals import offset_note
 from inverse.uncertainty import Uncertainty, linearised
@@ -104,35 +102,6 @@ class Identification:
         if self.posterior is not None:
             out["posterior"] = self.posterior.to_json()
         return out
-
-
-ModelInput = ForwardModel | Sequence[tuple[ForwardModel, Measurements]]
-
-
-def scenarios_of(model: ModelInput, measurements: Measurements | None,
-                 parameters: Iterable[str] = ()) -> list[Scenario]:
-    """One scenario (a model and its measurements), or the (model, measurements) pairs of a joint fit.
-
-    When ``parameters`` (the unknown and fixed names) hold the clock offset ``time_offset``, every model that
-    does not have it is wrapped in :class:`aromm.core.clock.TimeShifted` (one offset shared by every scenario).
-    """
-    if measurements is not None:
-        if not isinstance(model, ForwardModel):
-            raise InputError(f"model must be a forward model (FullModel, ReducedModel), got {type(model).__name__}")
-        out = [Scenario(model, measurements)]
-    elif isinstance(model, ForwardModel) or not isinstance(model, Sequence) or not model:
-        raise InputError("give measurements, or a non-empty list of (model, measurements) pairs for a joint fit")
-    else:
-        out = []
-        for i, pair in enumerate(model, start=1):
-            if not (isinstance(pair, tuple) and len(pair) == 2 and isinstance(pair[0], ForwardModel)
-                    and isinstance(pair[1], Measurements)):
-                raise InputError(f"scenario {i}: expected a (model, measurements) pair, got {type(pair).__name__}")
-            out.append(Scenario(pair[0], pair[1], str(i)))
-    if TIME_OFFSET in set(parameters):
-        out = [sc if TIME_OFFSET in sc.model.parameter_names else dataclasses.replace(sc, model=TimeShifted(sc.model))
-               for sc in out]
-    return out
 
 
 def _describe(scenarios: Sequence[Scenario], description: Mapping[str, object] | None) -> dict[str, object]:

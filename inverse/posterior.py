@@ -31,18 +31,27 @@ import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from inverse import optimisers as opt
-from inverse.criterion import LeastSquares
+from inverse.criterion import LeastSquares, ModelInput, scenarios_of
 from inverse.measurements import Measurements
+from inverse.uncertainty import Uncertainty
 
-if TYPE_CHECKING:
-    from inverse.identification import Identification, ModelInput
+
+class Fitted(Protocol):
+    """An identification's estimates and linearised uncertainty (:class:`~inverse.identification.Identification`)."""
+
+    @property
+    def estimates(self) -> Mapping[str, float]: ...
+
+    @property
+    def uncertainty(self) -> Uncertainty: ...
+
 
 NOISE = "noise_std"  # name of the sampled noise level (°C) among the posterior's coordinates
 LEVEL = 0.95
@@ -152,7 +161,7 @@ def sample_posterior(
     rng: np.random.Generator,
     walkers: int = DEFAULT_WALKERS,
     noise_std: float | None = None,
-    start: Identification | Mapping[str, float] | None = None,
+    start: Fitted | Mapping[str, float] | None = None,
     fixed: Mapping[str, float] | None = None,
     progress: bool = False,
 ) -> Posterior:
@@ -164,8 +173,6 @@ def sample_posterior(
     the walkers then start close to the posterior and the burn-in is short), or values by name; by default the
     centre of the box.
     """
-    from inverse.identification import scenarios_of
-
     emcee = load_emcee()
     if unknowns is None:
         raise InputError("unknowns are required, e.g. {'fibre.k': (0.05, 1.0), 'fibre.c': (1e5, 1e7)}")
@@ -221,7 +228,7 @@ def sample_posterior(
                      criterion.evaluations, wall, cpu, noise_std, tuple(notes))
 
 
-def _start(box: opt.Box, start: Identification | Mapping[str, float] | None, rng: np.random.Generator, *,
+def _start(box: opt.Box, start: Fitted | Mapping[str, float] | None, rng: np.random.Generator, *,
            walkers: int, noise_std: float | None, criterion: LeastSquares) -> FloatArray:
     """Walkers' initial positions: a Gaussian ball inside the box (reflected at the bounds), plus ``log σ``."""
     width = box.upper - box.lower

@@ -170,7 +170,7 @@ def test_cache_fields_and_scene_key(tmp_path, capsys: pytest.CaptureFixture[str]
     text = scenario_1("img.npz", "5.0e-6", "2.0", "0.1") + '\n[reduction]\nmethod = "krylov"\n'
     scene.write_text(text + 'bounds = { "fibre.k" = [0.1, 1.0] }\n')
     sc = load_scene(scene)
-    assert sc.reduction.options()["method"] == "krylov" and sc.reduction.bounds == {"fibre.k": (0.1, 1.0)}
+    assert sc.reduction.method == "krylov" and sc.reduction.bounds == {"fibre.k": (0.1, 1.0)}
     from aromm.cli import main
 
     assert main(["reduce", str(scene), "--order", "8", "--cache-dir", str(tmp_path / "c"), "--json"]) == 0
@@ -189,7 +189,7 @@ def test_bad_options_are_refused_before_any_solve() -> None:
     with pytest.raises(InputError, match="unknown parameter"):
         reduce(system, order=5, method="krylov", bounds={"nope.k": (0.1, 1.0)}, cache=False)
     with pytest.raises(InputError, match="belong to method 'krylov'"):
-        reduce(system, order=5, bounds=BOX, cache=False)
+        reduce(system, order=5, method="aromm", bounds=BOX, cache=False)
     for options in ({"tolerance": -1.0}, {"rtol": 2.0}, {"shifts": 0}, {"compression": "svd"}):
         with pytest.raises(InputError):
             KrylovReductor.over(BOX, **options)
@@ -208,8 +208,18 @@ def test_the_reductor_sees_only_the_engine_protocol() -> None:
 
 
 def test_every_reduction_method_a_scene_may_name_is_implemented() -> None:
-    """The scene's [reduction] method names are the reductors by name plus the eigen-free Krylov method."""
+    """The scene's [reduction] method names are the reductors by name, the eigen-free Krylov method, and "auto",
+    which picks one of the two by size (the amalgam up to KRYLOV_ABOVE free unknowns)."""
     from aromm.reduction.offline import REDUCTORS
-    from aromm.scene.reduction_section import REDUCTION_METHODS
+    from aromm.scene.reduction_section import KRYLOV_ABOVE, REDUCTION_METHODS, ReductionSettings
 
-    assert set(REDUCTORS) | {"krylov"} == set(REDUCTION_METHODS)
+    assert set(REDUCTORS) | {"krylov", "auto"} == set(REDUCTION_METHODS)
+    auto = ReductionSettings()
+    assert auto.method == "auto"
+    assert (auto.method_for(KRYLOV_ABOVE), auto.method_for(KRYLOV_ABOVE + 1)) == ("aromm", "krylov")
+    assert ReductionSettings(method="pod").method_for(10 * KRYLOV_ABOVE) == "pod"
+    # a modal option, or reference cases, ask for the amalgam; the Krylov reduction refuses modal options
+    assert ReductionSettings(modes=40).method_for(10 * KRYLOV_ABOVE) == "aromm"
+    assert auto.method_for(10 * KRYLOV_ABOVE, references=True) == "aromm"
+    with pytest.raises(InputError, match="modes belong to the modal methods"):
+        ReductionSettings(method="krylov").updated(modes=40)

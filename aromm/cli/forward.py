@@ -118,9 +118,8 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
     system = assemble(sc) if engine == "scipy" else None
     progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
-        rom = reduce(system if system is not None else sc, order=order, **sc.reduction.options(),
-                     progress=progress, engine=engine,
-                     solver=solver, fields=times is not None)
+        rom = reduce(system if system is not None else sc, settings=sc.reduction.updated(order=order, solver=solver),
+                     progress=progress, engine=engine, fields=times is not None)
         obs = rom.simulate()
     else:
         obs = simulate(system if system is not None else sc, fields="last" if field else False,

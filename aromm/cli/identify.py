@@ -40,8 +40,7 @@ def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[Fo
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
     from aromm.api import reduce
 
-    rom = reduce(system, order=order, **sc.reduction.options(),
-                 progress=tty)
+    rom = reduce(system, settings=sc.reduction.updated(order=order), progress=tty)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene)}
     info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
     return rom, info

@@ -26,7 +26,8 @@ from aromm.scene.scene_file import assemble
 @click.option("--method", type=click.Choice(REDUCTIONS), default=None,
               help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots; "
                    "greedy: POD-greedy; krylov: eigen-free rational Krylov over the scene's [reduction] bounds. "
-                   "Default: the scene's [reduction] method, else aromm.")
+                   "auto: krylov above 20,000 unknowns, else aromm. "
+                   "Default: the scene's [reduction] method, else auto.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
               help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
 @engine_cli.SOLVER
@@ -53,9 +54,9 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None
     if engine == "scipy":
         refs = [assemble(r) for r in refs]
     cache = False if no_cache else NpzCache(cache_dir)
-    rom = reduce(system, order=order, modes=modes, references=refs, solver=solver, cache=cache,
-                 **sc.reduction.options(method), progress=sys.stderr.isatty() and is_root(engine), engine=engine,
-                 eigensolver=eigensolver)
+    settings = sc.reduction.updated(order=order, modes=modes, method=method, solver=solver, eigensolver=eigensolver)
+    rom = reduce(system, settings=settings, references=refs, cache=cache, engine=engine,
+                 progress=sys.stderr.isatty() and is_root(engine))
     if not is_root(engine):
         return
     info = dict(rom.info)

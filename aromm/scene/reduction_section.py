@@ -1,41 +1,121 @@
-"""The ``[reduction]`` section of a scene file: how its reduced model is built [Chavez2020, § 3].
+"""How a reduced model is built: :class:`ReductionSettings`, and the ``[reduction]`` section of a scene file.
 
-``basis`` and ``reference`` are overrides of the scene's parameters for the modal bases and the reference
-simulation; ``method`` names the reduction (:data:`REDUCTION_METHODS`); ``bounds`` is the identification box of
-the Krylov reduction.  :meth:`ReductionSettings.options` turns the section into keyword arguments of
-``aromm.reduce``.
+One frozen object holds every knob of ``aromm.reduce`` [Chavez2020, § 3]: the order, the method
+(:data:`REDUCTION_METHODS`, ``"auto"`` by size), the detailed modal basis (Ñ and its split), the reference
+properties of the bases and of the reference simulation (``basis`` and ``reference``, overrides of the scene's
+parameters), the relaxation case and correction vectors, the identification box of the Krylov reduction
+(``bounds``) and the solvers.  A scene's ``[reduction]`` section sets ``basis``, ``reference``, ``method`` and
+``bounds``; the command line replaces the rest (:meth:`ReductionSettings.updated`); the reduction reads the object,
+and its cache key is made of :meth:`ReductionSettings.key`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields, replace
+from numbers import Integral
 from typing import Any
 
+from aromm.core.errors import InputError
 from aromm.scene.toml import TableReader
 
-#: The reduction methods a scene may name (aromm.reduction.offline implements each: the reductors of its
-#: REDUCTORS, and "krylov", aromm.reduction.krylov).
-REDUCTION_METHODS = ("aromm", "pod", "greedy", "krylov")
+#: The reduction methods by name: ``"auto"`` (by size, :data:`KRYLOV_ABOVE`), the reductors of
+#: aromm.reduction.offline's REDUCTORS (amalgam, POD, POD-greedy) and ``"krylov"`` (aromm.reduction.krylov).
+REDUCTION_METHODS = ("auto", "aromm", "pod", "greedy", "krylov")
+#: ``method="auto"`` builds the eigen-free Krylov model for systems with more free unknowns than this, the amalgam of
+#: modes [Chavez2020, § 3] below (the measured crossover: docs/method/krylov.md, benchmarks/reduce_scaling.py).
+KRYLOV_ABOVE = 20_000
+#: Keyword names ``aromm.reduce`` has always accepted for two fields.
+ALIASES = {"basis_values": "basis", "reference_values": "reference"}
+#: Options that only the modal methods use (the Krylov reduction refuses them; ``"auto"`` then picks the amalgam).
+#: ``reference`` is modal too, but a scene states it for its amalgam: the Krylov reduction leaves it aside.
+MODAL_OPTIONS = ("modes", "n_dirichlet", "n_steklov", "relaxation", "corrections", "eigensolver", "basis_storage")
+EIGENSOLVERS = ("auto", "arpack", "lobpcg")
+BASIS_STORAGES = ("float64", "float32")
 
 
 @dataclass(frozen=True)
 class ReductionSettings:
-    """``[reduction]``: reference properties of the modal bases (``basis``) and of the reference simulation
-    (``reference``), as overrides of the scene's parameters (e.g. ``{"fibre.k": 0.53}``; [Chavez2020, § 3]);
-    the reduction ``method`` (:data:`REDUCTION_METHODS`) and, for ``"krylov"``, the identification box ``bounds``
-    (name → (lower, upper))."""
+    """Every option of a reduced model's build (module docstring; ``aromm.reduction.offline.reduce`` says what each
+    does).
 
+    ``order`` ñ; ``method``: a name of :data:`REDUCTION_METHODS` or a reductor object; ``modes`` Ñ (default
+    1.5 ñ + 20), ``n_dirichlet`` / ``n_steklov`` its split; ``basis`` / ``reference``: parameter overrides (name →
+    value, SI) of the modal bases and of the reference simulation; ``relaxation``: the cooling reference case;
+    ``corrections``: True, False or the parameter samples of the correction vectors; ``bounds``: name → (lower,
+    upper), the identification box of the Krylov reduction; ``solver`` (linear solves), ``eigensolver`` and
+    ``basis_storage`` of the modal bases."""
+
+    order: int = 200
+    method: Any = "auto"
+    modes: int | None = None
+    n_dirichlet: int | None = None
+    n_steklov: int | None = None
     basis: Mapping[str, float] = field(default_factory=dict)
     reference: Mapping[str, float] = field(default_factory=dict)
-    method: str = "aromm"
+    relaxation: bool = True
+    corrections: bool | Sequence[Mapping[str, float]] = True
     bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    solver: str = "auto"
+    eigensolver: str = "auto"
+    basis_storage: str = "float64"
 
-    def options(self, method: str | None = None) -> dict[str, Any]:
-        """Keyword arguments of ``aromm.reduce``: the method (``method`` overrides the scene's), its box."""
-        chosen = method or self.method
-        return {"method": chosen, **({"bounds": dict(self.bounds)} if chosen == "krylov" and self.bounds else {}),
-                "basis_values": self.basis, "reference_values": self.reference}
+    def updated(self, **changes: Any) -> ReductionSettings:
+        """A copy with ``changes`` (field names, or ``basis_values`` / ``reference_values``); None leaves a field
+        as it is; an unknown name is refused with the allowed ones."""
+        names = {f.name for f in fields(self)}
+        given = {ALIASES.get(k, k): v for k, v in changes.items() if v is not None}
+        unknown = sorted(set(given) - names)
+        if unknown:
+            raise InputError(f"reduce: unknown option(s) {unknown}; allowed: {', '.join(sorted(names | set(ALIASES)))}")
+        return replace(self, **given).checked()
+
+    def checked(self) -> ReductionSettings:
+        """Self, after checking the values that need no system (InputError naming the option otherwise)."""
+        for name in ("order", "modes", "n_dirichlet", "n_steklov"):
+            value, lowest = getattr(self, name), 1 if name in ("order", "modes") else 0
+            if value is not None and (isinstance(value, bool) or not isinstance(value, Integral) or value < lowest):
+                raise InputError(f"{name} must be an integer >= {lowest}, got {value!r}")
+        if isinstance(self.method, str) and self.method not in REDUCTION_METHODS:
+            raise InputError(f"unknown reduction method {self.method!r}; allowed: {', '.join(REDUCTION_METHODS)}")
+        if self.bounds and self.method not in ("krylov", "auto"):
+            raise InputError("reduce: bounds (the identification box) belong to method 'krylov'")
+        modal = self.modal_options()
+        if self.method == "krylov" and modal:
+            raise InputError(f"reduce: {', '.join(modal)} belong to the modal methods (aromm, pod, greedy), not to "
+                             "method 'krylov' (its options are those of aromm.reduction.krylov.KrylovReductor)")
+        if self.eigensolver not in EIGENSOLVERS:
+            raise InputError(f"unknown eigensolver {self.eigensolver!r}; allowed: {', '.join(EIGENSOLVERS)}")
+        if self.basis_storage not in BASIS_STORAGES:
+            raise InputError(f"basis_storage must be one of {', '.join(BASIS_STORAGES)}, got {self.basis_storage!r}")
+        return self
+
+    def modal_options(self) -> list[str]:
+        """The options given that only the modal methods (amalgam, POD, greedy) use."""
+        defaults = ReductionSettings()
+        return [name for name in MODAL_OPTIONS if getattr(self, name) != getattr(defaults, name)]
+
+    def method_for(self, unknowns: int, references: bool = False) -> Any:
+        """The method for a system of ``unknowns`` free unknowns: ``"auto"`` is the amalgam when a modal option
+        (:data:`MODAL_OPTIONS`) or reference cases (``references``) are given, else resolved by
+        :data:`KRYLOV_ABOVE`."""
+        if self.method != "auto":
+            return self.method
+        if self.modal_options() or references:
+            return "aromm"
+        return "krylov" if unknowns > KRYLOV_ABOVE else "aromm"
+
+    def samples(self, default: Sequence[Mapping[str, float]]) -> list[dict[str, float]]:
+        """The correction samples: ``default`` (True), none (False) or the given ones."""
+        chosen = default if self.corrections is True else () if self.corrections is False else self.corrections
+        return [dict(s) for s in chosen]
+
+    def key(self) -> tuple[Any, ...]:
+        """The options that change a model built from them, in a canonical form (part of the cache key)."""
+        method = self.method if isinstance(self.method, str) else getattr(self.method, "cache_key", self.method.name)
+        return (self.order, method, self.modes, self.n_dirichlet, self.n_steklov, dict(self.basis),
+                dict(self.reference), self.relaxation, self.samples(()) if self.corrections is not True else True,
+                {k: tuple(v) for k, v in self.bounds.items()}, self.solver, self.eigensolver, self.basis_storage)
 
 
 def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
@@ -50,7 +130,7 @@ def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping
             raise r.fail(f"reduction.{part}", f"unknown parameter(s) {unknown}; the scene has "
                                               f"{', '.join(sorted(parameters))}")
         out[part] = {k: r.number(v, f"reduction.{part}.{k}", positive=True) for k, v in given.items()}
-    method = table.get("method", "aromm")
+    method = table.get("method", "auto")
     if method not in REDUCTION_METHODS:
         raise r.fail("reduction.method", f"must be one of {', '.join(REDUCTION_METHODS)}, got {method!r}")
     bounds: dict[str, tuple[float, float]] = {}
@@ -64,4 +144,6 @@ def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping
         if lo > hi:
             raise r.fail(key, f"lower bound {lo:g} above the upper bound {hi:g}")
         bounds[name] = (lo, hi)
-    return ReductionSettings(out["basis"], out["reference"], method, bounds)
+    if bounds and method not in ("krylov", "auto"):
+        raise r.fail("reduction.bounds", f"the identification box belongs to method 'krylov' or 'auto', not {method!r}")
+    return ReductionSettings(basis=out["basis"], reference=out["reference"], method=method, bounds=bounds)

@@ -106,9 +106,10 @@ class Case:
 
 
 def reduced(case: Case, order: int, **options: Any) -> ReducedModel:
-    """The reduced model of a case at the scene's ``[reduction]`` reference values (:func:`aromm.reduce`)."""
-    return reduce(case.system, order, basis_values=case.scene.reduction.basis,
-                  reference_values=case.scene.reduction.reference, **options)
+    """The reduced model of a case at the scene's ``[reduction]`` reference values (:func:`aromm.reduce`), by the
+    papers' method (the amalgam) unless ``options`` name another."""
+    method = options.pop("method", "aromm")
+    return reduce(case.system, order, settings=case.scene.reduction.updated(method=method), **options)
 
 
 @dataclass(frozen=True)

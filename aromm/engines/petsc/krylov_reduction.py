@@ -23,7 +23,7 @@ from aromm.core.errors import InputError
 from aromm.engines.petsc import runtime
 from aromm.engines.petsc.krylov_engine import SOLVERS, PetscKrylovEngine
 from aromm.engines.petsc.memory import StageMemory
-from aromm.engines.petsc.reduction import Source, _cached, distributed
+from aromm.engines.petsc.reduction import Source, cached, distributed
 from aromm.reduction.krylov import KrylovReductor, krylov_model
 from aromm.reduction.offline import resolve_cache
 from aromm.reduction.rom import ReducedModel, one_blas_thread, to_arrays
@@ -54,7 +54,7 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
     assembly = time.perf_counter() - start
     key = content_key("petsc-krylov", _VERSION, system.fingerprint, int(order), reductor.cache_key, linear_solver)
     store = resolve_cache(cache)
-    found = _cached(store, key, comm)
+    found = cached(store, key, comm)
     if found is not None:
         return found
     memory.start("krylov")

@@ -1,12 +1,11 @@
 """``aromm.reduce(..., engine="petsc")``: the AROMM reduced model with the offline work on PETSc/SLEPc.
 
-The steps and defaults are those of :func:`aromm.reduction.offline.reduce` [Chavez2020, § 3]: the detailed basis
-(constants, Steklov, Dirichlet, correction modes) is computed distributed (aromm.engines.petsc.basis), every
-term is projected onto it (aromm.engines.petsc.projection), and from there on the work is on Ñ × Ñ matrices
-that every rank holds: reference cases, amalgam (or POD) and the reference error are
-:func:`aromm.reduction.offline.reduce_detailed` itself.  Collective: every rank calls it and returns the same model;
-rank 0 alone reads and writes the cache (the key is a content hash of the image layers, the scene and the options,
-independent of the number of ranks).
+The pipeline is :mod:`aromm.reduction.modal_pipeline` itself [Chavez2020, § 3]; :class:`PetscModalEngine` provides its
+two distributed steps: the detailed basis (constants, Steklov, Dirichlet, correction modes: aromm.engines.petsc.basis)
+and the projection of every term onto it (aromm.engines.petsc.projection).  From there on the work is on Ñ × Ñ
+matrices that every rank holds.  Collective: every rank calls it and returns the same model; rank 0 alone reads and
+writes the cache (the key is the pipeline's, made of the image layers, the scene and the options, independent of
+the number of ranks).
 """
 
 from __future__ import annotations
@@ -19,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from aromm.core.cache import NpzCache, content_key
+from aromm.core.cache import NpzCache
 from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem
 from aromm.engines.petsc import convert, linear, runtime
@@ -28,23 +27,13 @@ from aromm.engines.petsc.basis import compute_basis, correction_count, with_corr
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
-from aromm.reduction.corrections import correction_samples
-from aromm.reduction.modal_bases import split_counts
-from aromm.reduction.offline import (
-    ReferenceCase,
-    at_reference,
-    mode_counts,
-    reduce_detailed,
-    reduction_info,
-    relaxation_case,
-    resolve_cache,
-    resolve_reductor,
-)
-from aromm.reduction.reductors import Reductor
+from aromm.reduction import modal_pipeline
+from aromm.reduction.modal_bases import ModalBasis, split_counts
+from aromm.reduction.modal_pipeline import ReferenceCase, at_reference, relaxation_case
+from aromm.reduction.offline import resolve_cache, resolve_reductor
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
+from aromm.scene.reduction_section import ReductionSettings
 from aromm.scene.scene_file import Scene
-
-_VERSION = 2  # 2: image digest independent of the cut (boxes)
 
 Source = ThermalSystem | Scene | VoxelProblem | DistributedSystem
 
@@ -60,8 +49,8 @@ def distributed(source: Source, comm: Any) -> DistributedSystem:
 
 
 def relaxed(system: DistributedSystem, values: Mapping[str, float]) -> tuple[DistributedSystem, ReferenceCase]:
-    """The relaxation case of [Chavez2020, § 3.2] (aromm.reduction.offline.relaxation_case) on the distributed
-    operators."""
+    """The relaxation case of [Chavez2020, § 3.2] (aromm.reduction.modal_pipeline.relaxation_case) on the
+    distributed operators."""
     case = relaxation_case(system.template, values)
     names = set(case.system.conductance.names)
     h = case.system.conductance["H_boundary"]
@@ -71,12 +60,7 @@ def relaxed(system: DistributedSystem, values: Mapping[str, float]) -> tuple[Dis
                    observation={}), case
 
 
-def _boundary_count(system: DistributedSystem) -> int:
-    diagonal = convert.array(system.boundary.getDiagonal())
-    return int(runtime.allsum([np.count_nonzero(diagonal > 0)], system.comm)[0])
-
-
-def _cached(store: NpzCache | None, key: str, comm: Any) -> ReducedModel | None:
+def cached(store: NpzCache | None, key: str, comm: Any) -> ReducedModel | None:
     """Rank 0 reads the cache and broadcasts what it found (small arrays)."""
     if store is None:
         return None
@@ -88,87 +72,97 @@ def _cached(store: NpzCache | None, key: str, comm: Any) -> ReducedModel | None:
     return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
 
 
-def reduce(
-    source: Source,
-    order: int = 200,
-    *,
-    modes: int | None = None,
-    n_dirichlet: int | None = None,
-    n_steklov: int | None = None,
-    basis_values: Mapping[str, float] | None = None,
-    reference_values: Mapping[str, float] | None = None,
-    references: Sequence[Source | ReferenceCase] = (),
-    relaxation: bool = True,
-    corrections: bool | Sequence[Mapping[str, float]] = True,
-    method: str | Reductor = "aromm",
-    solver: str = "gamg",
-    cache: bool | str | os.PathLike[str] | NpzCache | None = True,
-    comm: Any = None,
-) -> ReducedModel:
-    """AROMM reduced model of ``source`` at order ``order`` on the petsc engine (options of aromm.reduce).
+class PetscModalEngine:
+    """The full model distributed by rows (``system``) and the reference cases on the same image (``others``, with
+    the cases they were given as), for :func:`aromm.reduction.modal_pipeline.build`.  ``solver``: inner solver of
+    the eigensolvers and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky)."""
+
+    def __init__(self, system: DistributedSystem, others: Sequence[tuple[DistributedSystem, Source | ReferenceCase]],
+                 reference: Mapping[str, float], solver: str, memory: StageMemory) -> None:
+        self.system, self.others, self.solver, self.memory = system, others, solver, memory
+        self.cases = [ReferenceCase(system.template, at_reference(system.template, reference), name="system")]
+        for other, given in others:
+            self.cases.append(replace(given, system=other.template) if isinstance(given, ReferenceCase)
+                              else ReferenceCase(other.template, at_reference(other.template, reference)))
+        self.stages: dict[str, float] = {}
+        self.current, self.clock = "", time.perf_counter()
+
+    @property
+    def template(self) -> ThermalSystem:
+        return self.system.template
+
+    def fingerprints(self) -> list[Any]:
+        return [(s.fingerprint, dict(c.values), c.times)
+                for s, c in zip((self.system, *(o for o, _ in self.others)), self.cases, strict=True)]
+
+    def split(self, total: int) -> tuple[int, int]:
+        diagonal = convert.array(self.system.boundary.getDiagonal())
+        on_gamma = int(runtime.allsum([np.count_nonzero(diagonal > 0)], self.system.comm)[0])
+        return split_counts(total, self.system.n, on_gamma)
+
+    def stage(self, label: str, detail: str) -> None:
+        """Seconds and peak memory per stage (``info``: ``<label>_seconds`` and the StageMemory record)."""
+        now = time.perf_counter()
+        if self.current:
+            self.stages[f"{self.current}_seconds"] = now - self.clock
+        self.current, self.clock = label, now
+        if label:
+            self.memory.start(label)
+        else:
+            self.memory.stop()
+
+    def modal_basis(self, n_dirichlet: int, n_steklov: int, values: Mapping[str, float],
+                    samples: list[dict[str, float]]) -> ModalBasis:
+        basis = compute_basis(self.system, n_dirichlet, n_steklov, values, self.solver,
+                              reserve=correction_count(self.system, samples))
+        if not samples:
+            return basis
+        self.stage("corrections", f"correction vectors ({len(samples)} parameter samples)")
+        return with_corrections(self.system, basis, samples, values, self.solver)
+
+    def projected(self, basis: ModalBasis, relaxation: bool) -> list[tuple[ReducedModel, ReferenceCase]]:
+        memo: dict[int, np.ndarray] = {}
+        systems = [self.system, *(o for o, _ in self.others)]
+        out = [(project(s, basis.vectors, memo), case) for s, case in zip(systems, self.cases, strict=True)]
+        if relaxation:
+            cooled, case = relaxed(self.system, self.cases[0].values)
+            out.append((project(cooled, basis.vectors, memo), case))
+        return out
+
+
+def reduce(source: Source, settings: ReductionSettings, *, references: Sequence[Source | ReferenceCase] = (),
+           cache: bool | str | os.PathLike[str] | NpzCache | None = True, comm: Any = None) -> ReducedModel:
+    """AROMM reduced model of ``source`` as ``settings`` say (the options of aromm.reduce, the method resolved:
+    :func:`aromm.api.reduce`) on the petsc engine.
 
     ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or box-read :class:`VoxelProblem` (assembled by
-    boxes), or a ThermalSystem every rank holds (distributed by rows).  ``solver``: inner solver of the eigensolvers
-    and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky).
+    boxes), or a ThermalSystem every rank holds (distributed by rows).  ``settings.solver``: ``"gamg"`` or
+    ``"mumps"`` (:func:`aromm.engines.petsc.linear.check_solver`).
     """
-    reductor = resolve_reductor(method)
-    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
-        raise InputError(f"order must be a positive integer, got {order!r}")
-    solver = linear.check_solver(solver)
+    reductor = resolve_reductor(settings.method)
+    solver = linear.check_solver(settings.solver)
     comm = comm if comm is not None else runtime.world()
     start = time.perf_counter()
     memory = StageMemory(comm)
     memory.start("assembly")
     system = distributed(source, comm)
-    others = [distributed(r.system if isinstance(r, ReferenceCase) else r, comm) for r in references]
-    stages = {"assembly_seconds": time.perf_counter() - start}
-    for other in others:
+    others = [(distributed(r.system if isinstance(r, ReferenceCase) else r, comm), r) for r in references]
+    assembly = time.perf_counter() - start
+    for other, _ in others:
         if other.n != system.n:
             raise InputError(f"reference case {other.description!r} has {other.n} unknowns, the system {system.n}")
-    template = system.template
-    n_d, n_s = mode_counts(int(order), modes, n_dirichlet, n_steklov,
-                           lambda total: split_counts(total, system.n, _boundary_count(system)))
-    ref_vals = at_reference(template, reference_values or {})
-    samples = (correction_samples(template, basis_values) if corrections is True
-               else [] if corrections is False else [dict(s) for s in corrections])
-    key = content_key("petsc", _VERSION, system.fingerprint, order, n_d, n_s, basis_values or {}, reductor.name,
-                      solver, relaxation, samples, [o.fingerprint for o in others], reference_values or {},
-                      [(dict(r.values), r.times) for r in references if isinstance(r, ReferenceCase)])
+    engine = PetscModalEngine(system, others, settings.reference, solver, memory)
+    chosen = modal_pipeline.plan(engine, replace(settings, solver=solver), reductor)
     store = resolve_cache(cache)
-    found = _cached(store, key, comm)
+    found = cached(store, chosen.key, comm)
     if found is not None:
         return found
-
-    memory.start("basis")
-    basis = compute_basis(system, n_d, n_s, basis_values, solver, reserve=correction_count(system, samples))
-    clock = time.perf_counter()
-    memory.start("corrections")
-    if samples:
-        basis = with_corrections(system, basis, samples, basis_values, solver)
-    stages["corrections_seconds"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    memory.start("projection")
-    memo: dict[int, np.ndarray] = {}
-    detailed = project(system, basis.vectors, memo)
-    cases = [(detailed, ReferenceCase(template, ref_vals, name="system"))]
-    for other, given in zip(others, references, strict=True):
-        if isinstance(given, ReferenceCase):
-            case = replace(given, system=other.template)
-        else:
-            case = ReferenceCase(other.template, at_reference(other.template, reference_values or {}))
-        cases.append((project(other, basis.vectors, memo), case))
-    if relaxation:
-        cooled, relax = relaxed(system, ref_vals)
-        cases.append((project(cooled, basis.vectors, memo), relax))
-    stages["projection_seconds"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    memory.start("amalgam")
-    rom, err = reduce_detailed(detailed, cases, basis, int(order), reductor, check_values=ref_vals)
-    stages["amalgam_seconds"] = time.perf_counter() - clock
-    info = {**reduction_info(rom, basis, reductor.name, seconds=time.perf_counter() - start, error=err, key=key),
-            **stages, **memory.record(), "basis_bytes": runtime.allmax(basis.vectors.nbytes, comm),
-            "engine": "petsc", "ranks": runtime.size(comm), "solver": solver}
+    rom, _, basis = modal_pipeline.build(engine, replace(settings, solver=solver), reductor, chosen)
+    engine.stage("", "done")
+    info = {**rom.info, "offline_seconds": time.perf_counter() - start, "assembly_seconds": assembly, **engine.stages,
+            **memory.record(), "basis_bytes": runtime.allmax(basis.vectors.nbytes, comm), "engine": "petsc",
+            "ranks": runtime.size(comm), "solver": solver}
     rom = replace(rom, info=info)
     if store is not None and runtime.is_root(comm):
-        store.save("rom", key, to_arrays(rom))
+        store.save("rom", chosen.key, to_arrays(rom))
     return rom
