@@ -26,7 +26,7 @@ from aromm.scene.scene_file import assemble
 @click.option("--method", type=click.Choice(REDUCTIONS), default=None,
               help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots; "
                    "greedy: POD-greedy; krylov: eigen-free rational Krylov over the scene's [reduction] bounds. "
-                   "auto: krylov above 20,000 unknowns, else aromm. "
+                   "auto: krylov above 60,000 unknowns, else aromm (or when modal options are given). "
                    "Default: the scene's [reduction] method, else auto.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
               help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")

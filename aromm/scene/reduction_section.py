@@ -23,8 +23,10 @@ from aromm.scene.toml import TableReader
 #: aromm.reduction.offline's REDUCTORS (amalgam, POD, POD-greedy) and ``"krylov"`` (aromm.reduction.krylov).
 REDUCTION_METHODS = ("auto", "aromm", "pod", "greedy", "krylov")
 #: ``method="auto"`` builds the eigen-free Krylov model for systems with more free unknowns than this, the amalgam of
-#: modes [Chavez2020, § 3] below (the measured crossover: docs/method/krylov.md, benchmarks/reduce_scaling.py).
-KRYLOV_ABOVE = 20_000
+#: modes [Chavez2020, § 3] below.  Measured crossover (docs/method/krylov.md, "Choice by size"): the amalgam's build
+#: costs 2.5–10× less CPU up to 32³ voxels (3.6e4 unknowns, benchmarks/method_crossover.py), the Krylov build 2.7×
+#: less at 46³ (1.0e5 unknowns, the README's main job): the switch sits between, at about 39³.
+KRYLOV_ABOVE = 60_000
 #: Keyword names ``aromm.reduce`` has always accepted for two fields.
 ALIASES = {"basis_values": "basis", "reference_values": "reference"}
 #: Options that only the modal methods use (the Krylov reduction refuses them; ``"auto"`` then picks the amalgam).
@@ -43,8 +45,8 @@ class ReductionSettings:
     1.5 ñ + 20), ``n_dirichlet`` / ``n_steklov`` its split; ``basis`` / ``reference``: parameter overrides (name →
     value, SI) of the modal bases and of the reference simulation; ``relaxation``: the cooling reference case;
     ``corrections``: True, False or the parameter samples of the correction vectors; ``bounds``: name → (lower,
-    upper), the identification box of the Krylov reduction; ``solver`` (linear solves), ``eigensolver`` and
-    ``basis_storage`` of the modal bases."""
+    upper), the identification box, over which the Krylov reduction trains (the modal methods do not use it);
+    ``solver`` (linear solves), ``eigensolver`` and ``basis_storage`` of the modal bases."""
 
     order: int = 200
     method: Any = "auto"
@@ -78,8 +80,6 @@ class ReductionSettings:
                 raise InputError(f"{name} must be an integer >= {lowest}, got {value!r}")
         if isinstance(self.method, str) and self.method not in REDUCTION_METHODS:
             raise InputError(f"unknown reduction method {self.method!r}; allowed: {', '.join(REDUCTION_METHODS)}")
-        if self.bounds and self.method not in ("krylov", "auto"):
-            raise InputError("reduce: bounds (the identification box) belong to method 'krylov'")
         modal = self.modal_options()
         if self.method == "krylov" and modal:
             raise InputError(f"reduce: {', '.join(modal)} belong to the modal methods (aromm, pod, greedy), not to "
@@ -144,6 +144,4 @@ def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping
         if lo > hi:
             raise r.fail(key, f"lower bound {lo:g} above the upper bound {hi:g}")
         bounds[name] = (lo, hi)
-    if bounds and method not in ("krylov", "auto"):
-        raise r.fail("reduction.bounds", f"the identification box belongs to method 'krylov' or 'auto', not {method!r}")
     return ReductionSettings(basis=out["basis"], reference=out["reference"], method=method, bounds=bounds)
