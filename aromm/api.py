@@ -11,11 +11,14 @@ default) or to the petsc engine (collective: every rank calls it and gets the sa
   :func:`aromm.engines.petsc.reduction.reduce`;
 * :func:`homogenize` — the effective conductivity tensor, :func:`aromm.homogenization.properties.homogenize`
   (voxel cell problems, mesh probes) or the probes [Chavez2020, eq. 13] solved by the petsc engine;
+* :func:`fluxmetric` — [Chavez2020, eq. 13] under the scene's own faces, on either engine;
 * :func:`mean_capacity` — [Chavez2020, eq. 14] on either engine.
 """
 
 from __future__ import annotations
 
+import contextlib
+from dataclasses import replace
 from typing import Any
 
 import numpy.typing as npt
@@ -26,13 +29,15 @@ from aromm.core.system import FloatArray, ParamValues, ThermalSystem
 from aromm.engines import check_engine
 from aromm.full import solve
 from aromm.homogenization import properties
-from aromm.homogenization.properties import PROBE_BOUNDARIES, conductivity
+from aromm.homogenization.properties import PROBE_BOUNDARIES, Fluxmetric, conductivity
 from aromm.reduction import offline
 from aromm.reduction.krylov import KrylovReductor
-from aromm.reduction.rom import ReducedModel
-from aromm.scene.scene_file import Scene
+from aromm.reduction.model_key import model_key, scene_physics_key
+from aromm.reduction.offline import resolve_cache
+from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
+from aromm.scene.scene_file import Scene, assemble
 
-__all__ = ["default_boundary", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
+__all__ = ["default_boundary", "fluxmetric", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
 
 
 def is_root(engine: str) -> bool:
@@ -73,8 +78,63 @@ def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "sc
     :func:`aromm.engines.petsc.reduction.reduce`; ``system`` may then be a voxel Scene and ``solver`` is ``gamg``
     or ``mumps``); it keeps no fields, and the eigensolver and basis storage are SLEPc's.  With
     ``method="krylov"`` the Krylov reductor runs on KSP solves only, no SLEPc
-    (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`)."""
-    if check_engine(engine) == "petsc":
+    (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`).
+
+    A voxel scene (a Scene, or the petsc engine's box-read VoxelProblem) is cached under the key of its model
+    (:func:`aromm.reduction.model_key.model_key`), which names neither the engine nor the solvers: a model built
+    on one engine is loaded by the other."""
+    engine = check_engine(engine)
+    key = _model_key(system, order, engine, options)
+    if key is None:
+        return _build(system, order, engine, options)
+    store = resolve_cache(options.get("cache", True))
+    assert store is not None  # _model_key gives no key without a cache
+    root = is_root(engine)
+    with store.lock("rom", key) if root else contextlib.nullcontext():  # one build per model at a time
+        found = store.load("rom", key) if root else None
+        if engine == "petsc":
+            from aromm.engines.petsc import runtime
+
+            found = runtime.mpi(runtime.world()).bcast(found, root=0)
+        if found is not None:
+            rom = from_arrays(found)
+            return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+        rom = _build(system, order, engine, options)
+        rom = replace(rom, info={**rom.info, "engine": engine, "model_key": key})
+        if root:
+            store.save("rom", key, to_arrays(rom))
+    return rom
+
+
+def _model_key(system: Any, order: int, engine: str, options: dict[str, Any]) -> str | None:
+    """The engine-free key of the model (:mod:`aromm.reduction.model_key`), or None: a mesh scene or an assembled
+    system (the engine's own key then), no cache, or ``fields`` (the scipy engine's cache keeps Ψ's recipe)."""
+    if options.get("fields") or options.get("cache", True) in (False, None):
+        return None
+    keys = [_physics(source, engine) for source in (system, *options.get("references", ()))]
+    if any(k is None for k in keys):
+        return None
+    return model_key(str(keys[0]), order, options, [str(k) for k in keys[1:]])
+
+
+def _physics(source: Any, engine: str) -> str | None:
+    if isinstance(source, Scene):
+        return scene_physics_key(source)
+    if engine == "petsc":
+        from aromm.engines.petsc.problem import VoxelProblem
+
+        if isinstance(source, VoxelProblem):
+            from aromm.engines.petsc import runtime
+            from aromm.engines.petsc.assembly import physics_key
+
+            return physics_key(source, runtime.world())
+    return None
+
+
+def _build(system: Any, order: int, engine: str, options: dict[str, Any]) -> ReducedModel:
+    """The reduced model on ``engine`` (each engine's own cache of bases and models)."""
+    options = dict(options)
+    if engine == "petsc":
         from aromm.engines.petsc.reduction import reduce as reduce_petsc
 
         if options.pop("fields", False):
@@ -90,6 +150,8 @@ def reduce(system: ThermalSystem | Scene, order: int = 200, *, engine: str = "sc
         for name in ("progress", "eigen_progress"):
             options.pop(name, None)
         return reduce_petsc(system, order, **options)
+    if options.get("references"):
+        options["references"] = [assemble(r) if isinstance(r, Scene) else r for r in options["references"]]
     return offline.reduce(system, order, **options)
 
 
@@ -116,6 +178,17 @@ def homogenize(scene: Scene, boundary: str | None = None, method: str = "auto",
     from aromm.engines.petsc.homogenization import probe_solver
 
     return conductivity(scene, boundary, probe_solver(method))
+
+
+def fluxmetric(scene: Any, method: str = "auto", engine: str = "scipy") -> Fluxmetric:
+    """The fluxmetric conductivity of [Chavez2020, § 4.2] (eq. 13 under the scene's own faces,
+    :func:`aromm.homogenization.properties.fluxmetric`); ``engine="petsc"``: its steady probe solved by boxes
+    (collective; ``method`` ``gamg`` or ``mumps``)."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.homogenization import probe_solver
+
+        return properties.fluxmetric(scene, solve=probe_solver(method))
+    return properties.fluxmetric(scene, method)
 
 
 def mean_capacity(scene: Any, engine: str = "scipy") -> float:

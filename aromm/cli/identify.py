@@ -7,19 +7,22 @@ import math
 import sys
 import warnings
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
 from tqdm import tqdm
 
+from aromm.api import is_root
 from aromm.cli import checks
+from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
 from aromm.core.errors import InputError
 from aromm.core.files import check_output, distinct
 from aromm.core.forward_model import ForwardModel
 from aromm.core.labchecks import PLAUSIBLE
 from aromm.full.solve import FullModel
-from aromm.scene.scene_file import Scene, assemble, load_scene
+from aromm.scene.scene_file import assemble
 from inverse import checkpoint as ckpt
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot
@@ -34,15 +37,15 @@ from inverse.posterior import (
 from inverse.uncertainty import UncertaintyWarning
 
 
-def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[ForwardModel, dict[str, object]]:
-    system = assemble(sc)
+def _model(scene: Path, source: Any, kind: str, order: int, *, tty: bool,
+           engine: str) -> tuple[ForwardModel, dict[str, object]]:
     if kind == "full":
+        system = assemble(source)
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
     from aromm.api import reduce
 
-    rom = reduce(system, order=order, **sc.reduction.options(),
-                 progress=tty)
-    info = {"kind": "reduced", "order": rom.order, "scene": str(scene)}
+    rom = reduce(source, order=order, **source.reduction.options(), progress=tty, engine=engine)
+    info = {"kind": "reduced", "order": rom.order, "scene": str(scene), "engine": str(rom.info.get("engine", engine))}
     info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
     return rom, info
 
@@ -123,6 +126,7 @@ def _posterior_table(post: Posterior) -> str:
               help="Model evaluated by the optimiser: the reduced model (seconds) or the full one (hours).")
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
+@engine_cli.ENGINE
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the particle swarm.")
 @click.option("--particles", type=click.IntRange(min=2), default=DEFAULT_PARTICLES, show_default=True,
               help="Swarm size of the particle swarm [ClercKennedy2002].")
@@ -149,20 +153,27 @@ def _posterior_table(post: Posterior) -> str:
 @FORCE
 def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ...], time_unit: str | None,
                  temperature_unit: str | None, plausible: str | None, unknowns: tuple[str, ...], kind: str,
-                 order: int, seed: int,
+                 order: int, engine: str, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
                  resume: bool, noise_std: float | None, model_error: float, posterior_steps: int | None, walkers: int,
                  force: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean and sensor temperatures.
 
     The criterion is [Chavez2020, eq. 12]; the model is evaluated at the measurement times.  Everything is
-    checked before the model is built; the result is printed before the plot is written.
+    checked before the model is built; the result is printed before the plot is written.  With --engine petsc
+    (under `mpiexec -n P`) the ranks build the reduced model, each reading its box of the image, and rank 0
+    alone identifies and prints; a model in the cache is found whichever engine built it.
     """
+    if engine == "petsc" and kind == "full":
+        raise click.UsageError("--engine petsc builds the reduced model (--model reduced); the full model's "
+                               "identification runs on the scipy engine")
+    engine_cli.resolve(engine, "auto")
     if resume and checkpoint is None:
         raise click.UsageError("--resume needs --checkpoint FILE")
     if posterior_steps is not None:
         load_emcee()  # a missing optional extra is refused first
-    sc = load_scene(scene)
+    source = engine_cli.load(scene, engine)
+    sc = engine_cli.outline(source)
     bounds = checks.unknowns(unknowns, sc)
     reading = checks.ReadOptions(checks.parse_columns(columns), time_unit, temperature_unit,
                                  checks.parse_range(plausible, "--plausible", PLAUSIBLE))
@@ -186,7 +197,9 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     if kind == "reduced":
         checks.cache_folder(None)
     tty = sys.stderr.isatty()
-    model, info = _model(scene, sc, kind, order, tty)
+    model, info = _model(scene, source, kind, order, tty=tty and is_root(engine), engine=engine)
+    if not is_root(engine):
+        return
     bar = tqdm(total=iterations, desc="PSO", file=sys.stderr, disable=not tty, leave=False)
 
     def report(p: Progress) -> None:
