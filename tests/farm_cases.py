@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from aromm.full.solve import FullModel
 from aromm.studies.chavez2020 import noisy_repetitions
 from inverse.farm import Farm
-from inverse.measurements import simulate_measurements
+from inverse.measurements import save_measurements, simulate_measurements
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
 
@@ -20,3 +22,43 @@ def estimates(farm: Farm) -> np.ndarray:
     exact = simulate_measurements(model, TRUTH, model.default_times)
     runs = noisy_repetitions(model, exact, TRUTH, reps=3, noise=0.01, particles=4, iterations=2, farm=farm)
     return np.array([[r.result.estimates[k] for k in TRUTH] for r in runs])
+
+
+#: Pickles of :class:`Counted` made in this process (the parent of the farm's workers).
+PICKLED = [0]
+
+
+class Counted:
+    """A payload that counts its pickles in the process that pickles it."""
+
+    def __init__(self, payload: float) -> None:
+        self.payload = payload
+
+    def __reduce__(self) -> tuple[type, tuple[float]]:
+        PICKLED[0] += 1
+        return (Counted, (self.payload,))
+
+
+def scaled(shared: Counted, task: int) -> float:
+    return shared.payload * task
+
+
+def identify_case(folder: Path) -> tuple[Path, Path]:
+    """A 4³ scene and noise-free measurements made by its own full model at the truth (tests/test_farm.py)."""
+    from inverse_cases import tracheids
+    from scene_text import scenario_1
+
+    from aromm.scene.scene_file import assemble, load_scene
+
+    np.save(folder / "labels.npy", tracheids(4))
+    scene = folder / "scene.toml"
+    scene.write_text(scenario_1("labels.npy", repr(231e-6 / 4), "20.0", "2.0"), encoding="utf-8")
+    model = FullModel(assemble(load_scene(scene)))
+    csv = folder / "y.csv"
+    save_measurements(simulate_measurements(model, TRUTH), csv)
+    return scene, csv
+
+
+#: ``aromm identify`` options of the --repeat runs: the full model, a small swarm, noise of 0.05 °C.
+REPEAT = ["--unknown", "fibre.k=0.05:1", "--unknown", "fibre.c=1e5:1e7", "--model", "full", "--particles", "4",
+          "--iterations", "2", "--repeat", "3", "--repeat-noise", "0.05", "--json"]
