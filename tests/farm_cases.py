@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from aromm.full.solve import FullModel
 from aromm.studies.chavez2020 import noisy_repetitions
 from inverse.farm import Farm
-from inverse.measurements import save_measurements, simulate_measurements
+from inverse.measurements import simulate_measurements
 
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
 
@@ -41,22 +39,6 @@ class Counted:
 
 def scaled(shared: Counted, task: int) -> float:
     return shared.payload * task
-
-
-def identify_case(folder: Path) -> tuple[Path, Path]:
-    """A 4³ scene and noise-free measurements made by its own full model at the truth (tests/test_farm.py)."""
-    from inverse_cases import tracheids
-    from scene_text import scenario_1
-
-    from aromm.scene.scene_file import assemble, load_scene
-
-    np.save(folder / "labels.npy", tracheids(4))
-    scene = folder / "scene.toml"
-    scene.write_text(scenario_1("labels.npy", repr(231e-6 / 4), "20.0", "2.0"), encoding="utf-8")
-    model = FullModel(assemble(load_scene(scene)))
-    csv = folder / "y.csv"
-    save_measurements(simulate_measurements(model, TRUTH), csv)
-    return scene, csv
 
 
 #: ``aromm identify`` options of the --repeat runs: the full model, a small swarm, noise of 0.05 °C.

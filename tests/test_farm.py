@@ -12,6 +12,7 @@ from pathlib import Path
 import farm_cases
 import numpy as np
 import pytest
+from inverse_cases import twin_case
 
 from aromm.core.errors import InputError
 from inverse.farm import Farm
@@ -74,7 +75,7 @@ def _repeat(args: list[str], capsys: pytest.CaptureFixture[str]) -> dict[str, ob
 def test_cli_repeat_on_processes_equals_serial(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """`aromm identify --repeat 3 --farm processes`: the serial estimates bit for bit, different per run (noise
     and swarm seeds differ), each near the truth."""
-    scene, csv = farm_cases.identify_case(tmp_path)
+    scene, csv = twin_case(tmp_path, dt="2.0")
     args = ["identify", str(scene), "--measurements", str(csv), *farm_cases.REPEAT]
     serial = _repeat(args, capsys)
     pool = _repeat([*args, "--farm", "processes", "--workers", "2"], capsys)
@@ -88,7 +89,7 @@ def test_cli_repeat_on_processes_equals_serial(tmp_path: Path, capsys: pytest.Ca
 def test_cli_repeat_refuses_single_run_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from aromm.cli import main
 
-    scene, csv = farm_cases.identify_case(tmp_path)
+    scene, csv = twin_case(tmp_path, dt="2.0")
     code = main(["identify", str(scene), "--measurements", str(csv), *farm_cases.REPEAT, "--plot",
                  str(tmp_path / "f.png")])
     assert code == 2 and "--repeat runs independent identifications" in capsys.readouterr().err
@@ -98,7 +99,7 @@ def test_cli_repeat_refuses_single_run_options(tmp_path: Path, capsys: pytest.Ca
 @pytest.mark.skipif(shutil.which("mpiexec") is None, reason="task farm 'mpi': no mpiexec on PATH")
 def test_cli_repeat_on_mpi_futures_equals_serial(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     pytest.importorskip("mpi4py", reason="task farm 'mpi': mpi4py absent (the MPI stage of .ci/run has it)")
-    scene, csv = farm_cases.identify_case(tmp_path)
+    scene, csv = twin_case(tmp_path, dt="2.0")
     args = ["identify", str(scene), "--measurements", str(csv), *farm_cases.REPEAT]
     serial = _repeat(args, capsys)
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",

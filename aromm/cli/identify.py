@@ -154,8 +154,8 @@ def _posterior_table(post: Posterior) -> str:
 @click.option("--walkers", type=click.IntRange(min=2), default=DEFAULT_WALKERS, show_default=True,
               help="Walkers of the --posterior ensemble (at least twice the number of sampled coordinates).")
 @click.option("--repeat", type=click.IntRange(min=1), default=None, metavar="N",
-              help="Run N identifications (swarm seeds SEED … SEED+N-1, each on the measurements plus fresh noise "
-                   "of --repeat-noise) and print the estimates and their spread.")
+              help="Run N identifications (run i: swarm seed SEED + i, the measurements plus fresh noise of "
+                   "--repeat-noise) and print the estimates and their spread.")
 @click.option("--repeat-noise", type=FiniteFloat(min=0.0), default=0.0, show_default=True, metavar="S",
               help="Standard deviation (°C) of the Gaussian noise added to the measurements in each --repeat run.")
 @click.option("--farm", type=click.Choice(FARMS), default="serial", show_default=True,
