@@ -11,12 +11,14 @@ default) or to the petsc engine (collective: every rank calls it and gets the sa
   :func:`aromm.engines.petsc.reduction.reduce`;
 * :func:`homogenize` — the effective conductivity tensor, :func:`aromm.homogenization.properties.homogenize`
   (voxel cell problems, mesh probes) or the probes [Chavez2020, eq. 13] solved by the petsc engine;
+* :func:`fluxmetric` — [Chavez2020, eq. 13] under the scene's own faces, on either engine;
 * :func:`mean_capacity` — [Chavez2020, eq. 14] on either engine.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+import contextlib
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
@@ -28,17 +30,19 @@ from aromm.core.system import FloatArray, ParamValues, ThermalSystem
 from aromm.engines import check_engine
 from aromm.full import solve
 from aromm.homogenization import properties
-from aromm.homogenization.properties import PROBE_BOUNDARIES, conductivity
+from aromm.homogenization.properties import PROBE_BOUNDARIES, Fluxmetric, conductivity
 from aromm.reduction import offline
 from aromm.reduction.krylov import KrylovReductor
-from aromm.reduction.rom import ReducedModel
+from aromm.reduction.model_key import model_key, scene_physics_key
+from aromm.reduction.offline import resolve_cache
+from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
 from aromm.scene.reduction_section import ReductionSettings
-from aromm.scene.scene_file import Scene
+from aromm.scene.scene_file import Scene, assemble
 
 #: Options of :func:`reduce` that say where and how a build reports, not what it builds.
 RUN_OPTIONS = ("references", "cache", "progress", "eigen_progress", "fields")
 
-__all__ = ["default_boundary", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
+__all__ = ["default_boundary", "fluxmetric", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
 
 
 def is_root(engine: str) -> bool:
@@ -82,27 +86,82 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
     :func:`aromm.engines.petsc.reduction.reduce`; ``system`` may then be a voxel Scene and ``solver`` is ``gamg``
     or ``mumps``); it keeps no fields, and the eigensolver and basis storage are SLEPc's.  With
     ``method="krylov"`` (and ``"auto"`` above the size where it pays) the Krylov reductor runs on KSP solves only,
-    no SLEPc (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`)."""
-    runtime_options = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
+    no SLEPc (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`).
+
+    A voxel scene (a Scene, or the petsc engine's box-read VoxelProblem) is cached under the key of its model
+    (:func:`aromm.reduction.model_key.model_key`), which names neither the engine nor the solvers: a model built
+    on one engine is loaded by the other."""
+    engine = check_engine(engine)
+    run = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
     settings = (settings or ReductionSettings()).updated(order=order, **options)
-    if check_engine(engine) == "scipy":
-        return offline.reduce(system, settings=settings, **runtime_options)
-    if runtime_options.get("fields"):
+    settings = replace(settings, method=settings.method_for(_unknowns(system), references=bool(run.get("references"))))
+    key = _model_key(system, settings, engine, run)
+    if key is None:
+        return _build(system, settings, engine, run)
+    store = resolve_cache(run.get("cache", True))
+    assert store is not None  # _model_key gives no key without a cache
+    root = is_root(engine)
+    with store.lock("rom", key) if root else contextlib.nullcontext():  # one build per model at a time
+        found = store.load("rom", key) if root else None
+        if engine == "petsc":
+            from aromm.engines.petsc import runtime
+
+            found = runtime.mpi(runtime.world()).bcast(found, root=0)
+        if found is not None:
+            rom = from_arrays(found)
+            return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
+        rom = _build(system, settings, engine, run)
+        rom = replace(rom, info={**rom.info, "engine": engine, "model_key": key})
+        if root:
+            store.save("rom", key, to_arrays(rom))
+    return rom
+
+
+def _model_key(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> str | None:
+    """The engine-free key of the model (:mod:`aromm.reduction.model_key`), or None: a mesh scene or an assembled
+    system (the engine's own key then), no cache, or ``fields`` (the scipy engine's cache keeps Ψ's recipe)."""
+    if run.get("fields") or run.get("cache", True) in (False, None):
+        return None
+    keys = [_physics(source, engine) for source in (system, *run.get("references", ()))]
+    if any(k is None for k in keys):
+        return None
+    options = {f.name: getattr(settings, f.name) for f in fields(settings) if f.name != "order"}
+    return model_key(str(keys[0]), settings.order, options, [str(k) for k in keys[1:]])
+
+
+def _physics(source: Any, engine: str) -> str | None:
+    if isinstance(source, Scene):
+        return scene_physics_key(source)
+    if engine == "petsc":
+        from aromm.engines.petsc.problem import VoxelProblem
+
+        if isinstance(source, VoxelProblem):
+            from aromm.engines.petsc import runtime
+            from aromm.engines.petsc.assembly import physics_key
+
+            return physics_key(source, runtime.world())
+    return None
+
+
+def _build(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> ReducedModel:
+    """The reduced model on ``engine`` (each engine's own cache of bases and models); the method resolved."""
+    if engine == "scipy":
+        references = [assemble(r) if isinstance(r, Scene) else r for r in run.pop("references", ())]
+        return offline.reduce(system, settings=settings, references=references, **run)
+    if run.get("fields"):
         raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
     if settings.eigensolver != "auto" or settings.basis_storage != "float64":
         raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
-    cache = runtime_options.get("cache", True)
-    method = settings.method_for(_unknowns(system), references=bool(runtime_options.get("references")))
-    reductor = KrylovReductor.named(method, settings.bounds)
+    cache = run.get("cache", True)
+    reductor = KrylovReductor.named(settings.method, settings.bounds)
     if reductor is not None:
         from aromm.engines.petsc.krylov_reduction import reduce_krylov
 
         return reduce_krylov(system, settings.order, reductor, solver=settings.solver, cache=cache,
-                             progress=bool(runtime_options.get("progress")))
+                             progress=bool(run.get("progress")))
     from aromm.engines.petsc.reduction import reduce as reduce_petsc
 
-    return reduce_petsc(system, replace(settings, method=method), references=runtime_options.get("references", ()),
-                        cache=cache)
+    return reduce_petsc(system, settings, references=run.get("references", ()), cache=cache)
 
 
 def _unknowns(system: Any) -> int:
@@ -137,6 +196,17 @@ def homogenize(scene: Scene, boundary: str | None = None, method: str = "auto",
     from aromm.engines.petsc.homogenization import probe_solver
 
     return conductivity(scene, boundary, probe_solver(method))
+
+
+def fluxmetric(scene: Any, method: str = "auto", engine: str = "scipy") -> Fluxmetric:
+    """The fluxmetric conductivity of [Chavez2020, § 4.2] (eq. 13 under the scene's own faces,
+    :func:`aromm.homogenization.properties.fluxmetric`); ``engine="petsc"``: its steady probe solved by boxes
+    (collective; ``method`` ``gamg`` or ``mumps``)."""
+    if check_engine(engine) == "petsc":
+        from aromm.engines.petsc.homogenization import probe_solver
+
+        return properties.fluxmetric(scene, solve=probe_solver(method))
+    return properties.fluxmetric(scene, method)
 
 
 def mean_capacity(scene: Any, engine: str = "scipy") -> float:

@@ -12,6 +12,7 @@ centre and at its slow corner, at the output times; the load average before and 
 is shared).  The scipy engine solves by multigrid-PCG above 30,000 unknowns (aromm.reduction.scipy_engine).
 
 Usage: python benchmarks/petsc_krylov.py [--sizes 32] [--ranks 1 2] [--order 50] [--solvers auto gamg] [--json OUT]
+[--baseline EARLIER.json]
 (needs petsc4py/slepc4py/mpi4py and mpiexec: README "Running on a cluster").  Worker mode (one measurement,
 JSON on stdout): --worker N --engine scipy|petsc.
 """
@@ -38,6 +39,17 @@ BOX = {"fibre.k": (0.1, 1.0), "fibre.c": (1.0e6, 1.0e7)}
 POINTS = ({"fibre.k": float(np.sqrt(0.1)), "fibre.c": float(np.sqrt(1e13))}, {"fibre.k": 0.1, "fibre.c": 1.0e7})
 INFO = ("solves", "setups", "cg_iterations_mean", "setup_seconds", "solve_seconds", "krylov_span", "krylov_points",
         "compression_loss", "krylov_estimate")
+#: PETSc events whose counts the records keep (the cost model of docs/scaling.md reads them).
+EVENTS = ("KSPSolve", "PCSetUp", "PCApply", "MatMult", "MatPtAP", "VecMDot", "VecNorm", "VecDot", "VecAXPY",
+          "VecScatterBegin", "VecScatterEnd", "VecReduceComm")
+
+
+def _resident_bytes() -> float:
+    """Resident memory of this process now (VmRSS), bytes."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return float(line.split()[1]) * 1024
+    return 0.0
 
 
 def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
@@ -46,6 +58,11 @@ def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
     from aromm.scene.scene_file import assemble
 
     load_before = os.getloadavg()[0]
+    if engine == "petsc":
+        from petsc4py import PETSc
+
+        PETSc.Log.begin()  # counts of the events (calls, flops, messages, bytes, reductions) per rank
+    fixed = _resident_bytes()  # Python, numpy, scipy (and PETSc) loaded, nothing built yet
     cpu0, wall0 = time.process_time(), time.perf_counter()
     sc = scene(n)
     if engine == "petsc":
@@ -53,10 +70,11 @@ def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
     else:
         rom = aromm.reduce(assemble(sc), order, method="krylov", bounds=BOX, cache=False)
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
-    mine = {"cpu": cpu, "peak": float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)}
+    mine = {"cpu": cpu, "peak": float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024), "fixed": fixed}
     if engine == "petsc":
         from aromm.engines.petsc import runtime
 
+        mine["events"] = {e: PETSc.Log.Event(e).getPerfInfo() for e in EVENTS}
         ranks = runtime.mpi(runtime.world()).gather(mine, root=0)
         if not runtime.is_root(runtime.world()):
             return {}
@@ -64,7 +82,9 @@ def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
         ranks = [mine]
     return {"n": n, "engine": engine, "ranks": len(ranks), "unknowns": (n + 1) ** 3, "order": rom.order,
             "wall": wall, "cpu": [r["cpu"] for r in ranks], "peak": [r["peak"] for r in ranks],
+            "fixed": [r["fixed"] for r in ranks], "events": [r.get("events", {}) for r in ranks],
             "info": {k: float(rom.info[k]) for k in INFO}, "solver": str(rom.info["solver"]),
+            "stages": {k: float(v) for k, v in rom.info.items() if k.endswith("_bytes")},
             "load": [load_before, os.getloadavg()[0]],
             "outputs": [rom.simulate(p).as_array().tolist() for p in POINTS]}
 
@@ -90,6 +110,9 @@ def main() -> None:
                              "mg, gamg, mumps)")
     parser.add_argument("--solver", default="auto", help=argparse.SUPPRESS)
     parser.add_argument("--json", help="also write the records to this file")
+    parser.add_argument("--baseline", type=Path, default=None,
+                        help="JSON records of an earlier run whose scipy record of each size is the baseline "
+                             "(not re-run)")
     parser.add_argument("--worker", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--engine", default="scipy", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -103,7 +126,9 @@ def main() -> None:
           f"{'peak MB/rank':>12} {'B/unknown':>9} {'solves':>6} {'setups':>6} {'CG its':>6} {'setup s':>8} "
           f"{'solve s':>8} {'span':>5} {'pts':>4} {'Δ centre °C':>11} {'Δ corner °C':>11} {'load':>10}")
     for n in args.sizes:
-        base = run(n, "scipy", 1, args.order, "auto")
+        earlier = json.loads(args.baseline.read_text()) if args.baseline else []
+        known = [r for r in earlier if r["engine"] == "scipy" and r["n"] == n]
+        base = known[0] if known else run(n, "scipy", 1, args.order, "auto")
         cases = [("scipy", 1, base)] + [("petsc", p, run(n, "petsc", p, args.order, solver))
                                         for solver in args.solvers for p in args.ranks]
         for engine, p, rec in cases:

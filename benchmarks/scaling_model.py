@@ -1,19 +1,34 @@
-"""Cost model of the petsc engine (docs/scaling.md): predictions for 256³, 512³, 1024³ from measured records.
+"""Cost model of the petsc engine's Krylov reductor (docs/scaling.md), grounded in counted work.
 
-Reads the JSON lines written by ``benchmarks/petsc_engine.py --json FILE`` and fits, for the petsc engine:
+Reads the records of ``benchmarks/petsc_krylov.py --json FILE`` (petsc rows at one size, 1 … P ranks) and
+predicts the offline build of ``aromm reduce --engine petsc --method krylov`` at 256³, 512³, 1024³.
 
-* CPU seconds of the offline build at 1 rank, ``T1(N) = a N^α`` (N unknowns), at the measured Ñ;
-* peak memory per rank at 1 rank, ``M1(N) = m0 + b N`` (m0: the process with PETSc loaded; b: bytes per unknown);
-* the 2-rank CPU efficiency ``e2 = T1 / (2 T2_per_rank)`` at the largest size measured at both.
+Counted, per build (the records' ``info`` and PETSc's event log; independent of N for a given VER and box:
+the greedy's parameter points, the shifts and moments fix them, the multigrid keeps the CG iterations flat —
+11.6 at 32³, 12.1 at 64³):
 
-and predicts, for a reduced model of ``--order`` ñ (Ñ = 1.5 ñ + 20 modes), the number of ranks that keeps every
-rank under ``--memory`` GB, the memory per rank, and the wall hours ``T1(N) (Ñ / Ñ_meas) / (P e)``.  The modes
-enter the memory as ``16 Ñ`` bytes per unknown (the basis and SLEPc's Krylov–Schur workspace of ≈ Ñ vectors,
-on top of the measured operators and multigrid), and the time linearly in Ñ (inner solves per mode; the
-orthogonalisation ``≈ 4 N ncv²`` flops per restart is printed apart).  Everything beyond the measured sizes
-is an extrapolation: the script prints its inputs so that a reader can redo it with numbers from a cluster.
+* ``S`` shifted solves and ``U`` multigrid set-ups, ``I`` mean CG iterations per solve, ``s`` basis columns;
+* per CG iteration and rank: ``R`` global reductions, ``M`` messages and ``B`` bytes sent (PETSc's KSPSolve
+  event, inclusive of the V-cycles' halo exchanges), from the record with the most ranks.
 
-Usage: python benchmarks/scaling_model.py RECORDS.jsonl [...] [--order 200] [--memory 4] [--efficiency E]
+Time per rank for ``N`` unknowns on ``P`` ranks (``n = N / P`` unknowns per rank):
+
+    T = n (U a_U + S I a_I + a_0)                                 computation, rates per unknown
+      + S I (R α ⌈log2 P⌉ + M α + B(n) / β)                       communication per CG iteration
+      + c_G s² ⌈log2 P⌉ α                                          the block Gram–Schmidt's reductions
+
+``a_U``, ``a_I`` (CPU s per unknown per set-up / per CG iteration) and ``a_0`` (everything else: image, assembly,
+greedy indicator, orthogonalisation, projection) are the 1-rank record's CPU seconds divided by the counts —
+**2-core figures** of a shared machine (Debian's reference BLAS); ``B(n) = B_meas (n / n_meas)^(2/3)`` (a box's
+faces); ``α`` (latency, s) and ``β`` (bytes/s per rank) are the interconnect's, *assumed* (not measurable on one
+2-core node) and printed.  Memory per rank: ``m0 + b n`` fitted to the per-rank peaks of the records (``m0``:
+Python, numpy, scipy and PETSc loaded, measured; ``b``: bytes per owned unknown, the operators, the multigrid
+hierarchy and the ``s`` basis columns).  The ranks of a plan are the fewest whose memory fits ``--memory``
+GB per rank; the 3-D boxes must keep ≥ 8 nodes per axis for the geometric multigrid (``P ≤ (n_side/8)³``).
+Everything past the measured size is an extrapolation and is printed as such, with the data it rests on.
+
+Usage: python benchmarks/scaling_model.py RECORDS.json [...] [--size 64] [--memory 4] [--latency 2e-6]
+[--bandwidth 5e9]
 """
 
 from __future__ import annotations
@@ -26,54 +41,79 @@ from pathlib import Path
 import numpy as np
 
 SIZES = (256, 512, 1024)
+NODES_PER_BOX_AXIS = 8  # the geometric multigrid halves every rank's node box at least twice
 
 
-def modes(order: int) -> int:
-    """Ñ of aromm.reduction.offline.default_modes."""
-    return int(1.5 * order) + 20
+def counted(record: dict) -> dict[str, float]:  # type: ignore[type-arg]
+    """Per-rank counts of one record: per CG iteration, reductions, messages and bytes (largest rank)."""
+    info = record["info"]
+    iterations = info["solves"] * info["cg_iterations_mean"]
+    events = [r.get("KSPSolve", {}) for r in record["events"]]
+    largest = {k: max(float(e.get(k, 0.0)) for e in events) for k in ("numReductions", "numMessages",
+                                                                       "messageLength")}
+    return {"R": largest["numReductions"] / iterations, "M": largest["numMessages"] / iterations,
+            "B": largest["messageLength"] / iterations, "iterations": iterations}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("records", type=Path, nargs="+")
-    parser.add_argument("--order", type=int, default=200)
+    parser.add_argument("--size", type=int, default=64, help="the image size n of the records the model rests on")
     parser.add_argument("--memory", type=float, default=4.0, help="GB of memory per rank (per core) on the cluster")
-    parser.add_argument("--efficiency", type=float, default=None,
-                        help="parallel efficiency to assume (default: the measured 2-rank CPU efficiency)")
-    parser.add_argument("--flops", type=float, default=2e9, help="orthogonalisation flop rate per core (flop/s)")
+    parser.add_argument("--latency", type=float, default=2e-6, help="assumed interconnect latency α (s)")
+    parser.add_argument("--bandwidth", type=float, default=5e9, help="assumed bandwidth per rank β (bytes/s)")
     args = parser.parse_args()
-    records = [json.loads(line) for path in args.records for line in path.read_text().splitlines() if line.strip()]
-    one = sorted((r for r in records if r["engine"] == "petsc" and r["ranks"] == 1), key=lambda r: r["unknowns"])
-    two = {r["unknowns"]: r for r in records if r["engine"] == "petsc" and r["ranks"] == 2}
-    if len(one) < 2:
-        raise SystemExit("need petsc records at 1 rank for at least two sizes")
-    n = np.array([r["unknowns"] for r in one], dtype=float)
-    cpu = np.array([max(r["cpu"]) for r in one])
-    peak = np.array([max(r["peak"]) for r in one])
-    alpha, log_a = np.polyfit(np.log(n), np.log(cpu), 1)
-    b, m0 = np.polyfit(n, peak, 1)
-    measured_modes = int(one[-1]["modes"])
-    shared = [u for u in n if u in two]
-    at = {r["unknowns"]: r for r in one}
-    e2 = float(at[max(shared)]["cpu"][0] / (2 * max(two[max(shared)]["cpu"]))) if shared else 0.5
-    e = args.efficiency if args.efficiency is not None else e2
-    total = modes(args.order)
-    print(f"inputs: {len(one)} sizes at 1 rank, N = {int(n[0]):,} … {int(n[-1]):,} unknowns, Ñ = {measured_modes}")
-    print(f"  T1(N) = {math.exp(log_a):.3g} N^{alpha:.2f} CPU s; M1(N) = {m0 / 2**20:.0f} MB + {b:.0f} B × N; "
-          f"2-rank CPU efficiency e2 = {e2:.2f} (at N = {int(max(shared)) if shared else 0:,})")
-    print(f"model: order ñ = {args.order}, Ñ = {total}; {args.memory:g} GB per rank; efficiency {e:.2f}; modes add "
-          f"16 Ñ = {16 * total:,} B per unknown; time × Ñ / {measured_modes}")
-    print(f"{'image':>7} {'unknowns':>14} {'basis Φ':>10} {'ranks':>7} {'GB/rank':>8} {'hours':>8} "
-          f"{'CPU hours':>10} {'orth. h':>8}")
+    records = [r for path in args.records for r in json.loads(path.read_text())
+               if r["engine"] == "petsc" and r["n"] == args.size]
+    if not any(r["ranks"] == 1 for r in records):
+        raise SystemExit(f"need a petsc record at 1 rank at n = {args.size}")
+    records.sort(key=lambda r: r["ranks"])
+    one, most = records[0], records[-1]
+    unknowns = float(one["unknowns"])
+    info = one["info"]
+    solves, setups, its, span = info["solves"], info["setups"], info["cg_iterations_mean"], info["krylov_span"]
+    cpu = max(one["cpu"])
+    a_u = info["setup_seconds"] / (setups * unknowns)
+    a_i = info["solve_seconds"] / (solves * its * unknowns)
+    a_0 = (cpu - info["setup_seconds"] - info["solve_seconds"]) / unknowns
+    comm = counted(most)
+    n_most = unknowns / most["ranks"]
+    owned = np.array([unknowns / r["ranks"] for r in records])
+    peak = np.array([max(r["peak"]) for r in records])
+    fixed = float(np.median([f for r in records for f in r.get("fixed", [])] or [0.0]))
+    b = float(np.polyfit(owned, peak - fixed, 1)[0]) if len(records) > 1 else float((peak[0] - fixed) / owned[0])
+    print(f"records at n = {args.size} ({int(unknowns):,} unknowns), ranks {[r['ranks'] for r in records]}; "
+          f"load {min(r['load'][0] for r in records):.1f}–{max(r['load'][1] for r in records):.1f} on 2 shared cores")
+    print(f"  counted: S = {solves:.0f} solves, U = {setups:.0f} set-ups, I = {its:.1f} CG its/solve, s = {span:.0f} "
+          f"columns; per CG iteration and rank at P = {most['ranks']}: R = {comm['R']:.2f} reductions, "
+          f"M = {comm['M']:.1f} messages, B = {comm['B']:,.0f} bytes")
+    print(f"  1-rank CPU {cpu:.1f} s = set-ups {info['setup_seconds']:.1f} + solves {info['solve_seconds']:.1f} + rest "
+          f"{cpu - info['setup_seconds'] - info['solve_seconds']:.1f}: a_U = {a_u:.3g}, a_I = {a_i:.3g}, "
+          f"a_0 = {a_0:.3g} CPU s per unknown (2-core figures)")
+    for r, n_r, p_r in zip(records, owned, peak, strict=True):
+        c = counted(r) if r["ranks"] > 1 else {"R": 0.0, "M": 0.0, "B": 0.0}
+        print(f"  P = {r['ranks']}: peak {p_r / 2**20:,.0f} MB/rank = {p_r / n_r:,.0f} B per owned unknown "
+              f"({(p_r - fixed) / n_r:,.0f} above the fixed {fixed / 2**20:.0f} MB); CPU {max(r['cpu']):.1f} s/rank; "
+              f"per CG it. R {c['R']:.2f}, M {c['M']:.1f}, B {c['B']:,.0f}")
+    print(f"  memory per rank = {fixed / 2**20:.0f} MB + {b:,.0f} B × owned unknowns (fit over the ranks); "
+          f"assumed α = {args.latency:g} s, β = {args.bandwidth:g} B/s")
+    print("EXTRAPOLATION (order and span as measured; counts held; rates of the 2-core machine):")
+    print(f"{'image':>7} {'unknowns':>14} {'ranks':>6} {'GB/rank':>8} {'max P (boxes)':>13} {'compute h':>10} "
+          f"{'comm h':>7} {'hours':>7} {'CPU h':>8}")
+    budget = args.memory * 2**30 - fixed
     for side in SIZES:
-        unknowns = float((side + 1) ** 3)
-        per_unknown = b + 16 * (total - measured_modes)
-        ranks = max(1, math.ceil(unknowns * per_unknown / (args.memory * 2**30 - m0)))
-        per_rank = (m0 + unknowns * per_unknown / ranks) / 2**30
-        cpu_s = math.exp(log_a) * unknowns**alpha * total / measured_modes
-        orth = 4 * unknowns * (2 * total) ** 2 * 3 / args.flops / 3600  # ≈ 3 restarts of a 2Ñ-vector basis
-        print(f"{side:>6}³ {unknowns:>14,.0f} {8 * total * unknowns / 2**30:>8.0f} GB {ranks:>7,} {per_rank:>8.2f} "
-              f"{cpu_s / (ranks * e) / 3600 + orth / ranks:>8.2f} {cpu_s / 3600:>10,.0f} {orth:>8.1f}")
+        n_total = float((side + 1) ** 3)
+        ranks = max(1, math.ceil(n_total * b / budget))
+        max_p = (side // NODES_PER_BOX_AXIS) ** 3
+        n = n_total / ranks
+        compute = n * (setups * a_u + solves * its * a_i + a_0)
+        hops = math.ceil(math.log2(ranks)) if ranks > 1 else 0
+        per_it = (comm["R"] * hops * args.latency + comm["M"] * args.latency
+                  + comm["B"] * (n / n_most) ** (2 / 3) / args.bandwidth)
+        communication = solves * its * per_it + 2 * span**2 * hops * args.latency
+        print(f"{side:>6}³ {n_total:>14,.0f} {ranks:>6,} {(fixed + b * n) / 2**30:>8.2f} {max_p:>13,} "
+              f"{compute / 3600:>10.2f} {communication / 3600:>7.3f} {(compute + communication) / 3600:>7.2f} "
+              f"{ranks * compute / 3600:>8,.1f}")
 
 
 if __name__ == "__main__":

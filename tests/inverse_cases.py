@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
@@ -16,6 +17,22 @@ from aromm.full.solve import FullModel
 TRUTH = {"fibre.k": 0.3, "fibre.c": 4.0e6}
 PHASES = (PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4.0e6))
 BOX = 231e-6  # m, the VER of [Chavez2020]
+
+
+def twin_case(folder: Path, dt: str = "1.0") -> tuple[Path, Path]:
+    """A 4³ scene (scenario 1 on :func:`tracheids`, 20 s in steps of ``dt``) and noise-free measurements made by
+    its own full model at the truth, written in ``folder``: (scene file, CSV)."""
+    from scene_text import scenario_1
+
+    from aromm.scene.scene_file import assemble, load_scene
+    from inverse.measurements import save_measurements, simulate_measurements
+
+    np.save(folder / "labels.npy", tracheids(4))
+    scene = folder / "scene.toml"
+    scene.write_text(scenario_1("labels.npy", repr(BOX / 4), "20.0", dt), encoding="utf-8")
+    csv = folder / "y.csv"
+    save_measurements(simulate_measurements(FullModel(assemble(load_scene(scene))), TRUTH), csv)
+    return scene, csv
 
 
 def tracheids(n: int) -> np.ndarray:

@@ -7,8 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from inverse_cases import TRUTH, tracheids
-from scene_text import scenario_1
+from inverse_cases import TRUTH, twin_case
 
 from aromm.cli import main
 from aromm.full.solve import FullModel
@@ -19,13 +18,7 @@ from inverse.measurements import save_measurements, simulate_measurements
 @pytest.fixture
 def case(tmp_path: Path) -> tuple[Path, Path]:
     """A 4³ scene and noise-free measurements made by its own full model at the truth."""
-    np.save(tmp_path / "labels.npy", tracheids(4))
-    scene = tmp_path / "scene.toml"
-    scene.write_text(scenario_1("labels.npy", repr(231e-6 / 4), "20.0", "1.0"), encoding="utf-8")
-    model = FullModel(assemble(load_scene(scene)))
-    csv = tmp_path / "y.csv"
-    save_measurements(simulate_measurements(model, TRUTH), csv)
-    return scene, csv
+    return twin_case(tmp_path)
 
 
 ARGS = ["--unknown", "fibre.k=0.05:1", "--unknown", "fibre.c=1e5:1e7", "--model", "full", "--particles", "6",

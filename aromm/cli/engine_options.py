@@ -1,4 +1,5 @@
-"""``--engine scipy|petsc`` on the commands that assemble and solve (simulate, homogenize, reduce).
+"""``--engine scipy|petsc`` on the commands that assemble and solve (simulate, homogenize, reduce, measure,
+identify).
 
 With ``--engine petsc`` the command runs under ``mpiexec -n P`` (PETSc/SLEPc, aromm.engines.petsc): every
 rank executes it, reads its box of the image (:func:`aromm.engines.petsc.problem.load_problem`), and
@@ -17,7 +18,7 @@ from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, refine_scene
 from aromm.core.errors import InputError
 from aromm.engines import ENGINES, PETSC_SOLVERS, check_engine, check_solver
 from aromm.linalg.direct import METHODS
-from aromm.scene.scene_file import load_scene
+from aromm.scene.scene_file import Scene, load_scene
 
 ENGINE = click.option("--engine", type=click.Choice(ENGINES), default="scipy", show_default=True,
                       help="scipy: one process; petsc: PETSc/SLEPc under `mpiexec -n P` (rank 0 prints and writes).")
@@ -42,6 +43,12 @@ def load(path: Path, engine: str, refine: int = 1, bytes_per_voxel: float = DIRE
 
         return load_problem(path, runtime.world())
     return refine_scene(load_scene(path), refine, bytes_per_voxel)
+
+
+def outline(source: Any) -> Scene:
+    """The Scene that the checks of a command read (phases, faces, time grid, outputs, box): the scene itself on
+    the scipy engine, the petsc problem's outline (no image held: :meth:`VoxelProblem.outline`) on petsc."""
+    return source if isinstance(source, Scene) else source.outline()
 
 
 def echo(engine: str, text: str = "") -> None:

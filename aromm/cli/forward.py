@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aromm.api import default_boundary, homogenize, is_root, mean_capacity, reduce, simulate
+from aromm.api import default_boundary, fluxmetric, homogenize, is_root, mean_capacity, reduce, simulate
 from aromm.cli import checks
 from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, FORCE, REFINE, SEED, FiniteFloat, echo_json, write_extras
@@ -17,11 +17,11 @@ from aromm.core.files import OutputKind, check_folder, check_output, signed
 from aromm.core.observables import TIME_SERIES, Observables, write_csv
 from aromm.core.series import series_file, write_series, write_vtu
 from aromm.homogenization.cell_problems import CellResult, effective_conductivity
-from aromm.homogenization.properties import BOUNDARIES, fluxmetric
+from aromm.homogenization.properties import BOUNDARIES
 from aromm.homogenization.synthetic import homogeneous_measurements
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS
 from aromm.scene.geometry import VoxelGeometry
-from aromm.scene.scene_file import REFINE_BYTES_PER_VOXEL, assemble, load_scene
+from aromm.scene.scene_file import REFINE_BYTES_PER_VOXEL, assemble
 from inverse.measurements import save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
@@ -202,31 +202,39 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
 @click.option("--perturb", type=FiniteFloat(min=-1.0, min_open=True), default=0.0, show_default=True,
               help="Relative change of every homogeneous property ([Chavez2020]'s +2 % study: 0.02).")
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
-@SOLVER
+@engine_cli.SOLVER
+@engine_cli.ENGINE
 @JSON
 @FORCE
 def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: float, seed: int, perturb: float,
-                out: Path, solver: str, as_json: bool, force: bool) -> None:
-    """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model."""
-    sc = load_scene(scene)
+                out: Path, solver: str, engine: str, as_json: bool, force: bool) -> None:
+    """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model.
+
+    With --engine petsc (under `mpiexec -n P`) the ranks compute k̄ and c̄ of the image by boxes; rank 0 then
+    simulates the homogeneous twin (one element across each unloaded axis: small) and writes the file."""
+    solver = engine_cli.resolve(engine, solver)
+    source = engine_cli.load(scene, engine)
+    sc = engine_cli.outline(source)
     if sc.time is None:
         raise InputError(f"{scene}: [time]: measurements need a transient scene; add [time] with end and dt (s)")
     if not sc.outputs:
         raise InputError(f"{scene}: [outputs] mean_T: no face to measure; list faces, e.g. mean_T = [\"z0\", \"z1\"]")
     check_output(out, TIME_SERIES, inputs=checks.scene_inputs(scene), force=force)
     if conductivity == "scenario":
-        probe = fluxmetric(sc, method=solver)
+        probe = fluxmetric(source, method=solver, engine=engine)
         k = probe.k * np.eye(3)  # isotropic twin = orthotropic one along the loaded axis
     else:
-        k = homogenize(sc, boundary=conductivity, method=solver)
-    c = mean_capacity(sc)
-    data = homogeneous_measurements(sc, k, c, perturbation=perturb, method=solver)
+        k = homogenize(source, boundary=conductivity, method=solver, engine=engine)
+    c = mean_capacity(source, engine)
+    if not is_root(engine):
+        return
+    data = homogeneous_measurements(sc, k, c, perturbation=perturb, method=solver if engine == "scipy" else "auto")
     k, c = k * (1.0 + perturb), c * (1.0 + perturb)
     if noise > 0:
         data = data.with_noise(noise, np.random.default_rng(seed))
     save_measurements(data, out)
     summary = {"out": str(out), "conductivity": conductivity, "k": k, "c": c, "noise": noise, "seed": seed,
-               "times": len(data.t)}
+               "times": len(data.t), "engine": engine}
     if as_json:
         echo_json(summary)
     else:

@@ -5,22 +5,27 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
+import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
 from tqdm import tqdm
 
+from aromm.api import is_root
 from aromm.cli import checks
+from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
 from aromm.core.errors import InputError
 from aromm.core.files import check_output, distinct
 from aromm.core.forward_model import ForwardModel
 from aromm.core.labchecks import PLAUSIBLE
 from aromm.full.solve import FullModel
-from aromm.scene.scene_file import Scene, assemble, load_scene
+from aromm.scene.scene_file import assemble
 from inverse import checkpoint as ckpt
+from inverse.farm import FARMS, Farm
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
 from inverse.plotting import check_plot, save_identification_plot
 from inverse.posterior import (
@@ -31,17 +36,19 @@ from inverse.posterior import (
     load_emcee,
     sample_posterior,
 )
+from inverse.repetitions import Problem, repeated, summary
 from inverse.uncertainty import UncertaintyWarning
 
 
-def _model(scene: Path, sc: Scene, kind: str, order: int, tty: bool) -> tuple[ForwardModel, dict[str, object]]:
-    system = assemble(sc)
+def _model(scene: Path, source: Any, kind: str, order: int, *, tty: bool,
+           engine: str) -> tuple[ForwardModel, dict[str, object]]:
     if kind == "full":
+        system = assemble(source)
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
     from aromm.api import reduce
 
-    rom = reduce(system, settings=sc.reduction.updated(order=order), progress=tty)
-    info = {"kind": "reduced", "order": rom.order, "scene": str(scene)}
+    rom = reduce(source, settings=source.reduction.updated(order=order), progress=tty, engine=engine)
+    info = {"kind": "reduced", "order": rom.order, "scene": str(scene), "engine": str(rom.info.get("engine", engine))}
     info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
     return rom, info
 
@@ -122,6 +129,7 @@ def _posterior_table(post: Posterior) -> str:
               help="Model evaluated by the optimiser: the reduced model (seconds) or the full one (hours).")
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
+@engine_cli.ENGINE
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the particle swarm.")
 @click.option("--particles", type=click.IntRange(min=2), default=DEFAULT_PARTICLES, show_default=True,
               help="Swarm size of the particle swarm [ClercKennedy2002].")
@@ -145,23 +153,46 @@ def _posterior_table(post: Posterior) -> str:
                    "(optional extra: pip install 'aromm[posterior]'); with --plot, a corner plot FILE_posterior.png.")
 @click.option("--walkers", type=click.IntRange(min=2), default=DEFAULT_WALKERS, show_default=True,
               help="Walkers of the --posterior ensemble (at least twice the number of sampled coordinates).")
+@click.option("--repeat", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Run N identifications (run i: swarm seed SEED + i, the measurements plus fresh noise of "
+                   "--repeat-noise) and print the estimates and their spread.")
+@click.option("--repeat-noise", type=FiniteFloat(min=0.0), default=0.0, show_default=True, metavar="S",
+              help="Standard deviation (°C) of the Gaussian noise added to the measurements in each --repeat run.")
+@click.option("--farm", type=click.Choice(FARMS), default="serial", show_default=True,
+              help="Where the --repeat runs go: serial; processes (a pool on this machine); mpi (mpi4py.futures "
+                   "workers: run `mpiexec -n P python -m mpi4py.futures $(which aromm) identify ...`). The model "
+                   "is sent once to each worker; the results equal the serial ones bit for bit.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Workers of the --farm (default: the CPU count, or the MPI ranks but one).")
 @FORCE
 def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ...], time_unit: str | None,
                  temperature_unit: str | None, plausible: str | None, unknowns: tuple[str, ...], kind: str,
-                 order: int, seed: int,
+                 order: int, engine: str, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
                  resume: bool, noise_std: float | None, model_error: float, posterior_steps: int | None, walkers: int,
-                 force: bool) -> None:
+                 repeat: int | None, repeat_noise: float, farm: str, workers: int | None, force: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean and sensor temperatures.
 
     The criterion is [Chavez2020, eq. 12]; the model is evaluated at the measurement times.  Everything is
-    checked before the model is built; the result is printed before the plot is written.
+    checked before the model is built; the result is printed before the plot is written.  With --engine petsc
+    (under `mpiexec -n P`) the ranks build the reduced model, each reading its box of the image, and rank 0
+    alone identifies and prints; a model in the cache is found whichever engine built it.
     """
+    if engine == "petsc" and kind == "full":
+        raise click.UsageError("--engine petsc builds the reduced model (--model reduced); the full model's "
+                               "identification runs on the scipy engine")
+    engine_cli.resolve(engine, "auto")
+    if repeat is not None and (checkpoint is not None or posterior_steps is not None or plot is not None):
+        raise click.UsageError("--repeat runs independent identifications: without --checkpoint, --posterior, --plot")
+    if farm == "mpi" and engine == "petsc":
+        raise click.UsageError("--farm mpi runs under mpi4py.futures, --engine petsc under plain mpiexec: build the "
+                               "model first (`aromm reduce --engine petsc`; identify finds it in the cache)")
     if resume and checkpoint is None:
         raise click.UsageError("--resume needs --checkpoint FILE")
     if posterior_steps is not None:
         load_emcee()  # a missing optional extra is refused first
-    sc = load_scene(scene)
+    source = engine_cli.load(scene, engine)
+    sc = engine_cli.outline(source)
     bounds = checks.unknowns(unknowns, sc)
     reading = checks.ReadOptions(checks.parse_columns(columns), time_unit, temperature_unit,
                                  checks.parse_range(plausible, "--plausible", PLAUSIBLE))
@@ -185,7 +216,13 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     if kind == "reduced":
         checks.cache_folder(None)
     tty = sys.stderr.isatty()
-    model, info = _model(scene, sc, kind, order, tty)
+    model, info = _model(scene, source, kind, order, tty=tty and is_root(engine), engine=engine)
+    if not is_root(engine):
+        return
+    if repeat is not None:
+        _repeated(Problem(model, data, bounds, repeat_noise, particles, iterations, info), repeat, seed,
+                  Farm(farm, workers), as_json)
+        return
     bar = tqdm(total=iterations, desc="PSO", file=sys.stderr, disable=not tty, leave=False)
 
     def report(p: Progress) -> None:
@@ -225,6 +262,30 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
             posterior = result.posterior
             extras.append(("corner plot", lambda: save_posterior_plot(posterior, corner, result.uncertainty)))
         write_extras(*extras)
+
+
+def _repeated(problem: Problem, repeat: int, seed: int, farm: Farm, as_json: bool) -> None:
+    """``--repeat``: the runs on the farm, a row each, then the spread of the estimates."""
+    start = time.perf_counter()
+    results = repeated(problem, repeat, seed=seed, farm=farm)
+    wall = time.perf_counter() - start
+    spread = summary(results)
+    if as_json:
+        echo_json({"repetitions": [{"seed": seed + i, "estimates": r.estimates, "criterion": r.criterion,
+                                    "evaluations": r.evaluations} for i, r in enumerate(results)],
+                   "summary": spread, "farm": farm.kind, "workers": farm.workers, "noise": problem.noise,
+                   "wall_seconds": wall, "model": dict(problem.description)})
+        return
+    names = list(spread)
+    rows = [["run", "seed", *names, "J (°C²)", "evaluations"]]
+    rows += [[str(i), str(seed + i), *(f"{r.estimates[n]:.6g}" for n in names), f"{r.criterion:.4g}",
+              str(r.evaluations)] for i, r in enumerate(results)]
+    click.echo("\n".join(aligned(rows, right=len(names) + 3)))
+    for n in names:
+        m = spread[n]
+        click.echo(f"{n}: mean {m['mean']:.6g}, std {m['std']:.3g} ({100 * m['std'] / abs(m['mean']):.3g} %), "
+                   f"range [{m['min']:.6g}, {m['max']:.6g}]")
+    click.echo(f"{repeat} runs on the {farm.kind} farm in {wall:.1f} s wall (noise {problem.noise:g} °C)")
 
 
 COMMANDS: list[click.Command] = [identify_cmd]

@@ -14,7 +14,6 @@ from aromm.cli.common import REFINE, echo_json
 from aromm.core.cache import NpzCache
 from aromm.linalg.eigensolvers import EIGENSOLVERS
 from aromm.reduction.offline import METHODS as REDUCTIONS
-from aromm.scene.scene_file import assemble
 
 
 @click.command("reduce")
@@ -50,12 +49,9 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None
     if not no_cache:
         checks.cache_folder(cache_dir)
     sc, *refs = [engine_cli.load(path, engine, refine) for path in (scene, *references)]
-    system = assemble(sc) if engine == "scipy" else sc
-    if engine == "scipy":
-        refs = [assemble(r) for r in refs]
     cache = False if no_cache else NpzCache(cache_dir)
     settings = sc.reduction.updated(order=order, modes=modes, method=method, solver=solver, eigensolver=eigensolver)
-    rom = reduce(system, settings=settings, references=refs, cache=cache, engine=engine,
+    rom = reduce(sc, settings=settings, references=refs, cache=cache, engine=engine,
                  progress=sys.stderr.isatty() and is_root(engine))
     if not is_root(engine):
         return

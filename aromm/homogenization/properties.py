@@ -124,7 +124,7 @@ class Fluxmetric:
     k: float  # W/(m K)
 
 
-def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
+def fluxmetric(scene: Any, method: str = "auto", solve: ProbeSolver | None = None) -> Fluxmetric:
     """The fluxmetric conductivity of [Chavez2020, § 4.2]: eq. 13 applied under the scene's own face conditions.
 
     The scene must be a Table 1 scenario: one face S1 receiving a flux φ ≠ 0, the opposite face S2
@@ -132,7 +132,9 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     heterogeneous model is solved (no capacity is assembled) and k = φ L / (T̄_S1 − T̄_S2).  Along a
     loaded axis a homogeneous twin of conductivity k then has the same steady face means as the sample.
     A history on S1 (a pulse, :mod:`aromm.core.profiles`) is replaced by the constant probe flux and the other
-    histories by their held final values: k does not depend on them (the problem is linear).
+    histories by their held final values: k does not depend on them (the problem is linear).  ``scene``: a Scene
+    or any :class:`ProbeScene` with ``where`` and ``boundary`` (the petsc engine's VoxelProblem); the steady
+    probe is solved by ``solve`` (default: :mod:`aromm.full.solve` with the linear solver ``method``).
 
     >>> slab = Scene(VoxelGeometry(np.zeros((4, 1, 1), dtype=int), (1e-3, 1e-3, 1e-3)), (PhaseSpec("m", 0, 2.0),),
     ...              (FaceSpec("x0", flux=100.0), FaceSpec("x1", h=10.0)))
@@ -156,9 +158,9 @@ def fluxmetric(scene: Scene, method: str = "auto") -> Fluxmetric:
     # a history is replaced by its held value, the heated face's by the probe flux (the problem is linear)
     flux = PROBE_FLUX if isinstance(s1.flux, Profile) else float(s1.flux)  # type: ignore[arg-type]
     faces = tuple(FaceSpec(f.face, flux=flux) if f is s1 else held(f) for f in scene.boundary)
-    system = assemble(scene.with_boundary(faces, (s1.face, cold), time=None))
-    field = steady_field(system, method=method)
-    drop = float(system.observation[s1.face] @ field - system.observation[cold] @ field)
+    means, _ = (solve or (lambda probe: _steady_probe(probe, method)))(
+        scene.with_boundary(faces, (s1.face, cold), time=None))
+    drop = float(means[s1.face] - means[cold])
     length = scene.size["xyz".index(axis)]
     if not (np.isfinite(drop) and drop * flux > 0):
         raise NumericalError(f"{where}steady face-mean drop T̄_{s1.face} − T̄_{cold} = {drop:g} K has not the sign "

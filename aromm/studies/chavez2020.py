@@ -176,31 +176,39 @@ class Repetition:
     """One identification of a farm of repetitions: ``noise_seed`` draws the noise, ``seed`` the swarm."""
 
     label: str
-    model: ForwardModel
-    exact: Measurements
-    truth: Mapping[str, float]
     noise: float
     noise_seed: int
     seed: int
+
+
+@dataclass(frozen=True)
+class Repeated:
+    """What every repetition reads, sent once to each worker of the farm (inverse.farm.Farm.map_shared)."""
+
+    model: ForwardModel
+    exact: Measurements
+    truth: Mapping[str, float]
     particles: int = DEFAULT_PARTICLES
     iterations: int = DEFAULT_ITERATIONS
 
 
-def run_repetition(task: Repetition) -> Run:
-    """:func:`run` on ``task.exact`` plus Gaussian noise of standard deviation ``task.noise`` (°C)."""
-    data = task.exact.with_noise(task.noise, np.random.default_rng(task.noise_seed)) if task.noise > 0 else task.exact
-    return run(task.label, task.model, data, task.truth, seed=task.seed, particles=task.particles,
-               iterations=task.iterations)
+def run_repetition(problem: Repeated, task: Repetition) -> Run:
+    """:func:`run` on ``problem.exact`` plus Gaussian noise of standard deviation ``task.noise`` (°C)."""
+    data = (problem.exact.with_noise(task.noise, np.random.default_rng(task.noise_seed)) if task.noise > 0
+            else problem.exact)
+    return run(task.label, problem.model, data, problem.truth, seed=task.seed, particles=problem.particles,
+               iterations=problem.iterations)
 
 
 def noisy_repetitions(model: ForwardModel, exact: Measurements, truth: Mapping[str, float], *, reps: int,
                       noise: float, particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS,
                       farm: Farm | None = None, first_noise_seed: int = 1000) -> list[Run]:
     """``reps`` identifications from noisy copies of ``exact`` (noise seed ``first_noise_seed + rep``, swarm
-    seed ``rep``), spread over ``farm`` (inverse.farm; default serial); the same results whatever the farm."""
-    tasks = [Repetition(f"rep {rep}", model, exact, dict(truth), noise, first_noise_seed + rep, rep, particles,
-                        iterations) for rep in range(reps)]
-    return (farm or Farm()).map(run_repetition, tasks)
+    seed ``rep``), spread over ``farm`` (inverse.farm; default serial; the model travels once per worker); the
+    same results whatever the farm."""
+    tasks = [Repetition(f"rep {rep}", noise, first_noise_seed + rep, rep) for rep in range(reps)]
+    return (farm or Farm()).map_shared(run_repetition, Repeated(model, exact, dict(truth), particles, iterations),
+                                       tasks)
 
 
 def refine_from(label: str, model: ForwardModel, measurements: Measurements, start: Mapping[str, float],

@@ -32,6 +32,8 @@ from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fem.voxel import assemble_voxels, face_mass
+from aromm.microstructure.digest import box_lanes, lanes_hex
+from aromm.reduction import model_key
 
 
 @dataclass(frozen=True)
@@ -236,36 +238,15 @@ def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
     )
 
 
-_MIX = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB))
-
-
-def _splitmix(x: np.ndarray) -> np.ndarray:
-    """SplitMix64 finaliser (Steele, Lea & Flood 2014): a bijective mixing of 64-bit words."""
-    z = x + _MIX[0]
-    z = (z ^ (z >> np.uint64(30))) * _MIX[1]
-    z = (z ^ (z >> np.uint64(27))) * _MIX[2]
-    return z ^ (z >> np.uint64(31))
-
-
 def image_digest(labels: np.ndarray, layout: BoxLayout, comm: Any) -> str:
-    """A digest of the whole image that does not depend on how it is cut: the sum (mod 2⁶⁴, two lanes) over
-    the voxels of a mixing of (global voxel index, label), each rank summing its box layer by layer."""
-    (x0, x1), (y0, y1), (z0, z1) = layout.box
-    nx, ny, _ = layout.shape
-    plane = (np.arange(x0, x1, dtype=np.uint64)[:, None]
-             + np.uint64(nx) * np.arange(y0, y1, dtype=np.uint64)[None, :])
-    lanes = np.zeros(2, dtype=np.uint64)
-    with np.errstate(over="ignore"):
-        for k in range(z1 - z0):
-            word = ((plane + np.uint64(nx * ny * (z0 + k))) << np.uint64(32)) | labels[:, :, k].astype(
-                np.uint32).astype(np.uint64)
-            for lane in range(2):
-                lanes[lane] += _splitmix(word ^ _MIX[lane + 1]).sum(dtype=np.uint64)
+    """A digest of the whole image that does not depend on how it is cut (:mod:`aromm.microstructure.digest`):
+    each rank sums its box layer by layer, the lanes are summed over the ranks (mod 2⁶⁴)."""
+    lanes = box_lanes(labels, layout.box, layout.shape)
     from mpi4py import MPI
 
     total = np.zeros_like(lanes)
     runtime.mpi(comm).Allreduce(lanes, total, op=MPI.SUM)
-    return f"{int(total[0]):016x}{int(total[1]):016x}"
+    return lanes_hex(total)
 
 
 def problem_key(problem: VoxelProblem, labels: np.ndarray, layout: BoxLayout, comm: Any) -> str:
@@ -274,6 +255,16 @@ def problem_key(problem: VoxelProblem, labels: np.ndarray, layout: BoxLayout, co
     return content_key("voxel problem", problem.shape, problem.voxel_size, repr(problem.phases),
                        repr(problem.boundary), problem.initial_T, repr(problem.time), problem.outputs,
                        image_digest(labels, layout, comm))
+
+
+def physics_key(problem: VoxelProblem, comm: Any) -> str:
+    """:func:`aromm.reduction.model_key.physics_key` of a box-read problem (collective): each rank reads its box,
+    the digest is summed over the ranks, so the key equals that of the scene read whole on one process."""
+    layout = problem.layout(comm)
+    digest = image_digest(problem.image.read(layout.box), layout, comm)
+    return model_key.physics_key(digest, shape=problem.shape, voxel_size=problem.voxel_size, phases=problem.phases,
+                                 boundary=problem.boundary, initial_T=problem.initial_T, time=problem.time,
+                                 outputs=problem.outputs)
 
 
 def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:

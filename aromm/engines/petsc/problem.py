@@ -46,6 +46,7 @@ class VoxelProblem:
     present: tuple[int, ...]  # labels present in the whole image
     where: str = "scene: "
     reduction: ReductionSettings = field(default_factory=ReductionSettings)  # the scene's [reduction] values
+    path: Path | None = None  # the scene file
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -71,6 +72,14 @@ class VoxelProblem:
         return assemble_voxels(stand_in, self.voxel_size, self.phases, self.boundary, time=self.time,
                                initial_T=self.initial_T, outputs=self.outputs)
 
+    def outline(self) -> Scene:
+        """A Scene of this problem's box, phases, faces, time grid and outputs whose image is a zero-stride view of
+        one label (no memory): what the command line's checks and the homogeneous twin
+        (:func:`aromm.homogenization.properties.homogeneous_twin`) read.  Not the material: never assemble it."""
+        labels = np.broadcast_to(np.int32(self.present[0] if self.present else 0), self.shape)
+        return Scene(VoxelGeometry(labels, self.voxel_size), self.phases, self.boundary, self.initial_T, self.time,
+                     self.outputs, path=self.path, reduction=self.reduction)
+
     def with_boundary(self, boundary: tuple[FaceSpec, ...], outputs: tuple[str, ...],
                       time: TimeGrid | None = None) -> VoxelProblem:
         """The same material under other face conditions (homogenisation probes)."""
@@ -89,7 +98,7 @@ class VoxelProblem:
         present = tuple(sorted(geometry.present()))
         return cls(ImageBoxes.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
                    geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs,
-                   present, scene.where, scene.reduction)
+                   present, scene.where, scene.reduction, scene.path)
 
 
 def box_layout(shape: tuple[int, int, int], comm: Any) -> BoxLayout:
@@ -132,4 +141,4 @@ def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     geometry = scene.geometry
     assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
     return VoxelProblem(image, geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,
-                        scene.outputs, tuple(present), scene.where, scene.reduction)
+                        scene.outputs, tuple(present), scene.where, scene.reduction, path)
