@@ -5,8 +5,10 @@ Blocks are NumPy arrays (n × m).  Shifted systems ``(K(μ) + s C(μ)) X = B`` a
 * below :data:`DIRECT_BELOW` unknowns (or off a voxel grid) by a sparse Cholesky factorisation (CHOLMOD, else
   SuperLU; :func:`aromm.linalg.direct.factorize`), the whole block at once;
 * above it, on a voxel grid, by conjugate gradients preconditioned by the geometric multigrid V-cycle of
-  :mod:`aromm.linalg.multigrid` (Galerkin coarse grids of the assembled shifted operator, Chebyshev smoothing),
-  column by column to the true relative residual ``rtol``, iteration counts recorded.
+  :mod:`aromm.linalg.multigrid` (Galerkin coarse grids, Chebyshev smoothing) to the true relative residual
+  ``rtol``, iteration counts recorded.  The coarse grids of every affine term of K and C are built once
+  (:mod:`aromm.linalg.multigrid.affine`: a set-up is then a weighted sum of stored levels), and the columns of a
+  block are solved by CGs in lockstep (one sparse × block product per level instead of one per column).
 
 Orthonormalisation is block classical Gram–Schmidt in the capacity product, twice ("twice is enough"), then
 a Cholesky-free orthonormalisation of the new columns by the eigen-decomposition of their Gram matrix, and
@@ -84,6 +86,7 @@ class ScipyEngine:
         self._stats = SolveStats(method=self.method)
         self._solver: tuple[tuple[object, ...], object] | None = None
         self._ordering: npt.NDArray[np.int64] | None = None  # one nested dissection for every shifted operator
+        self._affine: object | None = None  # the multigrid levels of every term of K and C (built at the first solve)
         self.initial = initial
         self._terms = self._input_vectors()
 
@@ -137,7 +140,7 @@ class ScipyEngine:
         key = (tuple(sorted(values.items())), float(shift), float(rtol))
         if self._solver is None or self._solver[0] != key:
             start = time.process_time()
-            self._solver = (key, self._setup(self._operator(values, shift), rtol))
+            self._solver = (key, self._setup(values, shift, rtol))
             self._stats.setups += 1
             self._stats.setup_seconds += time.process_time() - start
         start = time.process_time()
@@ -146,8 +149,9 @@ class ScipyEngine:
         self._stats.solve_seconds += time.process_time() - start
         return np.asarray(out)
 
-    def _setup(self, a: sp.csr_array, rtol: float) -> object:
+    def _setup(self, values: Mapping[str, float], shift: float, rtol: float) -> object:
         if self.method != "mg":
+            a = self._operator(values, shift)
             if self._ordering is None and self.points is not None:
                 self._ordering = nested_dissection(a, self.points)
             fac = factorize(a, self.method, rtol=rtol, ordering=self._ordering)
@@ -159,20 +163,24 @@ class ScipyEngine:
                 return x
 
             return direct
-        from aromm.linalg.multigrid.assembled import GridMatrix
+        from aromm.linalg.multigrid.affine import AffineGrid
         from aromm.linalg.multigrid.pcg import MultigridSolver
 
-        grid = GridMatrix.from_points(a, self.points)
-        mg = MultigridSolver(grid, rtol=rtol)  # type: ignore[arg-type]
+        terms = (*self.system.conductance.terms, *self.system.capacity.terms)
+        if self._affine is None:
+            self._affine = AffineGrid.build([t.operator for t in terms], self.points)
+        v = self.system.values(values)
+        weights = [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
+            shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
+        grid = self._affine.operator(weights)  # type: ignore[attr-defined]
+        mg = MultigridSolver(grid, rtol=rtol)
 
         def iterative(b: FloatArray) -> FloatArray:
-            x = np.zeros_like(b)
-            for j in range(b.shape[1]):
-                full = np.zeros(grid.n)
-                full[grid.index] = b[:, j]
-                x[:, j] = mg.solve(full)[grid.index]
-                self._stats.iterations.append(mg.iterations[-1])
-            return x
+            full = np.zeros((grid.n, b.shape[1]))
+            full[grid.index] = b
+            x = mg.solve_block(full)[grid.index]
+            self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
+            return np.asarray(x)
 
         return iterative
 
