@@ -107,9 +107,10 @@ def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: boo
     return out
 
 
-def krylov_worker(n: int, *, rtol: float, order: int, truth_dir: Path | None) -> dict[str, object]:
+def krylov_worker(n: int, *, rtol: float, order: int, truth_dir: Path | None, cache: Path | None) -> dict[str, object]:
     """The Krylov reductor (order ``order`` over :data:`BOX`) on the n³ VER, checked against the stored full model
-    (benchmarks/scaling_truth.py) at the reference and at the slow corner."""
+    (benchmarks/scaling_truth.py) at the reference and at the slow corner.  ``cache``: a folder the model is stored
+    in (the key of ``aromm reduce`` on the same scene: benchmarks/end_to_end.py then identifies with it)."""
     import logging
 
     from scaling_truth import POINTS, load
@@ -130,7 +131,10 @@ def krylov_worker(n: int, *, rtol: float, order: int, truth_dir: Path | None) ->
     out["peak_gb_assembly"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     reductor = KrylovReductor.over(BOX, rtol=rtol)
     wall, cpu = time.perf_counter(), time.process_time()
-    rom = reduce(system, order, method=reductor, cache=False, basis_values=scene.reduction.basis)
+    rom = reduce(system, order, method=reductor, cache=str(cache) if cache else False,
+                 basis_values=scene.reduction.basis)
+    if int(rom.info.get("cached", 0)):
+        raise SystemExit(f"{n}³: the model came from the cache {cache}: no build to time (empty it first)")
     out["offline_wall"], out["offline_cpu"] = time.perf_counter() - wall, time.process_time() - cpu
     out["peak_gb_offline"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     out["load_offline"] = os.getloadavg()[0]
@@ -193,6 +197,7 @@ def main() -> None:
                         help="eigensolvers of the amalgam (order 200), or 'krylov': the eigen-free Krylov reductor")
     parser.add_argument("--krylov-order", type=int, default=50, help="order of the Krylov reduced model")
     parser.add_argument("--rtol", type=float, default=1e-10, help="relative residual of the Krylov shifted solves")
+    parser.add_argument("--cache", type=Path, default=None, help="Krylov: keep the model in this cache folder")
     parser.add_argument("--truth-dir", type=Path, default=None,
                         help="Krylov: folder of the full-model references of benchmarks/scaling_truth.py")
     parser.add_argument("--steps", type=int, default=300, help="time steps of the full model compared (dt 0.1 s)")
@@ -211,7 +216,7 @@ def main() -> None:
         if args.worker[1] == "krylov":
             sys.path.insert(0, str(Path(__file__).parent))
             result = krylov_worker(int(args.worker[0]), rtol=args.rtol, order=args.krylov_order,
-                                   truth_dir=args.truth_dir)
+                                   truth_dir=args.truth_dir, cache=args.cache)
         else:
             result = worker(int(args.worker[0]), args.worker[1], args.steps, args.amg_above, float32=args.float32,
                             half_step=args.half_step)
@@ -225,7 +230,8 @@ def main() -> None:
                    "--memory-limit-gb", str(args.memory_limit_gb)] + (["--float32"] if args.float32 else []) + (
                        ["--half-step"] if args.half_step else []) + [
                        "--rtol", str(args.rtol), "--krylov-order", str(args.krylov_order)] + (
-                       ["--truth-dir", str(args.truth_dir)] if args.truth_dir else [])
+                       ["--truth-dir", str(args.truth_dir)] if args.truth_dir else []) + (
+                       ["--cache", str(args.cache)] if args.cache else [])
             env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
             done = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=env, check=False)  # stderr: progress
             if done.returncode != 0:

@@ -29,6 +29,7 @@ from aromm.core.system import FloatArray, ThermalSystem, dense
 from aromm.linalg.direct import check_residual, factorize, resolve_method
 from aromm.linalg.orderings import nested_dissection
 from aromm.reduction.engine_protocol import SolveStats
+from aromm.reduction.residual_gram import ResidualGram
 from aromm.reduction.rom import ReducedModel
 
 #: Below this many unknowns a sparse Cholesky factorisation of each shifted operator beats multigrid-PCG.
@@ -42,6 +43,10 @@ DIRECT_BELOW = 20_000
 #: Eigenvalues of a new block's Gram matrix below this fraction of the largest are dependent directions.
 GRAM_DROP = 1e-14
 SOLVERS = ("auto", "cholmod", "splu", "mg")
+#: Coarsest multigrid level of the shifted solves (nodes, solved by CHOLMOD in every V-cycle).  At 46³ with the
+#: solver's default (20,000: a 24³ coarsest grid) the coarse solves took 104 of 393 s of the block solves
+#: (cProfile, wall, load ≈ 16); one more level down to ≤ 4,000 nodes makes them negligible.
+COARSEST = 4_000
 
 
 def input_coefficients(system: ThermalSystem, initial: bool, width: int, values: Mapping[str, float]) -> FloatArray:
@@ -86,6 +91,7 @@ class ScipyEngine:
         self._stats = SolveStats(method=self.method)
         self._solver: tuple[tuple[object, ...], object] | None = None
         self._ordering: npt.NDArray[np.int64] | None = None  # one nested dissection for every shifted operator
+        self._gram: ResidualGram | None = None
         self._affine: object | None = None  # the multigrid levels of every term of K and C (built at the first solve)
         self.initial = initial
         self._terms = self._input_vectors()
@@ -134,7 +140,13 @@ class ScipyEngine:
         return sp.csr_array(self.system.conductance.evaluate(v) + shift * self.system.capacity.evaluate(v))
 
     def capacity(self, values: Mapping[str, float], block: FloatArray) -> FloatArray:
-        return np.asarray(sp.csr_array(self.system.capacity.evaluate(self.system.values(values))) @ block)
+        """``C(μ) X`` term by term, ``Σ_t c_t(μ) (C_t X)``: no summed matrix is formed."""
+        v = self.system.values(values)
+        terms = self.system.capacity.terms
+        out = float(terms[0].coefficient(v)) * np.asarray(terms[0].operator @ block)
+        for t in terms[1:]:
+            out += float(t.coefficient(v)) * np.asarray(t.operator @ block)
+        return out
 
     def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float) -> FloatArray:
         key = (tuple(sorted(values.items())), float(shift), float(rtol))
@@ -168,12 +180,12 @@ class ScipyEngine:
 
         terms = (*self.system.conductance.terms, *self.system.capacity.terms)
         if self._affine is None:
-            self._affine = AffineGrid.build([t.operator for t in terms], self.points)
+            self._affine = AffineGrid.build([t.operator for t in terms], self.points, coarsest=COARSEST)
         v = self.system.values(values)
         weights = [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
             shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
         grid = self._affine.operator(weights)  # type: ignore[attr-defined]
-        mg = MultigridSolver(grid, rtol=rtol)
+        mg = MultigridSolver(grid, rtol=rtol, coarsest=COARSEST)
 
         def iterative(b: FloatArray) -> FloatArray:
             full = np.zeros((grid.n, b.shape[1]))
@@ -187,25 +199,27 @@ class ScipyEngine:
     # ----------------------------------------------------------------- bases and projections
     def orthonormalise(self, basis: FloatArray | None, block: FloatArray, values: Mapping[str, float],
                        drop: float) -> tuple[FloatArray, int]:
-        c = sp.csr_array(self.system.capacity.evaluate(self.system.values(values)))
+        def c(block: FloatArray) -> FloatArray:
+            return self.capacity(values, block)
+
         x = np.array(block, dtype=float)
-        norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c @ x), 0.0))
+        norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c(x)), 0.0))
         keep = norms > 0
         x, norms = x[:, keep] / norms[keep], norms[keep]
         for _ in range(2):
             if basis is not None and basis.shape[1]:
-                x -= basis @ (basis.T @ (c @ x))
-        remaining = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c @ x), 0.0))
+                x -= basis @ (basis.T @ (c(x)))
+        remaining = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c(x)), 0.0))
         x = x[:, remaining > drop]
         if x.shape[1] == 0:
             return (basis if basis is not None else np.zeros((self.size, 0))), 0
-        g = x.T @ (c @ x)
+        g = x.T @ (c(x))
         w, u = np.linalg.eigh((g + g.T) / 2)
         ok = w > GRAM_DROP * float(w.max())
         x = x @ (u[:, ok] / np.sqrt(w[ok]))
         if basis is not None and basis.shape[1]:
-            x -= basis @ (basis.T @ (c @ x))
-        x /= np.sqrt(np.einsum("ij,ij->j", x, c @ x))
+            x -= basis @ (basis.T @ (c(x)))
+        x /= np.sqrt(np.einsum("ij,ij->j", x, c(x)))
         new = x if basis is None else np.column_stack([basis, x])
         return new, int(x.shape[1])
 
@@ -220,14 +234,18 @@ class ScipyEngine:
 
     def residual_norms(self, basis: FloatArray, values: Mapping[str, float], shifts: FloatArray,
                        solutions: FloatArray) -> FloatArray:
+        """From one Gram matrix per basis (:mod:`aromm.reduction.residual_gram`), kept until the basis changes."""
+        conduction, capacity = self.system.conductance.terms, self.system.capacity.terms
+        key = (id(basis), basis.shape, float(basis[:, -1].sum()))
+        if self._gram is None or self._gram.key != key:
+            self._gram = None  # release the previous one first
+            self._gram = ResidualGram.of(key, self._terms, [sp.csr_array(t.operator) for t in (*conduction, *capacity)],
+                                         basis)
         v = self.system.values(values)
-        kv = sp.csr_array(self.system.conductance.evaluate(v)) @ basis
-        cv = sp.csr_array(self.system.capacity.evaluate(v)) @ basis
-        b = self.inputs(values)
-        s, r, q = solutions.shape
-        flat = np.moveaxis(solutions, 0, 1).reshape(r, s * q)  # columns (shift, input)
-        res = np.tile(b, s) - kv @ flat - cv @ (flat * np.repeat(shifts, q))
-        return np.linalg.norm(res, axis=0).reshape(s, q)
+        k = np.array([float(t.coefficient(v)) for t in conduction])
+        c = np.array([float(t.coefficient(v)) for t in capacity])
+        theta = np.hstack([np.broadcast_to(k, (len(shifts), k.size)), np.outer(shifts, c)])
+        return self._gram.norms(self.input_coefficients(values), theta, solutions)
 
     def to_numpy(self, block: FloatArray) -> FloatArray:
         return block
