@@ -17,6 +17,7 @@ one more Gram–Schmidt pass against the whole basis.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Mapping
 
@@ -42,6 +43,8 @@ from aromm.reduction.rom import ReducedModel
 DIRECT_BELOW = 20_000
 #: Eigenvalues of a new block's Gram matrix below this fraction of the largest are dependent directions.
 GRAM_DROP = 1e-14
+log = logging.getLogger(__name__)
+
 SOLVERS = ("auto", "cholmod", "splu", "mg")
 #: Coarsest multigrid level of the shifted solves (nodes, solved by CHOLMOD in every V-cycle).  At 46³ with the
 #: solver's default (20,000: a 24³ coarsest grid) the coarse solves took 104 of 393 s of the block solves
@@ -192,6 +195,9 @@ class ScipyEngine:
             full[grid.index] = b
             x = mg.solve_block(full)[grid.index]
             self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
+            if mg.at_floor:
+                log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",
+                         mg.at_floor, len(mg.iterations), shift, rtol)
             return np.asarray(x)
 
         return iterative
