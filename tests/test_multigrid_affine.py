@@ -1,4 +1,4 @@
-"""Shifted multigrid solves of the Krylov reduction: affine coarse levels, block CG in lockstep, the rounding floor."""
+"""Shifted multigrid solves of the Krylov reduction: affine coarse levels and the rounding floor."""
 
 from __future__ import annotations
 
@@ -34,24 +34,6 @@ def test_affine_coarse_levels_are_the_galerkin_levels_of_the_sum() -> None:
     for mine, theirs in zip(own.levels, stored.levels, strict=True):
         a, b = sp.csr_array(mine.matrix), sp.csr_array(theirs.matrix)
         assert abs(a - b).max() <= 1e-13 * abs(a).max()
-
-
-def test_block_cg_solves_every_column_to_the_tolerance() -> None:
-    """Lockstep CG: each column's true residual ≤ rtol, the same solution as one column at a time."""
-    _, terms, points = _terms()
-    grid = AffineGrid.build(terms, points).operator([1.0] * (len(terms) - 2) + [30.0, 30.0])
-    mg = MultigridSolver(grid, rtol=RTOL)
-    rng = np.random.default_rng(4)
-    b = np.zeros((grid.n, 3))
-    b[grid.index] = rng.standard_normal((len(grid.index), 3))
-    b[:, 1] *= 1e-6  # columns of very different sizes stop at their own relative residual
-    x = mg.solve_block(b)
-    a = grid.full()
-    res = np.linalg.norm(b - a @ x, axis=0) / np.linalg.norm(b, axis=0)
-    assert np.all(res <= RTOL), res
-    one = np.column_stack([mg.solve(b[:, j]) for j in range(3)])
-    np.testing.assert_allclose(x, one, rtol=0, atol=1e-8 * np.abs(one).max())
-    assert len(mg.iterations) == 6 and min(mg.iterations) > 0
 
 
 def test_a_tolerance_below_the_rounding_floor_is_met_at_the_floor() -> None:

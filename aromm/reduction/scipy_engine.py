@@ -7,8 +7,10 @@ Blocks are NumPy arrays (n × m).  Shifted systems ``(K(μ) + s C(μ)) X = B`` a
 * above it, on a voxel grid, by conjugate gradients preconditioned by the geometric multigrid V-cycle of
   :mod:`aromm.linalg.multigrid` (Galerkin coarse grids, Chebyshev smoothing) to the true relative residual
   ``rtol``, iteration counts recorded.  The coarse grids of every affine term of K and C are built once
-  (:mod:`aromm.linalg.multigrid.affine`: a set-up is then a weighted sum of stored levels), and the columns of a
-  block are solved by CGs in lockstep (one sparse × block product per level instead of one per column).
+  (:mod:`aromm.linalg.multigrid.affine`: a set-up is then a weighted sum of stored levels).  The columns of a
+  block are solved one after the other: CGs in lockstep on the block cost 1.4–1.6× more at 64³ (3 right-hand
+  sides, 9–15 iterations; docs/one_machine.md), because scipy's sparse × (n, 3) product takes 1.5× the
+  time of three sparse × vector products on this machine.
 
 Orthonormalisation is block classical Gram–Schmidt in the capacity product, twice ("twice is enough"), then
 a Cholesky-free orthonormalisation of the new columns by the eigen-decomposition of their Gram matrix, and
@@ -190,10 +192,12 @@ class ScipyEngine:
         grid = self._affine.operator(weights)  # type: ignore[attr-defined]
         mg = MultigridSolver(grid, rtol=rtol, coarsest=COARSEST)
 
-        def iterative(b: FloatArray) -> FloatArray:
-            full = np.zeros((grid.n, b.shape[1]))
-            full[grid.index] = b
-            x = mg.solve_block(full)[grid.index]
+        def iterative(b: FloatArray) -> FloatArray:  # column by column: scipy's sparse × (n, 3) block is slower
+            x = np.zeros_like(b)
+            for j in range(b.shape[1]):
+                full = np.zeros(grid.n)
+                full[grid.index] = b[:, j]
+                x[:, j] = mg.solve(full)[grid.index]
             self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
             if mg.at_floor:
                 log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",

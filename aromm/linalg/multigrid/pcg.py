@@ -117,11 +117,10 @@ class MultigridSolver:
             a, shape, fixed = next(coarse) if coarse is not None else galerkin(a, shape, fixed)
 
     def precondition(self, r: FloatArray) -> FloatArray:
-        """One V-cycle from a zero guess, in the solver's precision; the result in float64.  ``r`` is one vector
-        (n,) or a block (n, m): a block goes through every level as sparse × block products."""
+        """One V-cycle from a zero guess, in the solver's precision; the result in float64."""
         z = self._vcycle(0, r.astype(PRECISIONS[self.precision])).astype(float)
         if self.operator.periodic:
-            z -= z.mean(axis=0)
+            z -= z.mean()
         return z
 
     def _vcycle(self, index: int, b: FloatArray) -> FloatArray:
@@ -165,55 +164,6 @@ class MultigridSolver:
                 raise NumericalError(f"multigrid-preconditioned CG: relative residual {res:.2e} after {total} "
                                      f"iterations, above the tolerance {self.rtol:.0e}")
 
-
-    def solve_block(self, b: FloatArray) -> FloatArray:
-        """X with ‖b_j − A x_j‖ ≤ rtol ‖b_j‖ for every column of ``b`` (n, m): m CGs in lockstep, so each operator
-        and V-cycle product takes the block of the columns not yet converged (one pass over each matrix instead of
-        one per column); a column the recursive residual stopped early is finished by :meth:`solve`.  Column by
-        column on the matrix-free operator.  ``iterations`` gets one count per column."""
-        b = np.asarray(b, dtype=float)
-        if self._matrix is None or b.ndim == 1:
-            return np.column_stack([self.solve(b[:, j]) for j in range(b.shape[1])]) if b.ndim == 2 else self.solve(b)
-        a = self._matrix
-        nb = np.linalg.norm(b, axis=0)
-        x = np.zeros_like(b)
-        counts = np.zeros(b.shape[1], dtype=int)
-        act = np.flatnonzero(nb > 0)
-        r = b[:, act].copy()
-        z = self.precondition(r)
-        p = z.copy()
-        rz = np.einsum("ij,ij->j", r, z)
-        for it in range(1, MAX_ITERATIONS + 1):
-            q = a @ p
-            pq = np.einsum("ij,ij->j", p, q)
-            if not np.all(pq > 0):
-                raise NumericalError(f"multigrid-preconditioned CG: pᵀAp ≤ 0 at iteration {it} (operator not "
-                                     "positive definite?)")
-            alpha = rz / pq
-            x[:, act] += p * alpha
-            r -= q * alpha
-            counts[act] = it
-            going = np.linalg.norm(r, axis=0) > self.rtol * nb[act]
-            if not going.all():
-                act, r, p, rz = act[going], r[:, going], p[:, going], rz[going]
-            if act.size == 0:
-                break
-            z = self.precondition(r)
-            rz_new = np.einsum("ij,ij->j", r, z)
-            p *= rz_new / rz
-            p += z
-            rz = rz_new
-        res = np.linalg.norm(b - a @ x, axis=0)
-        for j in range(b.shape[1]):
-            if self.rtol * nb[j] < res[j] <= (self.rtol + self.floor(x[:, j], nb[j])) * nb[j]:
-                self.at_floor += 1
-            elif res[j] > self.rtol * nb[j]:  # recursive residual drifted (or budget spent): restart from the true one
-                x[:, j] = self.solve(b[:, j], x0=x[:, j])
-                counts[j] += self.iterations.pop()
-        self.iterations.extend(int(c) for c in counts)
-        return x
-
-
     def floor(self, x: FloatArray, nb: float) -> float:
         """The relative residual below which float64 cannot certify a solve, ``FLOOR_FACTOR ε ‖|A| |x|‖ / ‖b‖``
         (0 on the matrix-free operator, whose |A| is not at hand)."""
@@ -255,8 +205,7 @@ def _smooth(level: _Level, x: FloatArray, r: FloatArray, want_residual: bool) ->
     theta, delta = (upper + lower) / 2, (upper - lower) / 2
     sigma = theta / delta
     rho = 1.0 / sigma
-    dinv = level.inverse_diagonal if r.ndim == 1 else level.inverse_diagonal[:, None]
-    d = dinv * r / theta
+    d = level.inverse_diagonal * r / theta
     for k in range(DEGREE):
         x += d
         if k == DEGREE - 1 and not want_residual:
@@ -266,21 +215,21 @@ def _smooth(level: _Level, x: FloatArray, r: FloatArray, want_residual: bool) ->
             break
         rho_new = 1.0 / (2.0 * sigma - rho)
         d *= rho_new * rho
-        d += (2.0 * rho_new / delta) * (dinv * r)
+        d += (2.0 * rho_new / delta) * (level.inverse_diagonal * r)
         rho = rho_new
     return r
 
 
 def _transfer(v: FloatArray, shape: tuple[int, ...], target: tuple[int, ...],
               mats: tuple[sp.csr_array, ...], transpose: bool = False) -> FloatArray:
-    """Apply ⊗ of the 1-D interpolations (or their transposes) along z, y, x (to every column of a block)."""
-    a = v.reshape(shape) if v.ndim == 1 else v.reshape((*shape, v.shape[1]))
+    """Apply ⊗ of the 1-D interpolations (or their transposes) along z, y, x."""
+    a = v.reshape(shape)
     for axis, mat in enumerate(mats):
         m = mat.T if transpose else mat
         moved = np.moveaxis(a, axis, 0)
         out = m @ moved.reshape(moved.shape[0], -1)
         a = np.moveaxis(out.reshape((m.shape[0], *moved.shape[1:])), 0, axis)
-    return np.ascontiguousarray(a).reshape(-1) if v.ndim == 1 else np.ascontiguousarray(a).reshape(-1, v.shape[1])
+    return np.ascontiguousarray(a).reshape(-1)
 
 
 def _prolongations(elements: tuple[int, int, int], periodic: bool, dtype: type
