@@ -58,7 +58,8 @@ log = logging.getLogger(__name__)
 #: Default box around the scene's values when none is given: each material parameter × [1/10, 10] (the extremes
 #: of the POD-greedy's training factors, aromm.reduction.greedy.TRAINING_FACTORS).
 DEFAULT_FACTOR = 10.0
-#: A moment vector whose part outside the basis is below this fraction of its C-norm adds nothing.
+#: A moment vector whose part outside the basis is below this fraction of its C-norm adds nothing; with solves
+#: to a relative residual rtol above it, the threshold is rtol (:attr:`KrylovReductor.drop`).
 DROP = 1e-10
 #: The greedy stops when the change is below tolerance / ESTIMATE_SAFETY: on the 24³ wood VER the change after the
 #: last point underestimated the worst error over the 3×3 grid by 1.4–30× (benchmarks/mor_peers.py, 2026-12-01).
@@ -134,6 +135,13 @@ class KrylovReductor:
         return repr((self.name, self.bounds, self.tolerance, self.shifts, self.steps, self.rtol, self.compression,
                      self.max_points, self.per_axis, self.dual, self.solver, self.highest))
 
+    @property
+    def drop(self) -> float:
+        """Threshold of new directions: a solve to the relative residual rtol fixes its vector only to about rtol
+        (relative), so a part outside the basis below ``max(DROP, rtol)`` of the vector's norm is solver noise,
+        not a direction (it would only widen the basis)."""
+        return max(DROP, self.rtol)
+
     def shift_values(self, grid: TimeGrid) -> FloatArray:
         """The interpolation shifts (1/s): ``shifts`` log-spaced over 1/t_end … highest/t_first."""
         return np.geomspace(1.0 / grid.end, self.highest / grid.dt, self.shifts)
@@ -197,7 +205,7 @@ class _Moments:
                 x = rhs
                 for step in range(opt.steps):
                     x = eng.shifted_solve(mu, float(s), x if step == 0 else eng.capacity(mu, x), opt.rtol)
-                    basis, _ = eng.orthonormalise(basis, x, self.reference, DROP)
+                    basis, _ = eng.orthonormalise(basis, x, self.reference, opt.drop)
                     cx = eng.capacity(self.reference, x)
                     norms = np.sqrt(np.maximum(np.diag(eng.dot(x, cx)), 1e-300))
                     self.raw.append(eng.dot(basis, cx) / norms)

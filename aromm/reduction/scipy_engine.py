@@ -5,8 +5,12 @@ Blocks are NumPy arrays (n × m).  Shifted systems ``(K(μ) + s C(μ)) X = B`` a
 * below :data:`DIRECT_BELOW` unknowns (or off a voxel grid) by a sparse Cholesky factorisation (CHOLMOD, else
   SuperLU; :func:`aromm.linalg.direct.factorize`), the whole block at once;
 * above it, on a voxel grid, by conjugate gradients preconditioned by the geometric multigrid V-cycle of
-  :mod:`aromm.linalg.multigrid` (Galerkin coarse grids of the assembled shifted operator, Chebyshev smoothing),
-  column by column to the true relative residual ``rtol``, iteration counts recorded.
+  :mod:`aromm.linalg.multigrid` (Galerkin coarse grids, Chebyshev smoothing) to the true relative residual
+  ``rtol``, iteration counts recorded.  The coarse grids of every affine term of K and C are built once
+  (:mod:`aromm.linalg.multigrid.affine`: a set-up is then a weighted sum of stored levels).  The columns of a
+  block are solved one after the other: CGs in lockstep on the block cost 1.4–1.6× more at 64³ (3 right-hand
+  sides, 9–15 iterations; docs/one_machine.md), because scipy's sparse × (n, 3) product takes 1.5× the
+  time of three sparse × vector products on this machine.
 
 Orthonormalisation is block classical Gram–Schmidt in the capacity product, twice ("twice is enough"), then
 a Cholesky-free orthonormalisation of the new columns by the eigen-decomposition of their Gram matrix, and
@@ -15,6 +19,7 @@ one more Gram–Schmidt pass against the whole basis.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Mapping
 
@@ -27,6 +32,7 @@ from aromm.core.system import FloatArray, ThermalSystem, dense
 from aromm.linalg.direct import check_residual, factorize, resolve_method
 from aromm.linalg.orderings import nested_dissection
 from aromm.reduction.engine_protocol import SolveStats
+from aromm.reduction.residual_gram import ResidualGram
 from aromm.reduction.rom import ReducedModel
 
 #: Below this many unknowns a sparse Cholesky factorisation of each shifted operator beats multigrid-PCG.
@@ -39,7 +45,13 @@ from aromm.reduction.rom import ReducedModel
 DIRECT_BELOW = 20_000
 #: Eigenvalues of a new block's Gram matrix below this fraction of the largest are dependent directions.
 GRAM_DROP = 1e-14
+log = logging.getLogger(__name__)
+
 SOLVERS = ("auto", "cholmod", "splu", "mg")
+#: Coarsest multigrid level of the shifted solves (nodes, solved by CHOLMOD in every V-cycle).  At 46³ with the
+#: solver's default (20,000: a 24³ coarsest grid) the coarse solves took 104 of 393 s of the block solves
+#: (cProfile, wall, load ≈ 16); one more level down to ≤ 4,000 nodes makes them negligible.
+COARSEST = 4_000
 
 
 def input_coefficients(system: ThermalSystem, initial: bool, width: int, values: Mapping[str, float]) -> FloatArray:
@@ -84,6 +96,8 @@ class ScipyEngine:
         self._stats = SolveStats(method=self.method)
         self._solver: tuple[tuple[object, ...], object] | None = None
         self._ordering: npt.NDArray[np.int64] | None = None  # one nested dissection for every shifted operator
+        self._gram: ResidualGram | None = None
+        self._affine: object | None = None  # the multigrid levels of every term of K and C (built at the first solve)
         self.initial = initial
         self._terms = self._input_vectors()
 
@@ -131,13 +145,19 @@ class ScipyEngine:
         return sp.csr_array(self.system.conductance.evaluate(v) + shift * self.system.capacity.evaluate(v))
 
     def capacity(self, values: Mapping[str, float], block: FloatArray) -> FloatArray:
-        return np.asarray(sp.csr_array(self.system.capacity.evaluate(self.system.values(values))) @ block)
+        """``C(μ) X`` term by term, ``Σ_t c_t(μ) (C_t X)``: no summed matrix is formed."""
+        v = self.system.values(values)
+        terms = self.system.capacity.terms
+        out = float(terms[0].coefficient(v)) * np.asarray(terms[0].operator @ block)
+        for t in terms[1:]:
+            out += float(t.coefficient(v)) * np.asarray(t.operator @ block)
+        return out
 
     def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float) -> FloatArray:
         key = (tuple(sorted(values.items())), float(shift), float(rtol))
         if self._solver is None or self._solver[0] != key:
             start = time.process_time()
-            self._solver = (key, self._setup(self._operator(values, shift), rtol))
+            self._solver = (key, self._setup(values, shift, rtol))
             self._stats.setups += 1
             self._stats.setup_seconds += time.process_time() - start
         start = time.process_time()
@@ -146,8 +166,9 @@ class ScipyEngine:
         self._stats.solve_seconds += time.process_time() - start
         return np.asarray(out)
 
-    def _setup(self, a: sp.csr_array, rtol: float) -> object:
+    def _setup(self, values: Mapping[str, float], shift: float, rtol: float) -> object:
         if self.method != "mg":
+            a = self._operator(values, shift)
             if self._ordering is None and self.points is not None:
                 self._ordering = nested_dissection(a, self.points)
             fac = factorize(a, self.method, rtol=rtol, ordering=self._ordering)
@@ -159,45 +180,56 @@ class ScipyEngine:
                 return x
 
             return direct
-        from aromm.linalg.multigrid.assembled import GridMatrix
+        from aromm.linalg.multigrid.affine import AffineGrid
         from aromm.linalg.multigrid.pcg import MultigridSolver
 
-        grid = GridMatrix.from_points(a, self.points)
-        mg = MultigridSolver(grid, rtol=rtol)  # type: ignore[arg-type]
+        terms = (*self.system.conductance.terms, *self.system.capacity.terms)
+        if self._affine is None:
+            self._affine = AffineGrid.build([t.operator for t in terms], self.points, coarsest=COARSEST)
+        v = self.system.values(values)
+        weights = [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
+            shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
+        grid = self._affine.operator(weights)  # type: ignore[attr-defined]
+        mg = MultigridSolver(grid, rtol=rtol, coarsest=COARSEST)
 
-        def iterative(b: FloatArray) -> FloatArray:
+        def iterative(b: FloatArray) -> FloatArray:  # column by column: scipy's sparse × (n, 3) block is slower
             x = np.zeros_like(b)
             for j in range(b.shape[1]):
                 full = np.zeros(grid.n)
                 full[grid.index] = b[:, j]
                 x[:, j] = mg.solve(full)[grid.index]
-                self._stats.iterations.append(mg.iterations[-1])
-            return x
+            self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
+            if mg.at_floor:
+                log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",
+                         mg.at_floor, len(mg.iterations), shift, rtol)
+            return np.asarray(x)
 
         return iterative
 
     # ----------------------------------------------------------------- bases and projections
     def orthonormalise(self, basis: FloatArray | None, block: FloatArray, values: Mapping[str, float],
                        drop: float) -> tuple[FloatArray, int]:
-        c = sp.csr_array(self.system.capacity.evaluate(self.system.values(values)))
+        def c(block: FloatArray) -> FloatArray:
+            return self.capacity(values, block)
+
         x = np.array(block, dtype=float)
-        norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c @ x), 0.0))
+        norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c(x)), 0.0))
         keep = norms > 0
         x, norms = x[:, keep] / norms[keep], norms[keep]
         for _ in range(2):
             if basis is not None and basis.shape[1]:
-                x -= basis @ (basis.T @ (c @ x))
-        remaining = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c @ x), 0.0))
+                x -= basis @ (basis.T @ (c(x)))
+        remaining = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c(x)), 0.0))
         x = x[:, remaining > drop]
         if x.shape[1] == 0:
             return (basis if basis is not None else np.zeros((self.size, 0))), 0
-        g = x.T @ (c @ x)
+        g = x.T @ (c(x))
         w, u = np.linalg.eigh((g + g.T) / 2)
         ok = w > GRAM_DROP * float(w.max())
         x = x @ (u[:, ok] / np.sqrt(w[ok]))
         if basis is not None and basis.shape[1]:
-            x -= basis @ (basis.T @ (c @ x))
-        x /= np.sqrt(np.einsum("ij,ij->j", x, c @ x))
+            x -= basis @ (basis.T @ (c(x)))
+        x /= np.sqrt(np.einsum("ij,ij->j", x, c(x)))
         new = x if basis is None else np.column_stack([basis, x])
         return new, int(x.shape[1])
 
@@ -212,14 +244,18 @@ class ScipyEngine:
 
     def residual_norms(self, basis: FloatArray, values: Mapping[str, float], shifts: FloatArray,
                        solutions: FloatArray) -> FloatArray:
+        """From one Gram matrix per basis (:mod:`aromm.reduction.residual_gram`), kept until the basis changes."""
+        conduction, capacity = self.system.conductance.terms, self.system.capacity.terms
+        key = (id(basis), basis.shape, float(basis[:, -1].sum()))
+        if self._gram is None or self._gram.key != key:
+            self._gram = None  # release the previous one first
+            self._gram = ResidualGram.of(key, self._terms, [sp.csr_array(t.operator) for t in (*conduction, *capacity)],
+                                         basis)
         v = self.system.values(values)
-        kv = sp.csr_array(self.system.conductance.evaluate(v)) @ basis
-        cv = sp.csr_array(self.system.capacity.evaluate(v)) @ basis
-        b = self.inputs(values)
-        s, r, q = solutions.shape
-        flat = np.moveaxis(solutions, 0, 1).reshape(r, s * q)  # columns (shift, input)
-        res = np.tile(b, s) - kv @ flat - cv @ (flat * np.repeat(shifts, q))
-        return np.linalg.norm(res, axis=0).reshape(s, q)
+        k = np.array([float(t.coefficient(v)) for t in conduction])
+        c = np.array([float(t.coefficient(v)) for t in capacity])
+        theta = np.hstack([np.broadcast_to(k, (len(shifts), k.size)), np.outer(shifts, c)])
+        return self._gram.norms(self.input_coefficients(values), theta, solutions)
 
     def to_numpy(self, block: FloatArray) -> FloatArray:
         return block

@@ -32,6 +32,9 @@ class GridMatrix:
     shape: tuple[int, int, int]
     index: npt.NDArray[np.intp]
     periodic: bool = False
+    #: Galerkin levels below the fine one, (matrix, node shape, fixed mask) each, when computed beforehand
+    #: (:mod:`aromm.linalg.multigrid.affine`); empty: :func:`galerkin` products at set-up.
+    coarse: tuple[tuple[sp.csr_array, tuple[int, int, int], npt.NDArray[np.bool_]], ...] = ()
 
     @classmethod
     def from_points(cls, a: sp.csr_array, points: FloatArray | None) -> GridMatrix:
@@ -65,20 +68,30 @@ class GridMatrix:
 
     def full(self) -> sp.csr_array:
         """The matrix on every grid node: identity rows and columns for the absent ones."""
+        if len(self.index) == self.n and np.array_equal(self.index, np.arange(self.n)):
+            return self.matrix  # already in grid order, nothing absent
         embed = sp.csr_array((np.ones(len(self.index)), (self.index, np.arange(len(self.index)))),
                              shape=(self.n, len(self.index)))
         return sp.csr_array(embed @ self.matrix @ embed.T + sp.diags_array(self.missing().astype(float)))
 
 
-def galerkin(a: sp.csr_array, shape: tuple[int, int, int], fixed: npt.NDArray[np.bool_]
-             ) -> tuple[sp.csr_array, tuple[int, int, int], npt.NDArray[np.bool_]]:
-    """Pᵀ A P on the next coarser grid, P trilinear with fixed (identity) nodes masked; fixed coarse nodes too."""
+def prolongation(shape: tuple[int, int, int], fixed: npt.NDArray[np.bool_]
+                 ) -> tuple[sp.csr_array, tuple[int, int, int], npt.NDArray[np.bool_]]:
+    """P (trilinear, fixed fine and coarse nodes masked) to the grid ``shape`` from the next coarser one, the
+    coarser grid's shape and fixed mask."""
     mats = [prolongation_1d(n - 1, periodic=False) for n in shape]
     coarse_shape = (mats[0].shape[1], mats[1].shape[1], mats[2].shape[1])
     positions = [np.minimum(2 * np.arange(m.shape[1]), n - 1) for m, n in zip(mats, shape, strict=True)]
     coarse_fixed = fixed.reshape(shape)[np.ix_(*positions)].ravel()
     p = sp.kron(sp.kron(mats[0], mats[1]), mats[2], format="csr")
     p = sp.csr_array(sp.diags_array((~fixed).astype(float)) @ p @ sp.diags_array((~coarse_fixed).astype(float)))
+    return p, coarse_shape, coarse_fixed
+
+
+def galerkin(a: sp.csr_array, shape: tuple[int, int, int], fixed: npt.NDArray[np.bool_]
+             ) -> tuple[sp.csr_array, tuple[int, int, int], npt.NDArray[np.bool_]]:
+    """Pᵀ A P on the next coarser grid, P trilinear with fixed (identity) nodes masked; fixed coarse nodes too."""
+    p, coarse_shape, coarse_fixed = prolongation(shape, fixed)
     coarse = sp.csr_array(p.T @ a @ p + sp.diags_array(coarse_fixed.astype(float)))
     return coarse, coarse_shape, coarse_fixed
 

@@ -32,6 +32,12 @@ COARSEST_NODES = 20_000
 DEGREE = 2
 SPREAD = 8.0  # Chebyshev interval [λ/SPREAD, λ]: the upper part of the spectrum, which the coarse grid cannot see
 MAX_ITERATIONS = 500
+#: The residual b − A x computed in float64 carries a rounding error of about √k · ε · ‖|A| |x|‖ (k ≤ 27 terms per
+#: row of the voxel stencil, ε the machine epsilon): no CG can certify a smaller one [Higham2002, § 3.5].
+#: ε ‖|A| |x|‖ / ‖b‖ measured on the wood VERs (K + C/60 at k_F = 1, the load): 1.9e-11 at 32³, 5.4e-11 at 64³,
+#: growing like ‖A‖ ∝ h⁻², so ≈ 1.2e-10 at 96³, where a solve to 1e-10 stagnated at 2.1e-10 for 500 iterations.
+#: A residual within rtol plus this floor is accepted (counted in ``MultigridSolver.at_floor``).
+FLOOR_FACTOR = float(np.sqrt(27.0))
 # V-cycle arithmetic: single halves its memory traffic; CG, its residuals and the stopping test stay float64
 PRECISIONS: dict[str, type] = {"single": np.float32, "double": np.float64}
 
@@ -63,6 +69,7 @@ class MultigridSolver:
     levels: list[_Level] = field(init=False)
     coarse_solve: object = field(init=False)
     iterations: list[int] = field(default_factory=list)
+    at_floor: int = 0  # solves accepted at the rounding floor of the residual (FLOOR_FACTOR), above rtol
     _matrix: sp.csr_array | None = field(init=False, default=None)  # float64 operator of CG when assembled
 
     def __post_init__(self) -> None:
@@ -77,10 +84,10 @@ class MultigridSolver:
             return
         self.levels = [_Level(op, (1.0 / op.diagonal()).astype(dtype), _element_bound(op), op.node_shape,
                               _prolongations(op.elements, op.periodic, dtype))]
-        level = ElementLevel.coarse_of(op) if _coarsenable(op.elements, op.n, 0) else None  # ≥ 2 levels
+        level = ElementLevel.coarse_of(op) if coarsenable(op.elements, op.n, 0) else None  # ≥ 2 levels
         while level is not None:
             matrix = level.to_csr()
-            coarser = _coarsenable(level.elements, matrix.shape[0], self.coarsest)
+            coarser = coarsenable(level.elements, matrix.shape[0], self.coarsest)
             fixed = np.flatnonzero(_fixed_mask(level))
             if not coarser:
                 self.coarse_solve = _direct(matrix, op.periodic)
@@ -96,17 +103,18 @@ class MultigridSolver:
         """Levels of an assembled grid matrix (aromm.linalg.multigrid.assembled): Galerkin products by scipy."""
         a, shape, fixed = grid.full(), grid.shape, grid.missing()
         self._matrix = a
+        coarse = iter(grid.coarse) if grid.coarse else None  # precomputed Galerkin levels (affine operators)
         self.levels = []
         while True:
             elements = (shape[0] - 1, shape[1] - 1, shape[2] - 1)
-            last = bool(self.levels) and not _coarsenable(elements, a.shape[0], self.coarsest)
+            last = bool(self.levels) and not coarsenable(elements, a.shape[0], self.coarsest)
             if last or min(elements) < 4:  # coarsest (the fine grid itself if too small: then a direct solve)
                 self.levels.append(_Level(a, np.zeros(0), 0.0, shape, (), np.flatnonzero(fixed)))  # type: ignore[arg-type]
                 self.coarse_solve = _direct(a, periodic=False)
                 return
             self.levels.append(_Level(a.astype(dtype), (1.0 / a.diagonal()).astype(dtype), _row_bound(a), shape,
                                       _prolongations(elements, False, dtype), np.flatnonzero(fixed)))
-            a, shape, fixed = galerkin(a, shape, fixed)
+            a, shape, fixed = next(coarse) if coarse is not None else galerkin(a, shape, fixed)
 
     def precondition(self, r: FloatArray) -> FloatArray:
         """One V-cycle from a zero guess, in the solver's precision; the result in float64."""
@@ -148,12 +156,22 @@ class MultigridSolver:
             res = float(np.linalg.norm(r)) / nb
             if not np.isfinite(res):
                 raise NumericalError(f"multigrid-preconditioned CG: non-finite residual after {total} iterations")
-            if res <= self.rtol:
+            if res <= self.rtol or res <= self.rtol + self.floor(x, nb):
+                self.at_floor += res > self.rtol
                 self.iterations.append(total)
                 return x
             if total >= MAX_ITERATIONS:
                 raise NumericalError(f"multigrid-preconditioned CG: relative residual {res:.2e} after {total} "
                                      f"iterations, above the tolerance {self.rtol:.0e}")
+
+    def floor(self, x: FloatArray, nb: float) -> float:
+        """The relative residual below which float64 cannot certify a solve, ``FLOOR_FACTOR ε ‖|A| |x|‖ / ‖b‖``
+        (0 on the matrix-free operator, whose |A| is not at hand)."""
+        if self._matrix is None or nb == 0.0:
+            return 0.0
+        m = self._matrix
+        magnitude = sp.csr_array((np.abs(m.data), m.indices, m.indptr), shape=m.shape) @ np.abs(x)
+        return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
 
 
 def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float, budget: int
@@ -221,7 +239,7 @@ def _prolongations(elements: tuple[int, int, int], periodic: bool, dtype: type
             prolongation_1d(nx, periodic).astype(dtype))
 
 
-def _coarsenable(elements: tuple[int, int, int], nodes: int, coarsest: int) -> bool:
+def coarsenable(elements: tuple[int, int, int], nodes: int, coarsest: int) -> bool:
     return nodes > coarsest and min(elements) >= 4
 
 
