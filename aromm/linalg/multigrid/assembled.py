@@ -12,7 +12,6 @@ CG are those of :class:`~aromm.linalg.multigrid.pcg.MultigridSolver`.  Memory is
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,23 +93,3 @@ def galerkin(a: sp.csr_array, shape: tuple[int, int, int], fixed: npt.NDArray[np
     p, coarse_shape, coarse_fixed = prolongation(shape, fixed)
     coarse = sp.csr_array(p.T @ a @ p + sp.diags_array(coarse_fixed.astype(float)))
     return coarse, coarse_shape, coarse_fixed
-
-
-def grid_solver(a: sp.csr_array, points: FloatArray | None, rtol: float) -> Callable[[FloatArray], FloatArray]:
-    """``solve(b)`` by multigrid-preconditioned CG for ``aromm.linalg.direct.factorize(method="mg")``."""
-    from aromm.linalg.multigrid.pcg import MultigridSolver
-
-    grid = GridMatrix.from_points(a, points)
-    mg = MultigridSolver(grid, rtol=rtol)  # type: ignore[arg-type]
-
-    def solve_one(b: FloatArray) -> FloatArray:
-        full = np.zeros(grid.n)
-        full[grid.index] = b
-        return mg.solve(full)[grid.index]
-
-    def solve(b: FloatArray) -> FloatArray:
-        if b.ndim == 1:
-            return solve_one(b)
-        return np.column_stack([solve_one(b[:, j]) for j in range(b.shape[1])])
-
-    return solve

@@ -14,6 +14,7 @@ one node and the preconditioned residual is kept mean-free, so CG runs in the ra
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -23,7 +24,7 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
-from aromm.linalg.direct import DEFAULT_RTOL, factorize, resolve_method
+from aromm.linalg.factorizations import DEFAULT_RTOL, factorize_direct, resolve_method
 from aromm.linalg.multigrid.assembled import GridMatrix, galerkin
 from aromm.linalg.multigrid.hierarchy import ElementLevel, prolongation_1d
 from aromm.linalg.multigrid.operator import VoxelOperator
@@ -277,7 +278,7 @@ def pinned(matrix: sp.csr_array) -> sp.csr_array:
 
 def _direct(matrix: sp.csr_array, periodic: bool) -> object:
     """Coarsest-grid solve; a periodic (singular) operator has node 0 pinned and mean-free right-hand sides."""
-    factor = factorize(pinned(matrix) if periodic else matrix, resolve_method("auto"))
+    factor = factorize_direct(pinned(matrix) if periodic else matrix, resolve_method("auto"))
 
     def solve(b: FloatArray) -> FloatArray:
         if not periodic:
@@ -285,5 +286,23 @@ def _direct(matrix: sp.csr_array, periodic: bool) -> object:
         rhs = b - b.mean()
         rhs[0] = 0.0
         return factor.solve(rhs, check=False)
+
+    return solve
+
+
+def grid_solver(a: sp.csr_array, points: FloatArray | None, rtol: float) -> Callable[[FloatArray], FloatArray]:
+    """``solve(b)`` by multigrid-preconditioned CG for ``aromm.linalg.direct.factorize(method="mg")``."""
+    grid = GridMatrix.from_points(a, points)
+    mg = MultigridSolver(grid, rtol=rtol)  # type: ignore[arg-type]
+
+    def solve_one(b: FloatArray) -> FloatArray:
+        full = np.zeros(grid.n)
+        full[grid.index] = b
+        return mg.solve(full)[grid.index]
+
+    def solve(b: FloatArray) -> FloatArray:
+        if b.ndim == 1:
+            return solve_one(b)
+        return np.column_stack([solve_one(b[:, j]) for j in range(b.shape[1])])
 
     return solve
