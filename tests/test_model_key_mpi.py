@@ -52,7 +52,7 @@ def _measurements(rom: aromm.ReducedModel, folder: Path) -> Path:
 def _scipy(scene: Path, cache: Path | bool) -> aromm.ReducedModel:
     sc = aromm.load_scene(scene)
     with cases.dropping(cases.DROP):
-        return aromm.reduce(sc, 200, **sc.reduction.options(), solver="cholmod", cache=cache)
+        return aromm.reduce(sc, 200, settings=sc.reduction, solver="cholmod", cache=cache)
 
 
 def _agree(a: aromm.ReducedModel, b: aromm.ReducedModel) -> None:
@@ -94,6 +94,6 @@ def test_scipy_model_found_by_identify_on_petsc(scene: Path, tmp_path: Path, mon
     assert petsc["model"]["cached"] == 1 and petsc["model"]["engine"] == "scipy"
     assert petsc["estimates"] == serial["estimates"]  # the same model, the same swarm: bit for bit
     with cases.dropping(cases.DROP):
-        fresh = aromm.reduce(aromm.load_scene(scene), 200, **aromm.load_scene(scene).reduction.options(),
+        fresh = aromm.reduce(aromm.load_scene(scene), 200, settings=aromm.load_scene(scene).reduction,
                              engine="petsc", solver="mumps", cache=False)  # 1 rank, in process
     _agree(built, fresh)
