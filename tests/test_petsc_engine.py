@@ -155,10 +155,13 @@ def test_cli_reduce_two_ranks_prints_once_and_caches(tmp_path: Path, monkeypatch
     assert info["ranks"] == RANKS and info["engine"] == "petsc" and info["cached"] == 0
     assert info["outputs"] == ["z0", "z1"]
     assert all(info[f"{stage}_peak_bytes"] > 0 for stage in ("assembly", "basis", "corrections", "projection"))
+    stored = sorted((tmp_path / "cache").glob("rom-*.npz"))  # under the model key and under the engine's own key
+    assert len(stored) == 2
     second_started = time.time()
     second = mpiexec(*args)
     assert json.loads(second.stdout.strip())["cached"] == 1
-    assert len(list((tmp_path / "cache").glob("rom-*.npz"))) == 1
+    assert sorted((tmp_path / "cache").glob("rom-*.npz")) == stored and all(
+        p.stat().st_mtime < second_started for p in stored)  # loaded, not rebuilt
     converted = list((tmp_path / "images" / "images").glob("*.npy"))
     assert len(converted) == 1 and converted[0].stat().st_mtime < second_started
 
