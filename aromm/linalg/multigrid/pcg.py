@@ -166,7 +166,7 @@ class MultigridSolver:
 
     def floor(self, x: FloatArray, nb: float) -> float:
         """The relative residual below which float64 cannot certify a solve, ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖``
-        (0 on the matrix-free operator, whose |A| is not at hand)."""
+        (0 on the matrix-free operator, whose abs(A) is not at hand)."""
         if self._matrix is None or nb == 0.0:
             return 0.0
         m = self._matrix
