@@ -49,8 +49,8 @@ log = logging.getLogger(__name__)
 
 SOLVERS = ("auto", "cholmod", "splu", "mg")
 #: Coarsest multigrid level of the shifted solves (nodes, solved by CHOLMOD in every V-cycle).  At 46³ with the
-#: solver's default (20,000: a 24³ coarsest grid) the coarse solves took 104 of 393 s of the block solves
-#: (cProfile, wall, load ≈ 16); one more level down to ≤ 4,000 nodes makes them negligible.
+#: solver's default (20,000: a 24³ coarsest grid) the coarse solves took 104 of 393 s of the solves (wall seconds
+#: under cProfile, load ≈ 16); here one more level, down to ≤ 4,000 nodes (12³), instead.
 COARSEST = 4_000
 
 

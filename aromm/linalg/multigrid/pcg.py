@@ -33,9 +33,9 @@ COARSEST_NODES = 20_000
 DEGREE = 2
 SPREAD = 8.0  # Chebyshev interval [λ/SPREAD, λ]: the upper part of the spectrum, which the coarse grid cannot see
 MAX_ITERATIONS = 500
-#: The residual b − A x computed in float64 carries a rounding error of about √k · ε · ‖|A| |x|‖ (k ≤ 27 terms per
+#: The residual b − A x computed in float64 carries a rounding error of about √k · ε · ‖abs(A) abs(x)‖ (k ≤ 27 terms per
 #: row of the voxel stencil, ε the machine epsilon): no CG can certify a smaller one [Higham2002, § 3.5].
-#: ε ‖|A| |x|‖ / ‖b‖ measured on the wood VERs (K + C/60 at k_F = 1, the load): 1.9e-11 at 32³, 5.4e-11 at 64³,
+#: ε ‖abs(A) abs(x)‖ / ‖b‖ measured on the wood VERs (K + C/60 at k_F = 1, the load): 1.9e-11 at 32³, 5.4e-11 at 64³,
 #: growing like ‖A‖ ∝ h⁻², so ≈ 1.2e-10 at 96³, where a solve to 1e-10 stagnated at 2.1e-10 for 500 iterations.
 #: A residual within rtol plus this floor is accepted (counted in ``MultigridSolver.at_floor``).
 FLOOR_FACTOR = float(np.sqrt(27.0))
@@ -166,8 +166,8 @@ class MultigridSolver:
                                      f"iterations, above the tolerance {self.rtol:.0e}")
 
     def floor(self, x: FloatArray, nb: float) -> float:
-        """The relative residual below which float64 cannot certify a solve, ``FLOOR_FACTOR ε ‖|A| |x|‖ / ‖b‖``
-        (0 on the matrix-free operator, whose |A| is not at hand)."""
+        """The relative residual below which float64 cannot certify a solve, ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖``
+        (0 on the matrix-free operator, whose abs(A) is not at hand)."""
         if self._matrix is None or nb == 0.0:
             return 0.0
         m = self._matrix
