@@ -93,7 +93,8 @@ def main() -> None:
     for r, n_r, p_r in zip(records, owned, peak, strict=True):
         c = counted(r) if r["ranks"] > 1 else {"R": 0.0, "M": 0.0, "B": 0.0}
         print(f"  P = {r['ranks']}: peak {p_r / 2**20:,.0f} MB/rank = {p_r / n_r:,.0f} B per owned unknown "
-              f"({(p_r - fixed) / n_r:,.0f} above the fixed {fixed / 2**20:.0f} MB); CPU {max(r['cpu']):.1f} s/rank; "
+              f"({(p_r - fixed) / n_r:,.0f} above the fixed {fixed / 2**20:.0f} MB); CPU {max(r['cpu']):.1f} s/rank "
+              f"(model's computation {n_r * (setups * a_u + solves * its * a_i + a_0):.1f}); "
               f"per CG it. R {c['R']:.2f}, M {c['M']:.1f}, B {c['B']:,.0f}")
     print(f"  memory per rank = {fixed / 2**20:.0f} MB + {b:,.0f} B × owned unknowns (fit over the ranks); "
           f"assumed α = {args.latency:g} s, β = {args.bandwidth:g} B/s")
