@@ -25,11 +25,12 @@ faces); ``α`` (latency, s) and ``β`` (bytes/s per rank) are the interconnect's
 Python, numpy, scipy and PETSc loaded, measured, plus the fit's intercept; ``b``: bytes per owned unknown, the
 operators, the multigrid hierarchy and the ``s`` basis columns); the CPU a rank spends beyond its share of the
 counted work in the multi-rank records (replicated small algebra, waits) is added to every plan as a constant.
-The ranks of a plan are the fewest whose memory fits ``--memory`` GB per rank; the 3-D boxes must keep ≥ 8 nodes per axis for the geometric multigrid (``P ≤ (n_side/8)³``).
+The ranks of a plan are the fewest whose memory fits ``--memory`` GB per rank; the 3-D boxes must keep ≥ 8 nodes
+per axis for the geometric multigrid (``P ≤ (n_side/8)³``).
 Everything past the measured size is an extrapolation and is printed as such, with the data it rests on.
 
-Usage: python benchmarks/scaling_model.py benchmarks/records/petsc_krylov_64.json [...] [--size 64] [--memory 4] [--latency 2e-6]
-[--bandwidth 5e9]
+Usage: python benchmarks/scaling_model.py benchmarks/records/petsc_krylov_64.json [...] [--size 64] [--memory 4]
+[--latency 2e-6] [--bandwidth 5e9]
 """
 
 from __future__ import annotations
