@@ -76,6 +76,7 @@ def test_model_key_ignores_how_and_follows_which() -> None:
         assert model_key("p", 50, {**base, **which}) != key, which
     assert model_key("p", 40, base) != key and model_key("q", 50, base) != key
     assert model_key("p", 50, base, ["r"]) != key
+    assert model_key("p", 50, {"method": "krylov", "bounds": BOX}) == key  # empty overrides = the defaults
 
 
 @pytest.fixture

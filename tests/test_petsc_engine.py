@@ -162,6 +162,7 @@ def test_cli_reduce_two_ranks_prints_once_and_caches(tmp_path: Path, monkeypatch
     assert json.loads(second.stdout.strip())["cached"] == 1
     assert sorted((tmp_path / "cache").glob("rom-*.npz")) == stored and all(
         p.stat().st_mtime < second_started for p in stored)  # loaded, not rebuilt
+    assert f"rom-{info['model_key']}.npz" in {p.name for p in stored}
     converted = list((tmp_path / "images" / "images").glob("*.npy"))
     assert len(converted) == 1 and converted[0].stat().st_mtime < second_started
 

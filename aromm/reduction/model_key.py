@@ -71,10 +71,15 @@ def scene_physics_key(scene: Scene) -> str | None:
                        initial_T=scene.initial_T, time=scene.time, outputs=scene.outputs, sensors=scene.sensors)
 
 
+def _empty(value: Any) -> bool:
+    """An empty mapping or sequence: the same model as the option left out (its default)."""
+    return isinstance(value, Mapping | list | tuple) and len(value) == 0
+
+
 def model_key(physics: str, order: int, options: Mapping[str, Any], references: Sequence[str] = ()) -> str:
     """The key of the reduced model of order ``order`` of the scene of ``physics`` with the ``options`` of
-    ``aromm.reduce`` (those in :data:`HOW` left out; a reductor object by its ``cache_key`` or name) and the
-    reference scenes of ``references`` (their physics keys)."""
+    ``aromm.reduce`` (those in :data:`HOW`, None or empty left out; a reductor object by its ``cache_key`` or
+    name) and the reference scenes of ``references`` (their physics keys)."""
     what = {name: getattr(v, "cache_key", getattr(v, "name", v)) if name == "method" and not isinstance(v, str)
-            else v for name, v in options.items() if name not in HOW and v is not None}
+            else v for name, v in options.items() if name not in HOW and v is not None and not _empty(v)}
     return content_key("reduced model", _VERSION, physics, int(order), plain(what), tuple(references))
