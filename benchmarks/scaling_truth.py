@@ -7,7 +7,7 @@ model is stepped by BDF2 (``aromm.full.solve.transient``, linear solver ``mg``: 
 residual 1e-8 per step) at dt = 0.1 s and at dt/2; the file keeps both, so the reader forms the Richardson value
 (4 T(dt/2) − T(dt)) / 3 (time error O(dt³)) and the full model's own BDF2 error 4/3 |T(dt) − T(dt/2)|.
 
-    nice python benchmarks/scaling_truth.py --sizes 46 64 96 128 --out /work/cache-s25/truth
+    nice python benchmarks/scaling_truth.py --sizes 46 64 96 128 --out truth/
 
 Each size runs in its own process; CPU and wall seconds, load and peak memory of each run are stored beside
 the outputs (``<out>/truth-<n>.npz``).
