@@ -132,7 +132,8 @@ def _chavez() -> list[Row]:
                 "{2} °C (ñ = {0}, Ñ = {1})",
                 2,
             ),
-            "against the full model with its time error removed (Richardson, dt/10 and dt/20); the paper keeps "
+            "against the full model with its time error removed (exact in time on a converged Krylov space of its "
+            "loads, checked by BDF2's order-2 convergence to it); the paper keeps "
             "≈ 20 % of each basis, we keep Ñ modes",
             _src(NB["fig4"]),
             "ratio",
