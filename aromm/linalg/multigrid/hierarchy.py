@@ -45,12 +45,6 @@ def _class_map(p: FloatArray) -> FloatArray:
 _MAPS = {kind: _class_map(p) for kind, p in _CHILD_P.items()}
 
 
-def child_maps(n: int) -> FloatArray:
-    """(n, 3, 3): the class map of each fine element along an axis of n elements."""
-    kinds = ["first" if i % 2 == 0 and i + 1 < n else "alone" if i % 2 == 0 else "second" for i in range(n)]
-    return np.stack([_MAPS[k] for k in kinds])
-
-
 def prolongation_1d(n: int, periodic: bool) -> sp.csr_array:
     """Linear interpolation from the coarse nodes (every other fine node, plus the end of an odd box axis)."""
     nc = (n + 1) // 2
@@ -185,20 +179,47 @@ def mask_fixed(values: FloatArray, fixed: tuple[str, ...], k0: int, nz: int) -> 
 
 def coarsen(elements: tuple[int, int, int], source: Callable[[int, int], FloatArray],
             fixed: tuple[str, ...]) -> FloatArray:
-    """Galerkin class values of the coarse elements from the fine ones, one coarse z-plane at a time."""
+    """Galerkin class values of the coarse elements from the fine ones, a slab of coarse z-planes at a time.
+
+    Along each axis the children of one parity share one 3×3 class map, so a stage is two matrix products
+    (BLAS) over all elements of that parity plus the lone last child of an odd axis (identity map).
+    """
     nz, ny, nx = elements
     ncz, ncy, ncx = ((n + 1) // 2 for n in elements)
-    maps_z, maps_y, maps_x = child_maps(nz), child_maps(ny), child_maps(nx)
     out = np.empty((3, 3, 3, ncz, ncy, ncx))
-    starts_y, starts_x = np.arange(0, ny, 2), np.arange(0, nx, 2)
-    for j in range(ncz):
-        k0, k1 = 2 * j, min(nz, 2 * j + 2)
+    step = max(1, COARSEN_SLAB // (27 * 16 * ny * nx))  # coarse planes per slab: the fine slab ≲ COARSEN_SLAB bytes
+    for j0 in range(0, ncz, step):
+        j1 = min(ncz, j0 + step)
+        k0, k1 = 2 * j0, min(nz, 2 * j1)
         v = np.array(source(k0, k1), dtype=float)
         mask_fixed(v, fixed, k0, nz)
-        v = np.add.reduceat(np.einsum("abcKJI,Icd->abdKJI", v, maps_x), starts_x, axis=5)
-        v = np.add.reduceat(np.einsum("abcKJI,Jbd->adcKJI", v, maps_y), starts_y, axis=4)
-        v = np.einsum("abcKJI,Kad->dbcJI", v, maps_z[k0:k1])
-        out[:, :, :, j] = v
+        for class_axis in (2, 1, 0):  # x, y, z
+            v = _restrict_axis(v, class_axis)
+        out[:, :, :, j0:j1] = v
     coarse = out
     mask_fixed(coarse, fixed, 0, ncz)
     return coarse
+
+
+COARSEN_SLAB = 1 << 23  # bytes of fine class values per slab of the coarsening (8 MB)
+
+
+def _restrict_axis(v: FloatArray, class_axis: int) -> FloatArray:
+    """Σ over the two children along one axis of P_cᵀ B P_c in class form (class axis a ↔ element axis a + 3)."""
+    axis = class_axis + 3
+    n = v.shape[axis]
+    pairs = n // 2
+
+    def part(start: int, stop: int, step: int) -> FloatArray:
+        return v[(slice(None),) * axis + (slice(start, stop, step),)]
+
+    out = _class_product(part(0, 2 * pairs, 2), _MAPS["first"], class_axis)
+    out += _class_product(part(1, 2 * pairs, 2), _MAPS["second"], class_axis)
+    if n % 2:
+        out = np.concatenate([out, part(n - 1, n, 1)], axis=axis)  # a lone child keeps its values
+    return out
+
+
+def _class_product(v: FloatArray, m: FloatArray, class_axis: int) -> FloatArray:
+    """w[…a'…] = Σ_a m[a, a'] v[…a…] along ``class_axis``."""
+    return np.moveaxis(np.tensordot(m, v, axes=([0], [class_axis])), 0, class_axis)
