@@ -13,12 +13,13 @@ the CPU seconds of a one-thread run for the same answer.)  The ratio lines compa
 
 Equal tolerance: both tools stop on the accuracy of k itself.  taufactor stops when the heat flow through every
 x-plane is within 1e-2 of the largest and τ changed by less than 2e-3 over 100 sweeps; its algebraic error at
-that point, measured against the same SOR continued to a 1e-4 flux spread, is 1e-4 to 7e-4 on these cases.
+that point, measured against the same SOR continued to a tighter flux spread, is 1e-4 to 8e-4 on these cases.
 aromm stops each CG solve by ``ktol`` (default 1e-4): an a priori bound on the algebraic relative error of k
 (aromm.homogenization.accuracy: the energy-error estimate of CG, bounded by Wiener's bounds), so aromm is held
 to at least taufactor's accuracy.  Each row prints the error it reached ("alg. err", against its own tightly
-converged value: aromm at a residual of 1e-10, taufactor continued as above; untimed, ``--no-reference`` skips
-them).  ``--ktol 0`` restores the residual criterion rtol 1e-8 (the library default).
+converged value: aromm at a residual of 1e-10, taufactor continued to a 1e-3 flux spread — 1e-4 stalls in
+float32 on the random medium, so its error is a lower estimate; untimed, ``--no-reference`` skips them).
+``--ktol 0`` restores the residual criterion rtol 1e-8 (the library default).
 
 Tables:
 
@@ -55,7 +56,7 @@ import numpy as np
 
 SC_EXACT = 1.39573
 DEFAULT_KTOL = 1e-4
-TAUFACTOR_REFERENCE = 1e-4  # flux-spread criterion of taufactor's reference run (its default: 1e-2)
+TAUFACTOR_REFERENCE = 1e-3  # flux spread of taufactor's reference run (its default: 1e-2; 1e-4 stalls in float32)
 K_GAS, K_FIBRE = 0.025, 0.3
 
 

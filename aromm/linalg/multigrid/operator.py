@@ -170,6 +170,7 @@ class VoxelOperator:
     def _slabs(self) -> Iterator[tuple[int, int]]:
         nz, ny, nx = self.elements
         step = max(1, SLAB_NODES // ((ny + 1) * (nx + 1)))
+        step = -(-nz // max(1, nz // step))  # equal slabs of SLAB_NODES to twice that: no thin last slab
         for k0 in range(0, nz, step):
             yield k0, min(nz, k0 + step)
 
