@@ -1,15 +1,16 @@
 """A priori energy tolerances that bound the algebraic error of an apparent conductivity by ``ktol``.
 
 Every cell problem of :mod:`aromm.homogenization.cell_problems` reads k from a quadratic quantity of its
-solution: for A x* = b and any x found by CG from a zero guess, bᵀx* − bᵀx = ‖x* − x‖²_A ≥ 0 (Galerkin
-orthogonality of the Krylov iterate).  So a solve stopped at ‖x* − x‖²_A ≤ ε (estimated by
+solution: for ``A x* = b`` and any x found by CG from a zero guess, ``bᵀx* − bᵀx = ‖x* − x‖²_A ≥ 0`` (Galerkin
+orthogonality of the Krylov iterate).  So a solve stopped at ``‖x* − x‖²_A ≤ ε`` (estimated by
 :meth:`aromm.linalg.multigrid.pcg.MultigridSolver.solve`) knows bᵀx* to ε, and ε is set from bounds of k
 that hold before any solve:
 
-* periodic, k_jj = ⟨k_j⟩ − b_jᵀT̃_j / |Ω|: |Δk_jj| = ‖e_j‖²_A / |Ω|; off-diagonal k_ij = −b_iᵀT̃_j / |Ω|:
-  |Δk_ij| = |T̃_iᵀ A e_j| / |Ω| ≤ ‖T̃_i‖_A ‖e_j‖_A / |Ω| with ‖T̃_i‖²_A = b_iᵀT̃_i ≤ ⟨k_i⟩ |Ω|;
-* fixed temperatures (ΔT = 1 K), k = E L / S with E the energy: |Δk| = ‖e‖²_A L / S;
-* uniform flux q, k = q L S / (bᵀT) with bᵀT = q S ΔT̄: |Δk| / k ≈ ‖e‖²_A / (bᵀT*), bᵀT* = q² S L / k.
+* periodic, ``k_jj = ⟨k_j⟩ − b_jᵀT̃_j / V``: ``Δk_jj = ‖e_j‖²_A / V``; off-diagonal ``k_ij = −b_iᵀT̃_j / V``:
+  ``|Δk_ij| = |T̃_iᵀ A e_j| / V ≤ ‖T̃_i‖_A ‖e_j‖_A / V`` with ``‖T̃_i‖²_A = b_iᵀT̃_i ≤ ⟨k_i⟩ V`` (V the volume);
+* fixed temperatures (ΔT = 1 K), ``k = E L / S`` with E the energy: ``Δk = ‖e‖²_A L / S``;
+* uniform flux q, ``k = q L S / (bᵀT)`` with ``bᵀT = q S ΔT̄``: ``Δk / k ≈ ‖e‖²_A / (bᵀT*)``,
+  ``bᵀT* = q² S L / k``.
 
 The lower bound of every diagonal value is the harmonic (Reuss) mean k_h = ⟨1/k_j⟩⁻¹ — the discrete Q1 energy is
 at least the continuous one, itself at least k_h (along each line of the loaded axis the series value, then
@@ -43,7 +44,7 @@ def arithmetic_bound(op: VoxelOperator, axis: int) -> float:
 
 
 def periodic_energy_tolerances(op: VoxelOperator, ktol: float | None, volume: float) -> list[float | None]:
-    """ε_j of the three periodic loads: min(ktol k_h,j |Ω|, (ktol min_i k_h,i)² |Ω| / max_i ⟨k_i⟩)."""
+    """ε_j of the three periodic loads: ``min(ktol k_h,j V, (ktol min_i k_h,i)² V / max_i ⟨k_i⟩)``, V = ``volume``."""
     if ktol is None:
         return [None, None, None]
     lower = [harmonic_bound(op, j) for j in range(3)]
