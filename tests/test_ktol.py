@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.ndimage as ndi
 
+from aromm.cli import main
 from aromm.core.errors import InputError
 from aromm.core.vocabulary import PhaseSpec
 from aromm.homogenization.accuracy import arithmetic_bound, harmonic_bound
@@ -72,3 +76,18 @@ def test_energy_tolerance_bounds_the_energy_error() -> None:
 def test_bad_ktol_is_refused(ktol: float) -> None:
     with pytest.raises(InputError, match="ktol"):
         effective_conductivity(_random_medium(8, 10.0, seed=1), "periodic", "mg", ktol=ktol)
+
+
+def test_cli_homogenize_with_ktol(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A laminate (exact arithmetic / harmonic means) through `aromm homogenize --ktol`; a bad --ktol exits 2."""
+    labels = np.zeros((8, 8, 8), dtype=np.uint8)
+    labels[:, :, :4] = 1
+    np.save(tmp_path / "img.npy", labels)
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[geometry]\nimage = "img.npy"\nvoxel_size = 1e-3\n[phases.a]\nlabel = 0\nk = 1.0\n'
+                     '[phases.b]\nlabel = 1\nk = 10.0\n', encoding="utf-8")
+    assert main(["homogenize", str(scene), "--solver", "mg", "--boundary", "temperature", "--ktol", "1e-4",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert np.allclose(np.diag(out["k"]), [5.5, 5.5, 2 / 1.1], rtol=1e-4)
+    assert main(["homogenize", str(scene), "--ktol", "0"]) == 2
