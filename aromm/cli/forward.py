@@ -26,6 +26,9 @@ from inverse.measurements import save_measurements
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
+KTOL = click.option("--ktol", type=FiniteFloat(min=0.0, max=1.0, min_open=True, max_open=True), default=None,
+                    help="Stop each multigrid solve once the algebraic relative error of k is bounded by KTOL "
+                         "(CG energy-error estimate over Wiener's lower bound), instead of at --rtol; e.g. 1e-4.")
 SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
                       help="Sparse linear solver (cholmod: cvxopt's supernodal Cholesky; splu; amg: pyamg + CG; "
                            "mg: geometric multigrid + CG).")
@@ -151,11 +154,12 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
 @engine_cli.SOLVER
 @click.option("--rtol", type=FiniteFloat(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
               show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach (scipy engine).")
+@KTOL
 @engine_cli.ENGINE
 @REFINE
 @JSON
-def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, engine: str, refine: int,
-                   as_json: bool) -> None:
+def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, ktol: float | None, engine: str,
+                   refine: int, as_json: bool) -> None:
     """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material.
 
     Solvers: mg (geometric multigrid CG, matrix-free, ~200 B/voxel; the default above 20³ voxels), cholmod and
@@ -170,7 +174,7 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     if image is None:
         result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
     else:
-        result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol)
+        result = effective_conductivity(sc, boundary=boundary, method=solver, rtol=rtol, ktol=ktol)
     c = mean_capacity(sc, engine) if capacities else None
     if not is_root(engine):
         return

@@ -8,7 +8,7 @@ import click
 
 from aromm.cli.checks import scene_inputs
 from aromm.cli.common import FORCE, FiniteFloat, echo_json, write_extras
-from aromm.cli.forward import JSON, SCENE
+from aromm.cli.forward import JSON, KTOL, SCENE
 from aromm.core.errors import InputError
 from aromm.homogenization.representative import DEFAULT_TOLERANCE, rev, save_rev_plot
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS
@@ -69,6 +69,7 @@ def _edges(text: str | None) -> list[int] | None:
               help="Solver of the periodic cell problems (auto: geometric multigrid from 20³ voxels).")
 @click.option("--rtol", type=FiniteFloat(min=0.0, max=1.0, min_open=True, max_open=True), default=DEFAULT_RTOL,
               show_default=True, help="Relative residual every cell problem must reach.")
+@KTOL
 @click.option("--boundaries/--no-boundaries", default=True, show_default=True,
               help="Also homogenise the largest cube under uniform flux and fixed temperatures (their spread "
                    "brackets the effective value of a non-periodic scan).")
@@ -77,7 +78,7 @@ def _edges(text: str | None) -> list[int] | None:
 @FORCE
 @JSON
 def rev_cmd(scene: Path, *, edges: str | None, positions: int, tolerance: float, solver: str, rtol: float,
-            boundaries: bool, plot: Path | None, force: bool, as_json: bool) -> None:
+            ktol: float | None, boundaries: bool, plot: Path | None, force: bool, as_json: bool) -> None:
     """Representative-volume study of SCENE's image: apparent k̄ (and c̄) of sub-volumes of growing edge at several
     positions, their spread, the REV edge and the recommended crop [Kanit2003].
 
@@ -89,7 +90,8 @@ def rev_cmd(scene: Path, *, edges: str | None, positions: int, tolerance: float,
     if plot is not None:
         check_plot(plot, inputs=scene_inputs(scene), force=force)
     sc = load_scene(scene)
-    study = rev(sc, chosen, positions=positions, tolerance=tolerance, method=solver, rtol=rtol, boundaries=boundaries)
+    study = rev(sc, chosen, positions=positions, tolerance=tolerance, method=solver, rtol=rtol, ktol=ktol,
+                boundaries=boundaries)
     if as_json:
         echo_json(study.as_dict())
     else:

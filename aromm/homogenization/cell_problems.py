@@ -39,6 +39,7 @@ import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
+from aromm.homogenization.accuracy import arithmetic_bound, harmonic_bound, periodic_energy_tolerances
 from aromm.homogenization.anisotropic_cells import anisotropic, assembled_cell
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS, check_residual, factorize, resolve_method
 from aromm.linalg.multigrid.hierarchy import assembled_matrix
@@ -99,31 +100,41 @@ def _image(scene: Scene) -> VoxelGeometry:
 
 
 def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str = "auto",
-                           rtol: float = DEFAULT_RTOL) -> CellResult:
-    """Apparent conductivity tensor of the scene's image under ``boundary`` (see the module docstring)."""
+                           rtol: float = DEFAULT_RTOL, ktol: float | None = None) -> CellResult:
+    """Apparent conductivity tensor of the scene's image under ``boundary`` (see the module docstring).
+
+    ``ktol`` (multigrid only; the direct methods are exact): stop each solve once the algebraic error of every
+    tensor entry is at most ``ktol`` times a lower bound of the diagonal (aromm.homogenization.accuracy),
+    instead of at the residual ``rtol``.
+    """
     if boundary not in BOUNDARIES:
         raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
+    if ktol is not None and not 0 < ktol < 1:
+        raise InputError(f"homogenisation: ktol (relative error of k) must lie in (0, 1), got {ktol:g}")
     name = resolve_solver(method, int(np.asarray(_image(scene).labels).size))
     if anisotropic(scene):  # full or per-voxel tensors: the assembled operator (aromm.homogenization.anisotropic_cells)
         name = "amg" if name == "mg" else name
         return CellResult(assembled_cell(scene, boundary, name, rtol), boundary, name)
     result = CellResult(np.zeros((3, 3)), boundary, name)
     if boundary == "periodic":
-        _periodic(scene, name, rtol, result)
+        _periodic(scene, name, rtol, result, ktol)
     else:
         for axis in range(3):
-            _faces(scene, axis, boundary, method=name, rtol=rtol, result=result)
+            _faces(scene, axis, boundary, method=name, rtol=rtol, result=result, ktol=ktol)
     return result
 
 
-def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult) -> Callable[[FloatArray], FloatArray]:
+Solve = Callable[[FloatArray, "float | None"], FloatArray]  # (b, energy tolerance or None) → x
+
+
+def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult) -> Solve:
     start = time.process_time()
     if method == "mg":
         mg = MultigridSolver(op, rtol=rtol)
         result.setup_cpu_seconds += time.process_time() - start
 
-        def solve_mg(b: FloatArray) -> FloatArray:
-            x = mg.solve(b)
+        def solve_mg(b: FloatArray, energy_tol: float | None) -> FloatArray:
+            x = mg.solve(b, energy_tol=energy_tol)
             result.iterations.append(mg.iterations[-1])
             return x
 
@@ -132,7 +143,7 @@ def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult) -> 
     factor = factorize(pinned(matrix) if op.periodic else matrix, method, rtol=rtol, points=op.node_points())
     result.setup_cpu_seconds += time.process_time() - start
 
-    def solve_direct(b: FloatArray) -> FloatArray:
+    def solve_direct(b: FloatArray, energy_tol: float | None) -> FloatArray:  # exact: no energy tolerance
         rhs = b.copy()
         if op.periodic:
             rhs[0] = 0.0  # b sums to zero: node 0's equation follows from the others
@@ -144,29 +155,31 @@ def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult) -> 
     return solve_direct
 
 
-def _timed(result: CellResult, solve: Callable[[FloatArray], FloatArray], b: FloatArray) -> FloatArray:
+def _timed(result: CellResult, solve: Solve, b: FloatArray, energy_tol: float | None = None) -> FloatArray:
     cpu, wall = time.process_time(), time.perf_counter()
-    x = solve(b)
+    x = solve(b, energy_tol)
     result.cpu_seconds.append(time.process_time() - cpu)
     result.wall_seconds.append(time.perf_counter() - wall)
     return x
 
 
-def _periodic(scene: Scene, method: str, rtol: float, result: CellResult) -> None:
+def _periodic(scene: Scene, method: str, rtol: float, result: CellResult, ktol: float | None) -> None:
     op = voxel_operator(scene, periodic=True)
     solve = _solver(op, method, rtol, result)
     volume = float(np.prod(scene.size))
     fractions = np.bincount(op.phase.ravel(), minlength=len(op.conductivity)) / op.phase.size
     loads = [-op.spread(op.conductances[:, j][op.phase] * op.voxel_size[j] / 4.0, pattern)  # −Qᵀ A g_j
              for j, pattern in enumerate(("DSS", "SDS", "SSD"))]
+    energy = periodic_energy_tolerances(op, ktol, volume)
     for j in range(3):
-        field_ = _timed(result, solve, loads[j])  # T̃_j, used at once: three loads and one field held
+        field_ = _timed(result, solve, loads[j], energy[j])  # T̃_j, used at once: three loads and one field held
         mean_k = float(fractions @ op.conductivity[:, j])
         for i in range(3):
             result.k[i, j] = (mean_k if i == j else 0.0) - float(loads[i] @ field_) / volume
 
 
-def _faces(scene: Scene, axis: int, boundary: str, *, method: str, rtol: float, result: CellResult) -> None:
+def _faces(scene: Scene, axis: int, boundary: str, *, method: str, rtol: float, result: CellResult,
+           ktol: float | None) -> None:
     name = "xyz"[axis]
     hot, cold = f"{name}0", f"{name}1"
     fixed = (hot, cold) if boundary == "temperature" else (cold,)
@@ -182,13 +195,15 @@ def _faces(scene: Scene, axis: int, boundary: str, *, method: str, rtol: float, 
         b.reshape(op.node_shape)[plane] = 0.0
         for a, index in op.fixed_planes():
             b.reshape(op.node_shape)[(slice(None),) * a + (index,)] = 0.0
-        field_ = lift.ravel() + _timed(result, solve, b)
+        energy = None if ktol is None else ktol * harmonic_bound(op, axis) * area / size[axis]
+        field_ = lift.ravel() + _timed(result, solve, b, energy)
         energy = float(field_ @ op.matvec(field_, constrained=False))  # = heat flow × ΔT, ΔT = 1 K
         result.k[axis, axis] = energy * size[axis] / area
         return
     weights = np.zeros(op.node_shape)
     weights[plane] = _face_weights(scene, axis)
-    field_ = _timed(result, solve, PROBE_FLUX * weights.ravel())
+    energy = None if ktol is None else ktol * PROBE_FLUX**2 * area * size[axis] / arithmetic_bound(op, axis)
+    field_ = _timed(result, solve, PROBE_FLUX * weights.ravel(), energy)
     drop = float(weights.ravel() @ field_) / area  # T̄_i0 − T̄_i1, T̄_i1 = 0
     result.k[axis, axis] = PROBE_FLUX * size[axis] / drop
 

@@ -175,13 +175,15 @@ def sub_scene(scene: Scene, origin: Sequence[int], edge: int) -> Scene:
 
 def rev(scene: Scene, edges: Sequence[int] | None = None, *, positions: int = 9,
         tolerance: float = DEFAULT_TOLERANCE, method: str = "auto", rtol: float = DEFAULT_RTOL,
-        boundaries: bool = True) -> RevStudy:
+        ktol: float | None = None, boundaries: bool = True) -> RevStudy:
     """REV study of the scene's voxel image (module docstring).
 
     ``edges``: cube edges in voxels (default :func:`default_edges`); ``positions``: sub-volumes per edge (≥ 1);
     ``tolerance``: relative spread that makes a volume representative; ``method``: solver of the periodic cell
     problems (``"auto"``: multigrid from 20³ voxels); ``boundaries``: also solve the largest centred cube under
-    ``flux`` and ``temperature`` conditions.  Inputs are checked before any solve (InputError).
+    ``flux`` and ``temperature`` conditions; ``rtol`` / ``ktol``: stopping of each multigrid solve
+    (:func:`aromm.homogenization.cell_problems.effective_conductivity`).  Inputs are checked before any solve
+    (InputError).
     """
     image = scene.geometry
     if not isinstance(image, VoxelGeometry):
@@ -205,7 +207,7 @@ def rev(scene: Scene, edges: Sequence[int] | None = None, *, positions: int = 9,
         ks, cs = [], []
         for origin in where:
             sub = sub_scene(scene, origin, edge)
-            cell = effective_conductivity(sub, "periodic", method, rtol)
+            cell = effective_conductivity(sub, "periodic", method, rtol, ktol)
             used.add(cell.method)
             ks.append(np.diag(cell.k))
             if capacities:
@@ -223,7 +225,7 @@ def rev(scene: Scene, edges: Sequence[int] | None = None, *, positions: int = 9,
     cube = sub_scene(scene, largest.origins[0], largest.edge)
     by_boundary = {"periodic": largest.k[0]}
     if boundaries:
-        by_boundary = {b: np.diag(effective_conductivity(cube, b, method, rtol).k) if b != "periodic"
+        by_boundary = {b: np.diag(effective_conductivity(cube, b, method, rtol, ktol).k) if b != "periodic"
                        else largest.k[0] for b in BOUNDARIES}
     return RevStudy(shape, image.voxel_size, float(tolerance), "+".join(sorted(used)), tuple(results), rev_edge,
                     crop, by_boundary)

@@ -45,12 +45,6 @@ def _class_map(p: FloatArray) -> FloatArray:
 _MAPS = {kind: _class_map(p) for kind, p in _CHILD_P.items()}
 
 
-def child_maps(n: int) -> FloatArray:
-    """(n, 3, 3): the class map of each fine element along an axis of n elements."""
-    kinds = ["first" if i % 2 == 0 and i + 1 < n else "alone" if i % 2 == 0 else "second" for i in range(n)]
-    return np.stack([_MAPS[k] for k in kinds])
-
-
 def prolongation_1d(n: int, periodic: bool) -> sp.csr_array:
     """Linear interpolation from the coarse nodes (every other fine node, plus the end of an odd box axis)."""
     nc = (n + 1) // 2
@@ -83,18 +77,25 @@ class ElementLevel:
     def fine(cls, op: VoxelOperator) -> ElementLevel:
         """The fine level of ``op`` (27 values per voxel: for small grids, direct solvers and tests)."""
         values = np.moveaxis(op.class_values[op.phase], (3, 4, 5), (0, 1, 2))
-        mask_fixed(values, op.fixed, 0, op.elements[0])
+        mask_fixed(values, op.fixed, (0, 0, 0), op.elements)
         return cls(np.ascontiguousarray(values), op.periodic, op.fixed)
 
     @classmethod
     def coarse_of(cls, op: VoxelOperator) -> ElementLevel:
-        """Pᵀ A P of the matrix-free operator, one coarse plane at a time (peak memory: the coarse level)."""
+        """Pᵀ A P of the matrix-free operator (peak memory: the coarse level).
+
+        With few phases (``len(phases)⁸ ≤ LOOKUP_CODES``) a coarse element with eight children and no fixed
+        face is one of ``len(phases)⁸`` cases: its 27 values are looked up by the code of its children's
+        phases, and only the elements at fixed faces or at the lone end of an odd axis are coarsened.
+        """
         table = op.class_values
 
         def source(k0: int, k1: int) -> FloatArray:
             return np.moveaxis(table[op.phase[k0:k1]], (3, 4, 5), (0, 1, 2))
 
-        return cls(coarsen(op.elements, source, op.fixed), op.periodic, op.fixed)
+        if len(table) ** 8 > LOOKUP_CODES:
+            return cls(coarsen(op.elements, source, op.fixed), op.periodic, op.fixed)
+        return cls(_coarse_by_codes(op), op.periodic, op.fixed)
 
     @property
     def elements(self) -> tuple[int, int, int]:
@@ -132,18 +133,24 @@ class ElementLevel:
             stencil = stencil[:, :-1, :-1, :-1]
         shape = self.node_shape
         n = int(np.prod(shape))
-        z, y, x = np.meshgrid(*(np.arange(s) for s in shape), indexing="ij")
-        cols = np.empty((n, 27), dtype=np.int32 if 27 * n < 2**31 else np.int64)
-        for offset, (oz, oy, ox) in enumerate(np.ndindex(3, 3, 3)):
-            zz, yy, xx = z + oz - 1, y + oy - 1, x + ox - 1
-            if self.periodic:
-                index = np.ravel_multi_index((zz, yy, xx), shape, mode="wrap")
-            else:
-                inside = (zz >= 0) & (zz < shape[0]) & (yy >= 0) & (yy < shape[1]) & (xx >= 0) & (xx < shape[2])
-                index = np.where(inside, np.ravel_multi_index((zz, yy, xx), shape, mode="clip"),
-                                 np.arange(n).reshape(shape))
-            cols[:, offset] = index.ravel()
-        del z, y, x
+        index_type = np.int32 if 27 * n < 2**31 else np.int64
+        cols = np.empty((*shape, 27), dtype=index_type)
+        strides = (shape[1] * shape[2], shape[2], 1)
+        for offset, shifts in enumerate(np.ndindex(3, 3, 3)):
+            # per axis: the neighbour's index times the axis stride; a missing neighbour (box) is the node itself
+            terms = []
+            for axis, shift in enumerate(shifts):
+                own = np.arange(shape[axis])
+                other = own + shift - 1
+                other = other % shape[axis] if self.periodic else np.where((other < 0) | (other >= shape[axis]),
+                                                                           -1, other)
+                terms.append(other)
+            missing = (terms[0] < 0)[:, None, None] | (terms[1] < 0)[None, :, None] | (terms[2] < 0)[None, None, :]
+            index = ((terms[0] * strides[0])[:, None, None] + (terms[1] * strides[1])[None, :, None]
+                     + terms[2][None, None, :]).astype(index_type)
+            if missing.any():
+                index[missing] = np.arange(n, dtype=index_type).reshape(shape)[missing]
+            cols[..., offset] = index
         data = stencil.reshape(27, n).T.copy()
         del stencil
         diag = data[:, 13]
@@ -162,20 +169,17 @@ def assembled_matrix(op: VoxelOperator) -> sp.csr_array:
     return ElementLevel.fine(op).to_csr()
 
 
-def mask_fixed(values: FloatArray, fixed: tuple[str, ...], k0: int, nz: int) -> None:
-    """Zero the classes touching fixed node planes, for the element planes [k0, k0 + values.shape[3])."""
-    planes = values.shape[3]
+def mask_fixed(values: FloatArray, fixed: tuple[str, ...], start: tuple[int, int, int],
+               elements: tuple[int, int, int]) -> None:
+    """Zero the classes touching fixed node planes in a block of ``elements`` (z, y, x) starting at ``start``."""
     for face in fixed:
         axis = "zyx".index(face[0])  # class axis and element axis (offset by 3)
         first = face[1] == "0"
         classes = (0, 1) if first else (1, 2)
-        if axis == 0:
-            index = 0 if first else nz - 1
-            if not k0 <= index < k0 + planes:
-                continue
-            element = index - k0
-        else:
-            element = 0 if first else values.shape[3 + axis] - 1
+        index = 0 if first else elements[axis] - 1
+        if not start[axis] <= index < start[axis] + values.shape[3 + axis]:
+            continue
+        element = index - start[axis]
         for c in classes:
             sl: list[slice | int] = [slice(None)] * 6
             sl[axis] = c
@@ -185,20 +189,86 @@ def mask_fixed(values: FloatArray, fixed: tuple[str, ...], k0: int, nz: int) -> 
 
 def coarsen(elements: tuple[int, int, int], source: Callable[[int, int], FloatArray],
             fixed: tuple[str, ...]) -> FloatArray:
-    """Galerkin class values of the coarse elements from the fine ones, one coarse z-plane at a time."""
+    """Galerkin class values of the coarse elements from the fine ones, a slab of coarse z-planes at a time.
+
+    Along each axis the children of one parity share one 3×3 class map, so a stage is two matrix products
+    (BLAS) over all elements of that parity plus the lone last child of an odd axis (identity map).
+    """
     nz, ny, nx = elements
     ncz, ncy, ncx = ((n + 1) // 2 for n in elements)
-    maps_z, maps_y, maps_x = child_maps(nz), child_maps(ny), child_maps(nx)
     out = np.empty((3, 3, 3, ncz, ncy, ncx))
-    starts_y, starts_x = np.arange(0, ny, 2), np.arange(0, nx, 2)
-    for j in range(ncz):
-        k0, k1 = 2 * j, min(nz, 2 * j + 2)
-        v = np.array(source(k0, k1), dtype=float)
-        mask_fixed(v, fixed, k0, nz)
-        v = np.add.reduceat(np.einsum("abcKJI,Icd->abdKJI", v, maps_x), starts_x, axis=5)
-        v = np.add.reduceat(np.einsum("abcKJI,Jbd->adcKJI", v, maps_y), starts_y, axis=4)
-        v = np.einsum("abcKJI,Kad->dbcJI", v, maps_z[k0:k1])
-        out[:, :, :, j] = v
-    coarse = out
-    mask_fixed(coarse, fixed, 0, ncz)
-    return coarse
+    step = max(1, COARSEN_SLAB // (27 * 16 * ny * nx))  # coarse planes per slab: the fine slab ≲ COARSEN_SLAB bytes
+    for j0 in range(0, ncz, step):
+        j1 = min(ncz, j0 + step)
+        k0, k1 = 2 * j0, min(nz, 2 * j1)
+        out[:, :, :, j0:j1] = _restrict_block(np.array(source(k0, k1), dtype=float), fixed, (k0, 0, 0), elements)
+    mask_fixed(out, fixed, (0, 0, 0), (ncz, ncy, ncx))
+    return out
+
+
+def _restrict_block(v: FloatArray, fixed: tuple[str, ...], start: tuple[int, int, int],
+                    elements: tuple[int, int, int]) -> FloatArray:
+    """Coarse class values of a block of fine ones (``start`` even along every axis), fixed faces masked."""
+    mask_fixed(v, fixed, start, elements)
+    for class_axis in (2, 1, 0):  # x, y, z
+        v = _restrict_axis(v, class_axis)
+    return v
+
+
+LOOKUP_CODES = 3**8  # phase codes of the eight children tabulated (at most three phases: 6561 × 27 values)
+
+
+def _coarse_by_codes(op: VoxelOperator) -> FloatArray:
+    """First coarse level by look-up of the children's phase code (see ElementLevel.coarse_of)."""
+    elements = op.elements
+    coarse = tuple((n + 1) // 2 for n in elements)
+    pz, py, px = (n // 2 for n in elements)
+    table = op.class_values
+    phases = len(table)
+    code = np.zeros((pz, py, px), dtype=np.int32)
+    for bit, (cz, cy, cx) in enumerate(np.ndindex(2, 2, 2)):
+        code += phases**bit * op.phase[cz:2 * pz:2, cy:2 * py:2, cx:2 * px:2]
+    digits = (np.arange(phases**8)[:, None] // phases ** np.arange(8)) % phases  # (codes, child)
+    children = table[digits].reshape(-1, 2, 2, 2, 3, 3, 3)  # (code, cz, cy, cx, classes z, y, x)
+    block = np.ascontiguousarray(children.transpose(4, 5, 6, 1, 2, 0, 3)).reshape(3, 3, 3, 2, 2, -1)
+    lookup = _restrict_block(block, (), (0, 0, 0), block.shape[3:]).reshape(27, -1)  # type: ignore[arg-type]
+    out = np.empty((3, 3, 3, *coarse))
+    out[:, :, :, :pz, :py, :px] = lookup[:, code].reshape(3, 3, 3, pz, py, px)
+    special = [(axis, coarse[axis] - 1) for axis in range(3) if elements[axis] % 2]  # lone children
+    special += [("zyx".index(face[0]), 0 if face[1] == "0" else coarse["zyx".index(face[0])] - 1)
+                for face in op.fixed]
+    for axis, index in special:  # coarsened from the fine values, fixed faces masked
+        fine = [slice(0, n) for n in elements]
+        fine[axis] = slice(2 * index, min(elements[axis], 2 * index + 2))
+        start = [0, 0, 0]
+        start[axis] = 2 * index
+        v = np.moveaxis(table[op.phase[tuple(fine)]], (3, 4, 5), (0, 1, 2))
+        target = [slice(None)] * 6
+        target[3 + axis] = slice(index, index + 1)
+        out[tuple(target)] = _restrict_block(v, op.fixed, (start[0], start[1], start[2]), elements)
+    mask_fixed(out, op.fixed, (0, 0, 0), coarse)  # type: ignore[arg-type]
+    return out
+
+
+COARSEN_SLAB = 1 << 23  # bytes of fine class values per slab of the coarsening (8 MB)
+
+
+def _restrict_axis(v: FloatArray, class_axis: int) -> FloatArray:
+    """Σ over the two children along one axis of P_cᵀ B P_c in class form (class axis a ↔ element axis a + 3)."""
+    axis = class_axis + 3
+    n = v.shape[axis]
+    pairs = n // 2
+
+    def part(start: int, stop: int, step: int) -> FloatArray:
+        return v[(slice(None),) * axis + (slice(start, stop, step),)]
+
+    out = _class_product(part(0, 2 * pairs, 2), _MAPS["first"], class_axis)
+    out += _class_product(part(1, 2 * pairs, 2), _MAPS["second"], class_axis)
+    if n % 2:
+        out = np.concatenate([out, part(n - 1, n, 1)], axis=axis)  # a lone child keeps its values
+    return out
+
+
+def _class_product(v: FloatArray, m: FloatArray, class_axis: int) -> FloatArray:
+    """w[…a'…] = Σ_a m[a, a'] v[…a…] along ``class_axis``."""
+    return np.moveaxis(np.tensordot(m, v, axes=([0], [class_axis])), 0, class_axis)

@@ -32,6 +32,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 
 COMBOS = ("DSS", "SDS", "SSD", "DDS", "DSD", "SDD", "DDD")  # letters: x, y, z
+WEIGHT_CACHE_VOXELS = 1 << 21  # up to 128³ the gathered weights are kept: 28 (float32) + 56 (float64) B/voxel
 SLAB_NODES = 1 << 16  # nodes per slab of the matrix-free product (0.5 MB per float64 array: cache-sized)
 # 1-D reference matrices in the class basis {[0,0], [0,1], [1,1]} (lengths scaled out): stiffness, mass
 STIFF_1D = np.array([1.0, -1.0, 1.0])
@@ -169,6 +170,7 @@ class VoxelOperator:
     def _slabs(self) -> Iterator[tuple[int, int]]:
         nz, ny, nx = self.elements
         step = max(1, SLAB_NODES // ((ny + 1) * (nx + 1)))
+        step = -(-nz // max(1, nz // step))  # equal slabs of SLAB_NODES to twice that: no thin last slab
         for k0 in range(0, nz, step):
             yield k0, min(nz, k0 + step)
 
@@ -211,10 +213,9 @@ class VoxelOperator:
         terms["DSS"], terms["DSD"] = _pair(ds, plane)
         terms["SDS"], terms["SDD"] = _pair(sd, plane)
         terms["DDS"], terms["DDD"] = _pair(dd, plane)
-        size = terms["DDD"].size
-        phase = self._padded_phase[k0:k1].reshape(-1)[:size]
+        weights = self._slab_weights(table, k0, k1, terms["DDD"].size)
         for c, name in enumerate(COMBOS):
-            terms[name] *= np.take(table[c], phase)
+            terms[name] *= weights[c]
         g_ss = _adjoint(None, terms["SSD"], plane)
         g_ds = _adjoint(terms["DSS"], terms["DSD"], plane)
         g_sd = _adjoint(terms["SDS"], terms["SDD"], plane)
@@ -222,6 +223,16 @@ class VoxelOperator:
         h_s = _adjoint(g_ss, g_sd, row)
         h_d = _adjoint(g_ds, g_dd, row)
         return _adjoint(h_s, h_d, 1).reshape(planes, rows, cols)
+
+    def _slab_weights(self, table: FloatArray, k0: int, k1: int, size: int) -> FloatArray:
+        """(7, size) per-voxel weights of a slab, gathered once and kept when the grid is small."""
+        key = f"{table.dtype}:{k0}"
+        if key in self._cache:
+            return self._cache[key]
+        weights = np.take(table, self._padded_phase[k0:k1].reshape(-1)[:size], axis=1)
+        if self.phase.size <= WEIGHT_CACHE_VOXELS:
+            self._cache[key] = weights
+        return weights
 
     def _fold(self, out: FloatArray) -> FloatArray:
         """Ghost-extended node array → node array (periodic: ghosts added onto their twins)."""
