@@ -227,7 +227,7 @@ def _coarse_by_codes(op: VoxelOperator) -> FloatArray:
     phases = len(table)
     code = np.zeros((pz, py, px), dtype=np.int32)
     for bit, (cz, cy, cx) in enumerate(np.ndindex(2, 2, 2)):
-        code += phases**bit * op.phase[cz:2 * pz:2, cy:2 * py:2, cx:2 * px:2]
+        code += phases**bit * op.phase[cz:2 * pz:2, cy:2 * py:2, cx:2 * px:2].astype(np.int32)  # uint8 phases
     digits = (np.arange(phases**8)[:, None] // phases ** np.arange(8)) % phases  # (codes, child)
     children = table[digits].reshape(-1, 2, 2, 2, 3, 3, 3)  # (code, cz, cy, cx, classes z, y, x)
     block = np.ascontiguousarray(children.transpose(4, 5, 6, 1, 2, 0, 3)).reshape(3, 3, 3, 2, 2, -1)
