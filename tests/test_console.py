@@ -49,3 +49,22 @@ def test_utf8_streams_are_left_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(sys, "stdout", stream)
     with fallback_streams():
         assert sys.stdout is stream
+
+
+def test_memory_exhausted_is_a_message_and_exit_code_1_not_a_traceback(capsys: pytest.CaptureFixture[str]) -> None:
+    """A command that runs out of memory (CHOLMOD on a 128³ probe did) ends with one line saying what to change."""
+    import click
+
+    from aromm.cli.common import EXIT_NUMERICAL, run_guarded
+
+    @click.group()
+    def cli() -> None:
+        pass
+
+    @cli.command("big")
+    def big() -> None:
+        raise MemoryError
+
+    assert run_guarded(cli, ["big"]) == EXIT_NUMERICAL
+    err = capsys.readouterr().err
+    assert err.startswith("aromm: out of memory") and "--solver mg" in err and "Traceback" not in err

@@ -1,9 +1,10 @@
 """Helpers shared by the subcommands: exit codes, finite numbers, --force, extras, JSON output, progress bars.
 
 Exit codes (:func:`run_guarded`; docs/design.md): 0 success; 1 numerical failure (the message names the solver
-and why); 2 bad input (the message names the file, option or key and what is allowed); 3 the result was printed
-(and the main output written) but an optional extra (a plot, a field VTU) could not be written; 130 interrupted
-(Ctrl-C), with a one-line hint when there is a checkpoint to resume from.
+and why) or memory exhausted (the message says what to change); 2 bad input (the message names the file, option or
+key and what is allowed); 3 the result was printed (and the main output written) but an optional extra (a plot, a
+field VTU) could not be written; 130 interrupted (Ctrl-C), with a one-line hint when there is a checkpoint to resume
+from.
 """
 
 from __future__ import annotations
@@ -121,6 +122,11 @@ def _run(cli: click.Group, argv: list[str]) -> int:
     except OSError as err:
         click.echo(f"aromm: error: {err}", err=True)
         return EXIT_INPUT
+    except MemoryError:
+        click.echo("aromm: out of memory: this problem needs more memory than the machine had free; for a large "
+                   "voxel image choose --solver mg (geometric multigrid, memory linear in the voxels), crop or "
+                   "down-sample it, or run on the petsc engine", err=True)
+        return EXIT_NUMERICAL
     return 0
 
 
