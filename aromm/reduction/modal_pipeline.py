@@ -99,6 +99,15 @@ def at_reference(system: ThermalSystem, reference_values: Mapping[str, float]) -
     return {**own, **{k: float(v) for k, v in reference_values.items() if k in own}}
 
 
+def reference_cases(system: ThermalSystem, others: Sequence[ThermalSystem | ReferenceCase],
+                    reference: Mapping[str, float]) -> list[ReferenceCase]:
+    """The system at its reference values (first, named ``"system"``) and each other case: a system on the same
+    mesh at the same overrides ``reference``, or a case as given."""
+    cases = [ReferenceCase(system, at_reference(system, reference), name="system")]
+    return cases + [ReferenceCase(r, at_reference(r, reference)) if isinstance(r, ThermalSystem) else r
+                    for r in others]
+
+
 def default_modes(order: int) -> int:
     """Default detailed basis size Ñ = 1.5 ñ + 20 (ñ = 200 → Ñ = 320: on the shipped wood VER Ñ = 300 gave
     0.002 °C at ñ = 200 within 252 s of CPU, benchmarks/aromm_wood.py)."""

@@ -20,7 +20,7 @@ from aromm.core.system import FloatArray, ThermalSystem
 from aromm.linalg.eigensolvers import EigenProgress, PairsBar, ProgressCallback, choose_eigensolver
 from aromm.reduction.corrections import with_corrections
 from aromm.reduction.modal_bases import ModalBasis, compute_basis, split_modes
-from aromm.reduction.modal_pipeline import ReferenceCase, at_reference, relaxation_case
+from aromm.reduction.modal_pipeline import ReferenceCase, reference_cases, relaxation_case
 from aromm.reduction.rom import ReducedModel
 
 log = logging.getLogger(__name__)
@@ -39,9 +39,7 @@ class ScipyModalEngine:
                  storage: str = "float64", store: NpzCache | None = None, progress: bool = False,
                  eigen_progress: ProgressCallback | None = None) -> None:
         self.system = system
-        self.cases = [ReferenceCase(system, at_reference(system, reference), name="system")]
-        self.cases += [ReferenceCase(r, at_reference(r, reference)) if isinstance(r, ThermalSystem) else r
-                       for r in references]
+        self.cases = reference_cases(system, references, reference)
         for case in self.cases:
             if case.system.n != system.n:
                 raise InputError(f"reference case {case.name!r} has {case.system.n} free unknowns, the system "

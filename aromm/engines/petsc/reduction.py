@@ -29,7 +29,7 @@ from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
 from aromm.reduction import modal_pipeline
 from aromm.reduction.modal_bases import ModalBasis, split_counts
-from aromm.reduction.modal_pipeline import ReferenceCase, at_reference, relaxation_case
+from aromm.reduction.modal_pipeline import ReferenceCase, reference_cases, relaxation_case
 from aromm.reduction.offline import resolve_cache, resolve_reductor
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
 from aromm.scene.reduction_section import ReductionSettings
@@ -80,10 +80,9 @@ class PetscModalEngine:
     def __init__(self, system: DistributedSystem, others: Sequence[tuple[DistributedSystem, Source | ReferenceCase]],
                  reference: Mapping[str, float], solver: str, memory: StageMemory) -> None:
         self.system, self.others, self.solver, self.memory = system, others, solver, memory
-        self.cases = [ReferenceCase(system.template, at_reference(system.template, reference), name="system")]
-        for other, given in others:
-            self.cases.append(replace(given, system=other.template) if isinstance(given, ReferenceCase)
-                              else ReferenceCase(other.template, at_reference(other.template, reference)))
+        self.cases = reference_cases(system.template, [replace(given, system=other.template)
+                                                       if isinstance(given, ReferenceCase) else other.template
+                                                       for other, given in others], reference)
         self.stages: dict[str, float] = {}
         self.current, self.clock = "", time.perf_counter()
 
