@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.linalg as sla
@@ -119,3 +121,21 @@ def test_linear_solvers_agree(method: str) -> None:
     system = assemble_voxels(labels, (1e-4,) * 3, TWO_PHASES, SCENARIO_1)
     reference = steady_field(system, method="splu")
     np.testing.assert_allclose(steady_field(system, method=method), reference, rtol=1e-7)
+
+
+def test_steady_auto_takes_the_multigrid_on_voxel_grids_from_the_crossover() -> None:
+    """``auto`` → ``mg`` on a voxel system of ≥ STEADY_MG_FROM free unknowns, the direct default below and off a
+    voxel grid; both give the field to the solvers' tolerance (relative residual 1e-10)."""
+    from aromm.full.solve import STEADY_MG_FROM, steady_method
+
+    small = assemble_voxels(_two_phase_labels((4, 4, 4)), (1e-4,) * 3, TWO_PHASES, SCENARIO_1)
+    big = assemble_voxels(_two_phase_labels((16, 16, 16), seed=2), (1e-4,) * 3, TWO_PHASES, SCENARIO_1)
+    assert big.n >= STEADY_MG_FROM > small.n
+    assert steady_method(small, "auto", small.n) == "auto"
+    assert steady_method(big, "auto", big.n) == "mg"
+    assert steady_method(big, "splu", big.n) == "splu"
+    no_grid = replace(big, geometry=None)
+    assert steady_method(no_grid, "auto", big.n) == "auto"
+    reference = steady_field(big, method="splu")
+    scale = np.ptp(reference)
+    np.testing.assert_allclose(steady_field(big), reference, atol=1e-7 * scale)
