@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from aromm.studies.chavez2020 import scenario_1_text
+
 SLAB_L, SLAB_K, SLAB_C = 0.1, 33.0, 7.02e6  # [Hassan2019]'s steel slab: 0.1 m, 33 W/(m K), rho c (J/(m3 K))
 SLAB_ALPHA = SLAB_K / SLAB_C
 SLAB_TAU = SLAB_L**2 / SLAB_ALPHA
@@ -14,37 +16,7 @@ SLAB_TAU = SLAB_L**2 / SLAB_ALPHA
 
 def scenario_1(image: str, voxel_size: str, end: str, dt: str) -> str:
     """Flux 500 W/m² on z0, h = 20 W/(m² K) to 0 °C on z1, T0 = 0; values given as TOML literals."""
-    return f"""
-[geometry]
-image = "{image}"
-voxel_size = {voxel_size}
-
-[phases.fibre]
-label = 1
-k = 0.3
-c = 4.0e6
-
-[phases.gas]
-label = 0
-k = 0.025
-c = 1.2e3
-
-[boundary.z0]
-flux = 500.0
-[boundary.z1]
-h = 20.0
-T_ext = 0.0
-
-[initial]
-T = 0.0
-
-[time]
-end = {end}
-dt = {dt}
-
-[outputs]
-mean_T = ["z0", "z1"]
-"""
+    return scenario_1_text(f'image = "{image}"\nvoxel_size = {voxel_size}', end=end, dt=dt)
 
 
 #: A filler octant in a matrix cell (``aromm.bounds.cell_mesh`` written to cell.vtu), contact resistance R.

@@ -79,15 +79,62 @@ def small_wood(n: int = 12, box: float = 230e-6, seed: int = 0) -> Scene:
     The tracheid cross-section (25 x 35 µm cells, 5 µm walls at 5 µm voxels) is scaled with the
     voxel so that walls stay one voxel thick and the fibre fraction stays near the shipped VER's.
     """
-    voxel = box / n
-    scale = voxel / 5e-6
     return scene_from_dict({
-        "geometry": {"generator": "wood", "shape": [n, n, n], "voxel_size": voxel, "seed": seed,
-                     "cell_size_radial": 25e-6 * scale, "cell_size_tangential": 35e-6 * scale,
-                     "wall_thickness": 5e-6 * scale},
+        "geometry": small_wood_geometry(n, box, seed),
         "phases": {"fibre": {"label": 1, "k": 0.3, "c": 4.0e6}, "gas": {"label": 0, "k": 0.025, "c": 1.2e3}},
         "reduction": {"basis": dict(BASIS_VALUES), "reference": dict(REFERENCE_VALUES)},
     })
+
+
+def small_wood_geometry(n: int = 12, box: float = 230e-6, seed: int = 0) -> dict[str, Any]:
+    """The ``[geometry]`` section of :func:`small_wood` (the wood generator's keys and values)."""
+    voxel = box / n
+    scale = voxel / 5e-6
+    return {"generator": "wood", "shape": [n, n, n], "voxel_size": voxel, "seed": seed,
+            "cell_size_radial": 25e-6 * scale, "cell_size_tangential": 35e-6 * scale, "wall_thickness": 5e-6 * scale}
+
+
+def scenario_1_text(geometry: str, *, end: float | str = 60.0, dt: float | str = 0.1) -> str:
+    """Scenario 1 of [Chavez2020, Table 1] as scene-file text, for command-line runs on a generated or saved image.
+
+    ``geometry``: the lines of the ``[geometry]`` section; fibre (label 1, k = 0.3 W/(m K), c = 4e6 J/(m³ K)) and gas
+    (label 0, 0.025, 1.2e3); 500 W/m² into z0, h = 20 W/(m² K) to 0 °C on z1, T0 = 0 °C; outputs every ``dt`` to
+    ``end`` (s, or TOML literals).
+
+    >>> import tomllib
+    >>> sorted(tomllib.loads(scenario_1_text('image = "wood.npy"\\nvoxel_size = 5e-6'))["boundary"])
+    ['z0', 'z1']
+    """
+    return f"""
+[geometry]
+{geometry}
+
+[phases.fibre]
+label = 1
+k = 0.3
+c = 4.0e6
+
+[phases.gas]
+label = 0
+k = 0.025
+c = 1.2e3
+
+[boundary.z0]
+flux = 500.0
+[boundary.z1]
+h = 20.0
+T_ext = 0.0
+
+[initial]
+T = 0.0
+
+[time]
+end = {end}
+dt = {dt}
+
+[outputs]
+mean_T = ["z0", "z1"]
+"""
 
 
 def shipped_scenarios(root: Path) -> dict[str, Scene]:
