@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -42,7 +42,7 @@ from aromm.core.system import FloatArray
 from aromm.homogenization.accuracy import arithmetic_bound, harmonic_bound, periodic_energy_tolerances
 from aromm.homogenization.anisotropic_cells import anisotropic, assembled_cell
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS, check_residual, factorize, resolve_method
-from aromm.linalg.multigrid.hierarchy import assembled_matrix
+from aromm.linalg.multigrid.hierarchy import CoarseLevel, assembled_matrix
 from aromm.linalg.multigrid.operator import VoxelOperator
 from aromm.linalg.multigrid.pcg import MultigridSolver, pinned
 from aromm.scene.geometry import VoxelGeometry
@@ -119,18 +119,21 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
     if boundary == "periodic":
         _periodic(scene, name, rtol, result, ktol)
     else:
+        free = voxel_operator(scene)
+        shared: dict[str, list[CoarseLevel]] = {}  # one Galerkin hierarchy and weight cache for the three axes
         for axis in range(3):
-            _faces(scene, axis, boundary, method=name, rtol=rtol, result=result, ktol=ktol)
+            _faces(scene, free, axis, boundary, method=name, rtol=rtol, result=result, ktol=ktol, shared=shared)
     return result
 
 
 Solve = Callable[[FloatArray, "float | None"], FloatArray]  # (b, energy tolerance or None) → x
 
 
-def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult) -> Solve:
+def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult,
+            shared: dict[str, list[CoarseLevel]] | None = None) -> Solve:
     start = time.process_time()
     if method == "mg":
-        mg = MultigridSolver(op, rtol=rtol)
+        mg = MultigridSolver(op, rtol=rtol, shared=shared)
         result.setup_cpu_seconds += time.process_time() - start
 
         def solve_mg(b: FloatArray, energy_tol: float | None) -> FloatArray:
@@ -178,26 +181,30 @@ def _periodic(scene: Scene, method: str, rtol: float, result: CellResult, ktol: 
             result.k[i, j] = (mean_k if i == j else 0.0) - float(loads[i] @ field_) / volume
 
 
-def _faces(scene: Scene, axis: int, boundary: str, *, method: str, rtol: float, result: CellResult,
-           ktol: float | None) -> None:
+def _faces(scene: Scene, free: VoxelOperator, axis: int, boundary: str, *, method: str, rtol: float,
+           result: CellResult, ktol: float | None, shared: dict[str, list[CoarseLevel]]) -> None:
+    """One axis's cell problem on ``free`` (the image's box operator) with that axis's faces fixed."""
     name = "xyz"[axis]
     hot, cold = f"{name}0", f"{name}1"
     fixed = (hot, cold) if boundary == "temperature" else (cold,)
-    op = voxel_operator(scene, fixed=fixed)
-    solve = _solver(op, method, rtol, result)
+    op = replace(free, fixed=fixed)  # shares free's weight cache: the weights do not depend on the faces
+    solve = _solver(op, method, rtol, result, shared)
     size = scene.size
     area = float(np.prod(size)) / size[axis]
     plane = (slice(None),) * (2 - axis) + (0,)
     if boundary == "temperature":
         lift = np.zeros(op.node_shape)
         lift[plane] = 1.0
-        b = -op.matvec(lift.ravel(), constrained=False)
+        lifted = op.matvec(lift.ravel(), constrained=False)  # A l
+        b = -lifted
         b.reshape(op.node_shape)[plane] = 0.0
         for a, index in op.fixed_planes():
             b.reshape(op.node_shape)[(slice(None),) * a + (index,)] = 0.0
         energy = None if ktol is None else ktol * harmonic_bound(op, axis) * area / size[axis]
-        field_ = lift.ravel() + _timed(result, solve, b, energy)
-        energy = float(field_ @ op.matvec(field_, constrained=False))  # = heat flow × ΔT, ΔT = 1 K
+        x = _timed(result, solve, b, energy)
+        # energy (l + x)ᵀA(l + x) = heat flow × ΔT (ΔT = 1 K); x vanishes on the fixed planes, where b does, so
+        # xᵀA l = −bᵀx, and xᵀA x = bᵀx (Galerkin orthogonality of CG from zero, or the converged solve)
+        energy = float(lift.ravel() @ lifted) - float(b @ x)
         result.k[axis, axis] = energy * size[axis] / area
         return
     weights = np.zeros(op.node_shape)
