@@ -4,10 +4,11 @@ Each boundary condition defines an *apparent* conductivity of the image; they di
 whose weight falls like 1/n with the image size n [Huet1990] [Kanit2003]:
 
 * ``periodic`` — T = G·x + T̃ with T̃ periodic, for the three unit gradients G = e_j.  The full tensor,
-  off-diagonal terms included, is ``k_ij = δ_ij ⟨k_j⟩ − b_i·T̃_j / |Ω|`` with b_j = −Qᵀ A g_j the load of the
-  gradient g_j = x_j (energy identity: ``k_ij |Ω| = ∫ ∇T_i · k ∇T_j``).  It is the standard for a
-  representative volume: exact for laminates in every direction, equal to the effective tensor of the
-  periodic medium the image tiles, and between the two values below for a random image.
+  off-diagonal terms included, is ``k_ij |Ω| = ∫ ∇T_i · k ∇T_j = δ_ij ⟨k_j⟩ |Ω| − b_i·T̃_j − b_j·T̃_i + T̃_iᵀ A T̃_j``
+  with b_j = −Qᵀ A g_j the load of the gradient g_j = x_j (at the solution ``δ_ij ⟨k_j⟩ − b_i·T̃_j / |Ω|``; the
+  symmetric energy form makes the algebraic error of every entry quadratic, aromm.homogenization.accuracy).
+  It is the standard for a representative volume: exact for laminates in every direction, equal to the
+  effective tensor of the periodic medium the image tiles, and between the two values below for a random image.
 * ``flux`` — [Chavez2020, eq. 13]: uniform flux q into face i0, T = 0 on face i1, the others
   adiabatic; k_ii = q L_i / (T̄_i0 − T̄_i1).  A uniform-flux (static) face is a lower-bound type condition:
   its limit is below the effective value: on the sphere in a cube its Richardson values settle 0.53 % low,
@@ -174,11 +175,17 @@ def _periodic(scene: Scene, method: str, rtol: float, result: CellResult, ktol: 
     loads = [-op.spread(op.conductances[:, j][op.phase] * op.voxel_size[j] / 4.0, pattern)  # −Qᵀ A g_j
              for j, pattern in enumerate(("DSS", "SDS", "SSD"))]
     energy = periodic_energy_tolerances(op, ktol, volume)
+    earlier: list[FloatArray] = []  # T̃_i of the directions solved so far (float32: k_ij is stationary in them)
     for j in range(3):
-        field_ = _timed(result, solve, loads[j], energy[j])  # T̃_j, used at once: three loads and one field held
-        mean_k = float(fractions @ op.conductivity[:, j])
-        for i in range(3):
-            result.k[i, j] = (mean_k if i == j else 0.0) - float(loads[i] @ field_) / volume
+        field_ = _timed(result, solve, loads[j], energy[j])  # T̃_j
+        result.k[j, j] = float(fractions @ op.conductivity[:, j]) - float(loads[j] @ field_) / volume
+        if earlier:  # k_ij V = T_iᵀ A T_j = −b_iᵀT̃_j − b_jᵀT̃_i + T̃_iᵀ A T̃_j: error e_iᵀ A e_j, quadratic
+            product = op.matvec(field_)
+            for i, other in enumerate(earlier):
+                value = (float(other @ product) - float(loads[i] @ field_) - float(loads[j] @ other)) / volume
+                result.k[i, j] = result.k[j, i] = value
+        if j < 2:
+            earlier.append(field_.astype(np.float32))
 
 
 def _faces(scene: Scene, free: VoxelOperator, axis: int, boundary: str, *, method: str, rtol: float,
