@@ -28,8 +28,8 @@ Tables:
    (σ = 2 voxels, periodic filter, 40 % of phase k = 0.3 W/(m K) in k = 0.025, 100³ and 200³).  aromm
    ``mg`` with periodic (full tensor) and fixed-temperature faces (taufactor's own condition), both at
    ``ktol``; taufactor's MultiPhaseSolver on the CPU along x (its default convergence).  Seconds per
-   direction: aromm's three periodic directions share one multigrid setup; each fixed-temperature direction
-   builds its own (its fixed faces differ), as taufactor's one direction does.
+   direction (a third of aromm's total): its three periodic directions share one multigrid set-up, its three
+   fixed-temperature directions one Galerkin hierarchy (constrained per axis; CoarseLevel.with_fixed).
 2. crossover (``--crossover``) — periodic tensor of the random medium, n = 16 … 80: CHOLMOD (nested
    dissection), pyamg smoothed aggregation + CG, and multigrid, CPU seconds per direction and peak GB
    (64³ at most: CHOLMOD needs ~5.5 GB at 80³).
