@@ -189,22 +189,30 @@ class CoarseLevel:
         """
         mask = fixed_mask(self.node_shape, fixed)
         m = self.matrix
-        rows = np.repeat(np.arange(m.shape[0]), np.diff(m.indptr))
         keep = ~mask
-        data = m.data * (keep[rows] & keep[m.indices])
-        data[(rows == m.indices) & mask[rows]] = 1.0
-        return CoarseLevel(sp.csr_array((data, m.indices, m.indptr), shape=m.shape), self.node_shape, self.elements,
-                           fixed)
+        lengths = np.diff(m.indptr)
+        data = m.data * (np.repeat(keep, lengths) & keep[m.indices])  # in the matrix's precision
+        rows = np.flatnonzero(mask)  # identity on the fixed rows: their stored diagonal entry set to 1
+        starts, counts = m.indptr[rows], lengths[rows]
+        positions = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+        positions = positions[m.indices[positions] == np.repeat(rows, counts)]
+        data[positions] = 1.0
+        matrix = sp.csr_array((data, m.indices, m.indptr), shape=m.shape)  # the index arrays are shared
+        return CoarseLevel(matrix, self.node_shape, self.elements, fixed)
 
 
-def galerkin_levels(op: VoxelOperator, coarsest: int) -> list[CoarseLevel]:
-    """The assembled coarse levels of ``op``, halving down to at most ``coarsest`` nodes (or 4 elements on an axis)."""
+def galerkin_levels(op: VoxelOperator, coarsest: int, dtype: type = np.float64) -> list[CoarseLevel]:
+    """The assembled coarse levels of ``op``, halving down to at most ``coarsest`` nodes (or 4 elements on an axis);
+    all but the coarsest (float64, for its factorisation) stored in ``dtype`` as soon as they are built."""
     out: list[CoarseLevel] = []
     level = ElementLevel.coarse_of(op) if min(op.elements) >= 4 else None
     while level is not None:
-        out.append(CoarseLevel(level.to_csr(), level.node_shape, level.elements, level.fixed))
-        if out[-1].matrix.shape[0] <= coarsest or min(level.elements) < 4:
+        matrix = level.to_csr()
+        if matrix.shape[0] <= coarsest or min(level.elements) < 4:
+            out.append(CoarseLevel(matrix, level.node_shape, level.elements, level.fixed))
             return out
+        out.append(CoarseLevel(matrix.astype(dtype), level.node_shape, level.elements, level.fixed))
+        del matrix
         level = level.coarse()
     return out
 

@@ -88,7 +88,7 @@ class MultigridSolver:
             return
         self.levels = [_Level(op, (1.0 / op.diagonal()).astype(dtype), _element_bound(op), op.node_shape,
                               _prolongations(op.elements, op.periodic, dtype))]
-        coarse = self._coarse_levels(op)
+        coarse = self._coarse_levels(op, dtype)
         for index, level in enumerate(coarse):
             matrix = level.matrix
             fixed = np.flatnonzero(fixed_mask(level.node_shape, level.fixed))
@@ -96,17 +96,17 @@ class MultigridSolver:
                 self.coarse_solve = _direct(matrix, op.periodic)
                 self.levels.append(_Level(matrix, np.zeros(0), 0.0, level.node_shape, (), fixed))  # type: ignore[arg-type]
                 return
-            self.levels.append(_Level(matrix.astype(dtype), (1.0 / matrix.diagonal()).astype(dtype),
-                                      _row_bound(matrix), level.node_shape,
-                                      _prolongations(level.elements, op.periodic, dtype), fixed))
+            self.levels.append(_Level(matrix, (1.0 / matrix.diagonal()).astype(dtype), _row_bound(matrix),
+                                      level.node_shape, _prolongations(level.elements, op.periodic, dtype), fixed))
         self.coarse_solve = None  # single level: Chebyshev-preconditioned CG only
 
-    def _coarse_levels(self, op: VoxelOperator) -> list[CoarseLevel]:
-        """Galerkin levels of ``op``; with ``shared``, those of its free operator (built once) constrained."""
+    def _coarse_levels(self, op: VoxelOperator, dtype: type) -> list[CoarseLevel]:
+        """Galerkin levels of ``op`` (in ``dtype`` but the coarsest); with ``shared``, those of its free operator
+        (built once) constrained."""
         if self.shared is None:
-            return galerkin_levels(op, self.coarsest)
+            return galerkin_levels(op, self.coarsest, dtype)
         if "free" not in self.shared:
-            self.shared["free"] = galerkin_levels(replace(op, fixed=()), self.coarsest)
+            self.shared["free"] = galerkin_levels(replace(op, fixed=()), self.coarsest, dtype)
         return [level.with_fixed(op.fixed) for level in self.shared["free"]]
 
     def _assembled(self, grid: GridMatrix, dtype: type) -> None:
