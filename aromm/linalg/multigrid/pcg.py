@@ -145,7 +145,9 @@ class MultigridSolver:
         rc = _transfer(r, level.shape, coarse.shape, level.prolongations, transpose=True)
         rc[coarse.fixed] = 0.0
         x += _transfer(self._vcycle(index + 1, rc), coarse.shape, level.shape, level.prolongations)
-        _smooth(level, x, b - level.matrix @ x, want_residual=False)
+        residual = level.matrix @ x
+        np.subtract(b, residual, out=residual)
+        _smooth(level, x, residual, want_residual=False)
         return x
 
     def solve(self, b: FloatArray, x0: FloatArray | None = None, energy_tol: float | None = None) -> FloatArray:
@@ -202,6 +204,7 @@ def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float
          energy: float | None = None) -> tuple[FloatArray, FloatArray, int]:
     z = m(r)  # type: ignore[operator]
     p = z.copy()
+    step = np.empty_like(x)
     rz = float(r @ z)
     for it in range(1, budget + 1):
         q = a @ p
@@ -210,8 +213,10 @@ def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float
             raise NumericalError(f"multigrid-preconditioned CG: pᵀAp = {pq:.3g} ≤ 0 at iteration {it} "
                                  "(operator not positive definite?)")
         alpha = rz / pq
-        x += alpha * p
-        r -= alpha * q
+        np.multiply(p, alpha, out=step)
+        x += step
+        q *= alpha
+        r -= q
         if energy is not None and alpha * rz <= energy:  # ‖x_it − x_it−1‖²_A (see MultigridSolver.solve)
             return x, r, it
         if energy is None and float(np.linalg.norm(r)) <= target:
@@ -231,17 +236,21 @@ def _smooth(level: _Level, x: FloatArray, r: FloatArray, want_residual: bool) ->
     theta, delta = (upper + lower) / 2, (upper - lower) / 2
     sigma = theta / delta
     rho = 1.0 / sigma
-    d = level.inverse_diagonal * r / theta
-    for k in range(DEGREE):
+    d = level.inverse_diagonal * r
+    d *= 1.0 / theta
+    for k in range(DEGREE):  # in place on x, r (the caller's own copy) and d: few temporaries on the fine grid
         x += d
         if k == DEGREE - 1 and not want_residual:
             break
-        r = r - level.matrix @ d
+        product = level.matrix @ d
+        r -= product
         if k == DEGREE - 1:
             break
         rho_new = 1.0 / (2.0 * sigma - rho)
         d *= rho_new * rho
-        d += (2.0 * rho_new / delta) * (level.inverse_diagonal * r)
+        np.multiply(level.inverse_diagonal, r, out=product)
+        product *= 2.0 * rho_new / delta
+        d += product
         rho = rho_new
     return r
 
