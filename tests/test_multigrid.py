@@ -50,3 +50,25 @@ def test_mg_needs_a_voxel_grid() -> None:
         factorize(a, "mg")
     with pytest.raises(InputError, match="grid"):
         factorize(a, "mg", points=np.zeros((8, 3)))
+
+
+def test_fixed_faces_commute_with_galerkin_coarsening() -> None:
+    """The first coarse level of a free box operator, constrained afterwards (CoarseLevel.with_fixed), is the
+    Galerkin product P₀ᵀ A₀ P₀ of the assembled constrained fine operator (scipy), free rows and columns alike."""
+    from aromm.linalg.multigrid.hierarchy import assembled_matrix, fixed_mask, galerkin_levels, prolongation_1d
+    from aromm.linalg.multigrid.operator import VoxelOperator
+
+    phase = np.random.default_rng(3).integers(0, 3, size=(9, 10, 11))
+    conductivity = np.array([[1.0, 1.0, 1.0], [30.0, 30.0, 30.0], [0.5, 2.0, 4.0]])
+    free = VoxelOperator(phase, conductivity, (1e-3, 2e-3, 1.5e-3))
+    fixed = ("y0", "y1")
+    constrained = VoxelOperator(phase, conductivity, (1e-3, 2e-3, 1.5e-3), fixed=fixed)
+    level = galerkin_levels(free, coarsest=10)[0].with_fixed(fixed)
+    p = sp.kron(sp.kron(prolongation_1d(9, False), prolongation_1d(10, False)), prolongation_1d(11, False))
+    galerkin = (p.T @ assembled_matrix(constrained) @ p).toarray()
+    mask = fixed_mask(level.node_shape, fixed)
+    galerkin[mask] = 0.0
+    galerkin[:, mask] = 0.0
+    galerkin[mask, mask] = 1.0
+    scale = np.abs(galerkin).max()
+    assert np.abs(level.matrix.toarray() - galerkin).max() <= 1e-13 * scale

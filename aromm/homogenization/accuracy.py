@@ -6,8 +6,10 @@ orthogonality of the Krylov iterate).  So a solve stopped at ``‖x* − x‖²_
 :meth:`aromm.linalg.multigrid.pcg.MultigridSolver.solve`) knows bᵀx* to ε, and ε is set from bounds of k
 that hold before any solve:
 
-* periodic, ``k_jj = ⟨k_j⟩ − b_jᵀT̃_j / V``: ``Δk_jj = ‖e_j‖²_A / V``; off-diagonal ``k_ij = −b_iᵀT̃_j / V``:
-  ``|Δk_ij| = |T̃_iᵀ A e_j| / V ≤ ‖T̃_i‖_A ‖e_j‖_A / V`` with ``‖T̃_i‖²_A = b_iᵀT̃_i ≤ ⟨k_i⟩ V`` (V the volume);
+* periodic, ``k_jj = ⟨k_j⟩ − b_jᵀT̃_j / V``: ``Δk_jj = ‖e_j‖²_A / V`` (V the volume); off-diagonal in the
+  energy form ``k_ij V = T_iᵀ A T_j`` (T_j = g_j + T̃_j): the cross terms vanish because A T*_j is orthogonal to
+  every periodic field, so ``Δk_ij = e_iᵀ A e_j / V`` and ``|Δk_ij| ≤ ‖e_i‖_A ‖e_j‖_A / V`` — quadratic like the
+  diagonal (the one-sided form −b_iᵀT̃_j / V has a linear error ``T̃_iᵀ A e_j``, which needed ε ∝ ktol²);
 * fixed temperatures (ΔT = 1 K), ``k = E L / S`` with E the energy: ``Δk = ‖e‖²_A L / S``;
 * uniform flux q, ``k = q L S / (bᵀT)`` with ``bᵀT = q S ΔT̄``: ``Δk / k ≈ ‖e‖²_A / (bᵀT*)``,
   ``bᵀT* = q² S L / k``.
@@ -44,10 +46,8 @@ def arithmetic_bound(op: VoxelOperator, axis: int) -> float:
 
 
 def periodic_energy_tolerances(op: VoxelOperator, ktol: float | None, volume: float) -> list[float | None]:
-    """ε_j of the three periodic loads: ``min(ktol k_h,j V, (ktol min_i k_h,i)² V / max_i ⟨k_i⟩)``, V = ``volume``."""
+    """ε_j = ``ktol min_i k_h,i V`` for the three periodic loads (V = ``volume``): every entry within ktol min k_h."""
     if ktol is None:
         return [None, None, None]
-    lower = [harmonic_bound(op, j) for j in range(3)]
-    upper = max(arithmetic_bound(op, j) for j in range(3))
-    off_diagonal = (ktol * min(lower)) ** 2 * volume / upper
-    return [min(ktol * lower[j] * volume, off_diagonal) for j in range(3)]
+    tolerance = ktol * min(harmonic_bound(op, j) for j in range(3)) * volume
+    return [tolerance] * 3

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 
 from aromm.core.system import FloatArray
@@ -167,6 +168,62 @@ class ElementLevel:
 def assembled_matrix(op: VoxelOperator) -> sp.csr_array:
     """The constrained operator ``op`` assembled (27-point rows): for direct solvers and tests."""
     return ElementLevel.fine(op).to_csr()
+
+
+@dataclass(frozen=True, eq=False)
+class CoarseLevel:
+    """An assembled coarse level: 27-point matrix, node shape and element counts (z, y, x)."""
+
+    matrix: sp.csr_array
+    node_shape: tuple[int, int, int]
+    elements: tuple[int, int, int]
+    fixed: tuple[str, ...]
+
+    def with_fixed(self, fixed: tuple[str, ...]) -> CoarseLevel:
+        """The same level with the node planes of ``fixed`` held at zero (identity rows and columns).
+
+        Equal to coarsening the constrained operator: the trilinear P maps coarse functions that vanish on a
+        face to fine ones that vanish on it (face nodes interpolate from face nodes only), so
+        P₀ᵀ A₀ P₀ is Pᵀ A P restricted to the free nodes.  Lets the fixed-temperature problems of the three
+        axes share one Galerkin hierarchy.
+        """
+        mask = fixed_mask(self.node_shape, fixed)
+        m = self.matrix
+        keep = ~mask
+        lengths = np.diff(m.indptr)
+        data = m.data * (np.repeat(keep, lengths) & keep[m.indices])  # in the matrix's precision
+        rows = np.flatnonzero(mask)  # identity on the fixed rows: their stored diagonal entry set to 1
+        starts, counts = m.indptr[rows], lengths[rows]
+        positions = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+        positions = positions[m.indices[positions] == np.repeat(rows, counts)]
+        data[positions] = 1.0
+        matrix = sp.csr_array((data, m.indices, m.indptr), shape=m.shape)  # the index arrays are shared
+        return CoarseLevel(matrix, self.node_shape, self.elements, fixed)
+
+
+def galerkin_levels(op: VoxelOperator, coarsest: int, dtype: type = np.float64) -> list[CoarseLevel]:
+    """The assembled coarse levels of ``op``, halving down to at most ``coarsest`` nodes (or 4 elements on an axis);
+    all but the coarsest (float64, for its factorisation) stored in ``dtype`` as soon as they are built."""
+    out: list[CoarseLevel] = []
+    level = ElementLevel.coarse_of(op) if min(op.elements) >= 4 else None
+    while level is not None:
+        matrix = level.to_csr()
+        if matrix.shape[0] <= coarsest or min(level.elements) < 4:
+            out.append(CoarseLevel(matrix, level.node_shape, level.elements, level.fixed))
+            return out
+        out.append(CoarseLevel(matrix.astype(dtype), level.node_shape, level.elements, level.fixed))
+        del matrix
+        level = level.coarse()
+    return out
+
+
+def fixed_mask(node_shape: tuple[int, int, int], fixed: tuple[str, ...]) -> npt.NDArray[np.bool_]:
+    """Flat mask of the nodes on the ``fixed`` faces ("x0" … "z1") of a box grid of ``node_shape`` (z, y, x)."""
+    mask = np.zeros(node_shape, dtype=bool)
+    for face in fixed:
+        axis = 2 - "xyz".index(face[0])
+        mask[(slice(None),) * axis + (0 if face[1] == "0" else node_shape[axis] - 1,)] = True
+    return mask.ravel()
 
 
 def mask_fixed(values: FloatArray, fixed: tuple[str, ...], start: tuple[int, int, int],

@@ -164,7 +164,9 @@ class VoxelOperator:
         padded[:, :ny, :nx] = element
         out = padded.reshape(-1)[:(nz - 1) * plane + (ny - 1) * row + nx]
         for letter, stride in zip(pattern[::-1], (plane, row, 1), strict=True):  # pattern is x, y, z
-            out = _adjoint(out if letter == "S" else None, out if letter == "D" else None, stride)
+            wider = np.empty(out.size + stride)
+            _adjoint(out if letter == "S" else None, out if letter == "D" else None, stride, wider, wider)
+            out = wider
         return self._fold(out.reshape(nz + 1, ny + 1, nx + 1)).ravel()
 
     def _slabs(self) -> Iterator[tuple[int, int]]:
@@ -201,28 +203,47 @@ class VoxelOperator:
         """Σ_c T_cᵀ w_c T_c on one slab (node planes k0..k1 → contributions to the same planes).
 
         Every pass is one contiguous operation on the flattened slab: a pair along y or z is a shift by a
-        row or a plane.  Entries that straddle a row or plane end are garbage; their weight is zero.
+        row or a plane.  Entries that straddle a row or plane end are garbage; their weight is zero.  All
+        intermediates live in one preallocated workspace (no temporaries: at 40³ the page faults of fresh
+        temporaries cost as much system time as the arithmetic).  The result is a view of the workspace.
         """
         planes, rows, cols = ext.shape
         u = ext.reshape(-1)
         row, plane = cols, rows * cols
-        sx, dx = _pair(u, 1)
-        ss, sd = _pair(sx, row)
-        ds, dd = _pair(dx, row)
-        terms = {"SSD": _pair(ss, plane, need_sum=False)[1]}
-        terms["DSS"], terms["DSD"] = _pair(ds, plane)
-        terms["SDS"], terms["SDD"] = _pair(sd, plane)
-        terms["DDS"], terms["DDD"] = _pair(dd, plane)
-        weights = self._slab_weights(table, k0, k1, terms["DDD"].size)
-        for c, name in enumerate(COMBOS):
-            terms[name] *= weights[c]
-        g_ss = _adjoint(None, terms["SSD"], plane)
-        g_ds = _adjoint(terms["DSS"], terms["DSD"], plane)
-        g_sd = _adjoint(terms["SDS"], terms["SDD"], plane)
-        g_dd = _adjoint(terms["DDS"], terms["DDD"], plane)
-        h_s = _adjoint(g_ss, g_sd, row)
-        h_d = _adjoint(g_ds, g_dd, row)
-        return _adjoint(h_s, h_d, 1).reshape(planes, rows, cols)
+        n = u.size
+        m1, m2 = n - 1, n - 1 - row
+        m = m2 - plane
+        work = self._workspace(ext.dtype, n)
+        sx, dx, ss, sd, ds, dd = (work[i, :m1 if i < 2 else m2] for i in range(6))
+        _pair(u, 1, sx, dx)
+        _pair(sx, row, ss, sd)
+        _pair(dx, row, ds, dd)
+        terms = work[6:13, :m]  # in the order of COMBOS
+        np.subtract(ss[plane:], ss[:-plane], out=terms[2])  # SSD
+        _pair(ds, plane, terms[0], terms[4])  # DSS, DSD
+        _pair(sd, plane, terms[1], terms[5])  # SDS, SDD
+        _pair(dd, plane, terms[3], terms[6])  # DDS, DDD
+        terms *= self._slab_weights(table, k0, k1, m)
+        scratch = work[13, :m1]
+        g_ss, g_ds, g_sd, g_dd = ss, sd, ds, dd  # the pair rows are free again (length m + plane)
+        _adjoint(None, terms[2], plane, g_ss, scratch)
+        _adjoint(terms[0], terms[4], plane, g_ds, scratch)
+        _adjoint(terms[1], terms[5], plane, g_sd, scratch)
+        _adjoint(terms[3], terms[6], plane, g_dd, scratch)
+        h_s, h_d = sx, dx
+        _adjoint(g_ss, g_sd, row, h_s, scratch)
+        _adjoint(g_ds, g_dd, row, h_d, scratch)
+        out = work[14, :n]
+        _adjoint(h_s, h_d, 1, out, scratch)
+        return out.reshape(planes, rows, cols)
+
+    def _workspace(self, dtype: np.dtype, size: int) -> FloatArray:
+        """(15, ≥ size) scratch rows of the slab product, kept per precision (≈ 15 slab arrays)."""
+        key = f"work{dtype}"
+        work = self._cache.get(key)
+        if work is None or work.shape[1] < size:
+            work = self._cache[key] = np.empty((15, size), dtype=dtype)
+        return work
 
     def _slab_weights(self, table: FloatArray, k0: int, k1: int, size: int) -> FloatArray:
         """(7, size) per-voxel weights of a slab, gathered once and kept when the grid is small."""
@@ -267,18 +288,18 @@ def _plane(axis: int, index: int) -> tuple[slice | int, ...]:
     return (slice(None),) * axis + (index,)
 
 
-def _pair(a: FloatArray, stride: int, need_sum: bool = True) -> tuple[FloatArray, FloatArray]:
-    """(S a, D a) of a flat array: a[i + stride] ± a[i] (the sum skipped when not needed)."""
+def _pair(a: FloatArray, stride: int, s: FloatArray, d: FloatArray) -> None:
+    """(S a, D a) of a flat array into ``s`` and ``d``: a[i + stride] ± a[i]."""
     hi, lo = a[stride:], a[:-stride]
-    return (hi + lo if need_sum else hi[:0]), hi - lo
+    np.add(hi, lo, out=s)
+    np.subtract(hi, lo, out=d)
 
 
-def _adjoint(s: FloatArray | None, d: FloatArray | None, stride: int) -> FloatArray:
-    """Sᵀ s + Dᵀ d for flat arrays (length n → n + stride)."""
+def _adjoint(s: FloatArray | None, d: FloatArray | None, stride: int, out: FloatArray, scratch: FloatArray) -> None:
+    """``out`` ← Sᵀ s + Dᵀ d for flat arrays (length n → n + stride = ``out.size``; ``scratch`` ≥ n long)."""
     ref = s if s is not None else d
     assert ref is not None
     n = ref.size
-    out = np.empty(n + stride, dtype=ref.dtype)
     out[n:] = 0.0
     if s is None:
         assert d is not None
@@ -289,5 +310,6 @@ def _adjoint(s: FloatArray | None, d: FloatArray | None, stride: int) -> FloatAr
         out[stride:] += s
     else:
         np.subtract(s, d, out=out[:n])
-        out[stride:] += s + d
-    return out
+        total = scratch[:n]
+        np.add(s, d, out=total)
+        out[stride:] += total

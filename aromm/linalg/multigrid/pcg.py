@@ -15,7 +15,7 @@ one node and the preconditioned residual is kept mean-free, so CG runs in the ra
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -26,7 +26,7 @@ from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
 from aromm.linalg.factorizations import DEFAULT_RTOL, factorize_direct, resolve_method
 from aromm.linalg.multigrid.assembled import GridMatrix, galerkin
-from aromm.linalg.multigrid.hierarchy import ElementLevel, prolongation_1d
+from aromm.linalg.multigrid.hierarchy import CoarseLevel, fixed_mask, galerkin_levels, prolongation_1d
 from aromm.linalg.multigrid.operator import VoxelOperator
 
 COARSEST_NODES = 4_000  # a 10³–16³ coarsest grid: its factorisation and solves were half of a 40³ solve at 20 000
@@ -72,6 +72,9 @@ class MultigridSolver:
     iterations: list[int] = field(default_factory=list)
     at_floor: int = 0  # solves accepted at the rounding floor of the residual (FLOOR_FACTOR), above rtol
     _matrix: sp.csr_array | None = field(init=False, default=None)  # float64 operator of CG when assembled
+    #: Galerkin levels shared by operators that differ only in their fixed faces (the fixed-temperature problems
+    #: of the three axes): pass the same dict to each solver (CoarseLevel.with_fixed).
+    shared: dict[str, list[CoarseLevel]] | None = None
 
     def __post_init__(self) -> None:
         if not 0 < self.rtol < 1:
@@ -85,20 +88,26 @@ class MultigridSolver:
             return
         self.levels = [_Level(op, (1.0 / op.diagonal()).astype(dtype), _element_bound(op), op.node_shape,
                               _prolongations(op.elements, op.periodic, dtype))]
-        level = ElementLevel.coarse_of(op) if coarsenable(op.elements, op.n, 0) else None  # ≥ 2 levels
-        while level is not None:
-            matrix = level.to_csr()
-            coarser = coarsenable(level.elements, matrix.shape[0], self.coarsest)
-            fixed = np.flatnonzero(_fixed_mask(level))
-            if not coarser:
+        coarse = self._coarse_levels(op, dtype)
+        for index, level in enumerate(coarse):
+            matrix = level.matrix
+            fixed = np.flatnonzero(fixed_mask(level.node_shape, level.fixed))
+            if index == len(coarse) - 1:
                 self.coarse_solve = _direct(matrix, op.periodic)
                 self.levels.append(_Level(matrix, np.zeros(0), 0.0, level.node_shape, (), fixed))  # type: ignore[arg-type]
                 return
-            self.levels.append(_Level(matrix.astype(dtype), (1.0 / matrix.diagonal()).astype(dtype),
-                                      _row_bound(matrix), level.node_shape,
-                                      _prolongations(level.elements, op.periodic, dtype), fixed))
-            level = level.coarse()
+            self.levels.append(_Level(matrix, (1.0 / matrix.diagonal()).astype(dtype), _row_bound(matrix),
+                                      level.node_shape, _prolongations(level.elements, op.periodic, dtype), fixed))
         self.coarse_solve = None  # single level: Chebyshev-preconditioned CG only
+
+    def _coarse_levels(self, op: VoxelOperator, dtype: type) -> list[CoarseLevel]:
+        """Galerkin levels of ``op`` (in ``dtype`` but the coarsest); with ``shared``, those of its free operator
+        (built once) constrained."""
+        if self.shared is None:
+            return galerkin_levels(op, self.coarsest, dtype)
+        if "free" not in self.shared:
+            self.shared["free"] = galerkin_levels(replace(op, fixed=()), self.coarsest, dtype)
+        return [level.with_fixed(op.fixed) for level in self.shared["free"]]
 
     def _assembled(self, grid: GridMatrix, dtype: type) -> None:
         """Levels of an assembled grid matrix (aromm.linalg.multigrid.assembled): Galerkin products by scipy."""
@@ -136,7 +145,9 @@ class MultigridSolver:
         rc = _transfer(r, level.shape, coarse.shape, level.prolongations, transpose=True)
         rc[coarse.fixed] = 0.0
         x += _transfer(self._vcycle(index + 1, rc), coarse.shape, level.shape, level.prolongations)
-        _smooth(level, x, b - level.matrix @ x, want_residual=False)
+        residual = level.matrix @ x
+        np.subtract(b, residual, out=residual)
+        _smooth(level, x, residual, want_residual=False)
         return x
 
     def solve(self, b: FloatArray, x0: FloatArray | None = None, energy_tol: float | None = None) -> FloatArray:
@@ -193,6 +204,7 @@ def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float
          energy: float | None = None) -> tuple[FloatArray, FloatArray, int]:
     z = m(r)  # type: ignore[operator]
     p = z.copy()
+    step = np.empty_like(x)
     rz = float(r @ z)
     for it in range(1, budget + 1):
         q = a @ p
@@ -201,8 +213,10 @@ def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float
             raise NumericalError(f"multigrid-preconditioned CG: pᵀAp = {pq:.3g} ≤ 0 at iteration {it} "
                                  "(operator not positive definite?)")
         alpha = rz / pq
-        x += alpha * p
-        r -= alpha * q
+        np.multiply(p, alpha, out=step)
+        x += step
+        q *= alpha
+        r -= q
         if energy is not None and alpha * rz <= energy:  # ‖x_it − x_it−1‖²_A (see MultigridSolver.solve)
             return x, r, it
         if energy is None and float(np.linalg.norm(r)) <= target:
@@ -222,17 +236,21 @@ def _smooth(level: _Level, x: FloatArray, r: FloatArray, want_residual: bool) ->
     theta, delta = (upper + lower) / 2, (upper - lower) / 2
     sigma = theta / delta
     rho = 1.0 / sigma
-    d = level.inverse_diagonal * r / theta
-    for k in range(DEGREE):
+    d = level.inverse_diagonal * r
+    d *= 1.0 / theta
+    for k in range(DEGREE):  # in place on x, r (the caller's own copy) and d: few temporaries on the fine grid
         x += d
         if k == DEGREE - 1 and not want_residual:
             break
-        r = r - level.matrix @ d
+        product = level.matrix @ d
+        r -= product
         if k == DEGREE - 1:
             break
         rho_new = 1.0 / (2.0 * sigma - rho)
         d *= rho_new * rho
-        d += (2.0 * rho_new / delta) * (level.inverse_diagonal * r)
+        np.multiply(level.inverse_diagonal, r, out=product)
+        product *= 2.0 * rho_new / delta
+        d += product
         rho = rho_new
     return r
 
@@ -258,14 +276,6 @@ def _prolongations(elements: tuple[int, int, int], periodic: bool, dtype: type
 
 def coarsenable(elements: tuple[int, int, int], nodes: int, coarsest: int) -> bool:
     return nodes > coarsest and min(elements) >= 4
-
-
-def _fixed_mask(level: ElementLevel) -> FloatArray:
-    mask = np.zeros(level.node_shape, dtype=bool)
-    for face in level.fixed:
-        axis = 2 - "xyz".index(face[0])
-        mask[(slice(None),) * axis + (0 if face[1] == "0" else level.node_shape[axis] - 1,)] = True
-    return mask.ravel()
 
 
 def _element_bound(op: VoxelOperator) -> float:
