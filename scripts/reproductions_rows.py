@@ -351,7 +351,7 @@ def _hassan() -> list[Row]:
             "[Hassan2019] Fig. 3–4, § 2.3",
             "C_t at 1.5·10⁵ particles",
             "0.817 (slab test, Fig. 3)",
-            "slab test: see C_t against N (next row)",
+            "slab test: in the `dem_convergence` rows below",
             Quote(
                 dem,
                 r"C_t = (\S+) with R_moy = pair mean radius; (\S+) with the global mean radius",
