@@ -77,7 +77,7 @@ def test_stored_notebook_shows_its_results_with_a_figure(path: Path) -> None:
 # Notebooks whose run at the papers' sizes did not fit the session that wrote them (issue 24, a shared 2-core machine);
 # they are stored at the tests' sizes (scripts/regenerate_notebooks.py --small). Once a full run is stored, remove the
 # name here and from the warning box of docs/reproductions.md.
-STORED_SMALL: set[str] = {"dem_convergence"}
+STORED_SMALL: set[str] = set()
 
 
 @pytest.mark.parametrize("path", [

@@ -157,7 +157,8 @@ InclusionBoundary = Literal["periodic", "faces"]
 
 
 def inclusion_network(packing: Packing, z: float = 7.5, *, radius: Radius = "pair", min_degree: int = 3,
-                      radius_fraction: float = 1.0 / 3.0, boundary: InclusionBoundary = "periodic") -> Network:
+                      radius_fraction: float = 1.0 / 3.0, boundary: InclusionBoundary = "periodic",
+                      bonds: Bonds | None = None) -> Network:
     """Bond network of the periodic packing with the central sphere inclusion (radius L/3) tagged.
 
     ``boundary="periodic"`` keeps the periodic network: the cube is then the cell of a
@@ -166,11 +167,13 @@ def inclusion_network(packing: Packing, z: float = 7.5, *, radius: Radius = "pai
     the packing along its box (bonds from the periodic packing's gap threshold) for a
     test with fixed temperatures on two faces, as in [Hassan2019], cut layer included.
     C_t is left at 1: E is a ratio of two solves on the same network, so C_t cancels (the
-    calibration on the same packing and boundary conditions, [Hassan2019, § 2.3]).
+    calibration on the same packing and boundary conditions, [Hassan2019, § 2.3]).  ``bonds``: the periodic
+    packing's bonds when already built (:func:`aromm.dem.neighbours.build_bonds` with the same ``z``).
     """
     if not packing.periodic:
         raise InputError("inclusion_network needs the periodic packing (it cuts it itself for 'faces')")
-    bonds = build_bonds(packing, z, min_degree=min_degree)
+    if bonds is None:
+        bonds = build_bonds(packing, z, min_degree=min_degree)
     if boundary == "faces":
         packing = packing.cut(packing.lower, packing.lower + packing.box)
         bonds = build_bonds(packing, gap=bonds.gap_threshold, min_degree=min_degree)

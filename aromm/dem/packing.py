@@ -21,12 +21,14 @@ Lengths are in metres; the cube is ``[0, L)^3``.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from aromm.core.errors import InputError, NumericalError
@@ -34,6 +36,8 @@ from aromm.core.files import OutputKind, atomic_write, npz_with, read_npz
 from aromm.core.system import FloatArray
 
 TRUNCATION = 2.5  # radii are kept within mean +- TRUNCATION * sd
+LOG_EVERY = 200  # FIRE iterations between two log lines
+log = logging.getLogger(__name__)
 ARRAYS = ("centers", "radii", "box", "periodic")
 #: What ``aromm dem pack --out`` writes.
 PACKING = OutputKind("packing (.npz written by aromm dem pack)", npz_with(*ARRAYS))
@@ -178,12 +182,18 @@ class FireSettings:
     f_dec: float = 0.5
     alpha0: float = 0.1
     f_alpha: float = 0.99
-    skin: float = 0.3
+    skin: float = 0.6  # mean radii: fewer list builds in the fast first iterations, few more pairs later
     max_iter: int = 20000
 
 
 class _NeighbourList:
-    """Pairs closer than ``r_i + r_j + skin`` (periodic), rebuilt when a sphere moved > skin / 2."""
+    """Pairs closer than ``r_i + r_j + skin`` (periodic), rebuilt when a sphere moved > skin / 2.
+
+    At each build the pairs' periodic image offsets ``shift`` (x_i - x_j of the nearest images is
+    ``x_i - x_j - shift`` until the next build: nobody moves by half a box in between), their contact
+    distances ``sigma`` and the signed incidence ``(n, m)`` matrix (+1 at i, -1 at j) are stored, so that
+    a force evaluation is a few vector operations and one sparse product.
+    """
 
     def __init__(self, radii: FloatArray, side: float, skin: float) -> None:
         self.radii = radii
@@ -193,46 +203,72 @@ class _NeighbourList:
         self.anchor = np.zeros((0, 3))
         self.i = np.zeros(0, dtype=np.int64)
         self.j = np.zeros(0, dtype=np.int64)
+        self.shift = np.zeros((0, 3))
+        self.sigma = np.zeros(0)
+        self.incidence = sp.csr_array((radii.size, 0))
         self.builds = 0
 
-    def update(self, x: FloatArray) -> None:
-        if self.anchor.shape == x.shape:
-            moved = np.max(np.einsum("ij,ij->i", x - self.anchor, x - self.anchor))
-            if moved < (0.5 * self.skin) ** 2:
-                return
+    def stale(self, x: FloatArray) -> bool:
+        """True before the first build and once a sphere moved more than skin / 2 since the last one."""
+        if self.anchor.shape != x.shape:
+            return True
+        moved = x - self.anchor
+        return bool(np.max(np.einsum("ij,ij->i", moved, moved)) >= (0.5 * self.skin) ** 2)
+
+    def build(self, x: FloatArray, radii: FloatArray) -> None:
+        """List the pairs of spheres ``x`` (radii ``radii``, in the order of ``x``) closer than sigma + skin."""
+        self.radii = radii
         wrapped = np.mod(x, self.side)
         wrapped[wrapped >= self.side] = 0.0  # mod can round up to the side itself
         tree = cKDTree(wrapped, boxsize=self.side)
         pairs = tree.query_pairs(2.0 * self.r_max + self.skin, output_type="ndarray")
         i, j = pairs[:, 0], pairs[:, 1]
-        d = _minimum_image(x[j] - x[i], self.side)
-        keep = np.einsum("ij,ij->i", d, d) < (self.radii[i] + self.radii[j] + self.skin) ** 2
-        self.i, self.j = i[keep], j[keep]
+        raw = x[i] - x[j]
+        shift = self.side * np.round(raw / self.side)
+        d = raw - shift
+        sigma = self.radii[i] + self.radii[j]
+        keep = np.einsum("ij,ij->i", d, d) < (sigma + self.skin) ** 2
+        self.i, self.j, self.shift, self.sigma = i[keep], j[keep], shift[keep], sigma[keep]
+        m, n = self.i.size, x.shape[0]
+        cols = np.arange(m)
+        self.incidence = sp.csr_array((np.concatenate([np.ones(m), -np.ones(m)]),
+                                       (np.concatenate([self.i, self.j]), np.concatenate([cols, cols]))),
+                                      shape=(n, m))
         self.anchor = x.copy()
         self.builds += 1
 
 
-def _minimum_image(d: FloatArray, side: float) -> FloatArray:
-    return d - side * np.round(d / side)
+def spatial_order(x: FloatArray, side: float) -> npt.NDArray[np.intp]:
+    """Permutation sorting the points ``x`` of the periodic cube ``[0, side)^3`` along a Morton (Z-order) curve.
+
+    Neighbours in space then sit near each other in memory, so the gathers of a force evaluation stay in
+    cache: at 1.5e5 spheres in random order they cost several times more per pair than at 2e4.
+    """
+    cells = int(min(1024, max(1, np.ceil(side))))  # cells about one mean radius wide, 10 bits per axis
+    c = np.clip((np.mod(x, side) * (cells / side)).astype(np.int64), 0, cells - 1)
+    key = np.zeros(x.shape[0], dtype=np.int64)
+    for axis in range(3):
+        b = c[:, axis]
+        b = (b | (b << 16)) & 0x030000FF
+        b = (b | (b << 8)) & 0x0300F00F
+        b = (b | (b << 4)) & 0x030C30C3
+        b = (b | (b << 2)) & 0x09249249
+        key |= b << axis
+    return np.argsort(key, kind="stable")
 
 
-def _overlap_forces(x: FloatArray, radii: FloatArray, nl: _NeighbourList) -> tuple[FloatArray, float]:
+def _overlap_forces(x: FloatArray, nl: _NeighbourList) -> tuple[FloatArray, float]:
     """Forces -grad U and the largest relative overlap max(1 - d/sigma) over the listed pairs."""
-    i, j = nl.i, nl.j
-    d = _minimum_image(x[i] - x[j], nl.side)
+    d = x[nl.i]
+    d -= x[nl.j]
+    d -= nl.shift  # x_i - x_j, nearest image
     dist = np.sqrt(np.einsum("ij,ij->i", d, d))
-    sigma = radii[i] + radii[j]
-    overlap = 1.0 - dist / sigma
-    on = overlap > 0.0
-    if not on.any():
+    overlap = 1.0 - dist / nl.sigma
+    largest = float(overlap.max(initial=0.0))
+    if largest <= 0.0:
         return np.zeros_like(x), 0.0
-    i, j, d, dist, sigma, overlap = i[on], j[on], d[on], dist[on], sigma[on], overlap[on]
-    f = (overlap / (sigma * np.maximum(dist, 1e-12)))[:, None] * d  # force on i, along x_i - x_j
-    n = x.shape[0]
-    forces = np.empty_like(x)
-    for k in range(3):
-        forces[:, k] = np.bincount(i, f[:, k], minlength=n) - np.bincount(j, f[:, k], minlength=n)
-    return forces, float(overlap.max())
+    d *= (np.maximum(overlap, 0.0) / (nl.sigma * np.maximum(dist, 1e-12)))[:, None]  # force on i, along x_i - x_j
+    return np.asarray(nl.incidence @ d), largest
 
 
 def pack_spheres(
@@ -267,11 +303,19 @@ def pack_spheres(
     dt, alpha, n_pos = settings.dt0, settings.alpha0, 0
     max_overlap = np.inf
     for it in range(settings.max_iter):
-        nl.update(x)
-        f, max_overlap = _overlap_forces(x, radii, nl)
+        if nl.stale(x):  # renumber the spheres along a space-filling curve, then list the pairs
+            order = spatial_order(x, side)
+            x, v, radii = x[order], v[order], radii[order]
+            nl.build(x, radii)
+        f, max_overlap = _overlap_forces(x, nl)
         if progress is not None and it % 50 == 0:
             progress(it, max_overlap)
+        if it % LOG_EVERY == 0:
+            log.info("packing %d spheres: FIRE iteration %d, largest overlap %.2e (tol %g), %d neighbour-list builds",
+                     n, it, max_overlap, tol, nl.builds)
         if max_overlap < tol:
+            log.info("packing %d spheres: converged after %d FIRE iterations, %d neighbour-list builds",
+                     n, it, nl.builds)
             break
         power = float(np.vdot(f, v))
         if power > 0.0:
