@@ -19,8 +19,9 @@ aromm.linalg.eigensolvers; :func:`choose`):
   ``ST precond``, ``KSP preonly`` + ``PC gamg``: one V-cycle per new direction), converged to :data:`BLOCK_TOL`.
   Dirichlet: the smallest λ of ``(K0_II, C0_II)``, preconditioned by GAMG on K0_II.  Steklov: ζB is singular,
   so, as the serial LOBPCG does (aromm.linalg.eigensolvers), the largest ``μ = 1/(λ − σ)`` of the inverted pencil
-  ``ζB x = μ M x``, ``M = K0 − σζB`` (SPD, its inner product a norm), preconditioned by GAMG on M, with the
-  constants deflated (kept M-orthogonal); its eigenvectors are discretely harmonic, no purification is needed.
+  ``ζB x = μ M x``, ``M = K0 − σζB`` (SPD, its inner product a norm; σ = −1e-4 max(diag K0 / diag ζB)),
+  preconditioned by GAMG on M, with the constants deflated (kept M-orthogonal); its eigenvectors are discretely
+  harmonic, no purification is needed.
   SLEPc's own LOBPCG (``-aromm_steklov_eps_type lobpcg``) fails on that pencil (LAPACK sygvd on a
   near-singular Gram matrix, 24³ wood VER, measured) and was 1.6× slower than GD on the Dirichlet modes.
 
@@ -53,10 +54,15 @@ EIGEN_TOL = 1e-12
 INNER_RTOL = 1e-13
 #: Purification and Rayleigh–Ritz apply (K0 − σζB)⁻¹ once more to every Steklov vector.
 STEKLOV_SHIFT = 1e-6
-#: Relative residual ``||A x − θ B x|| / (||A|| + |θ| ||B||)`` (SLEPc's ``EPS_CONV_NORM``) of the preconditioned
-#: eigensolver: eigenvalues equal to shift-invert's to ≤ 1e-12 relative on the 12³–24³ wood VERs (the error is
-#: of the order of the squared residual); 1e-10 made the Steklov solve stall.
-BLOCK_TOL = 1e-8
+#: Relative residual ``||A x − θ B x|| / (||A|| + |θ| ||B||)`` (SLEPc's ``EPS_CONV_NORM``, matrix norms) of the
+#: preconditioned eigensolver.  The per-vector residual that aromm.reduction.modal_bases checks (vector norms in the
+#: denominator) is up to ~100× larger for the smooth modes: 1e-8 left 1.1e-6 > RESIDUAL_TOL on the 12³ wood VER,
+#: 1e-10 leaves ≤ 2.5e-8 there and at 24³.
+BLOCK_TOL = 1e-10
+#: Steklov shift of the preconditioned eigensolver, ``σ = −PRECONDITIONED_SHIFT max(diag K0 / diag ζB)``: the constants'
+#: direction is M's smallest eigenvalue (∝ |σ|), and at the shift-invert's 1e-6 Generalized Davidson stalled at a
+#: residual of 1.2e-10 on the 12³ wood VER (round-off of the near-singular M); 1e-4 converges, in as many iterations.
+PRECONDITIONED_SHIFT = 1e-4
 #: ``eigensolver="auto"`` uses the preconditioned eigensolver for bases of systems with more unknowns than this.
 PRECONDITIONED_ABOVE = 30_000
 #: Iterations allowed to the preconditioned eigensolver (one new direction each).
@@ -88,7 +94,7 @@ class Reference:
         return np.flatnonzero(convert.array(self.boundary.getDiagonal()) > 0.0)
 
 
-def _eps(a: Any, b: Any, count: int, tol: float, max_it: int, prefix: str) -> Any:
+def _eps(a: Any, b: Any, count: int, *, tol: float, max_it: int, prefix: str) -> Any:
     """A SLEPc EPS for the ``count`` eigenpairs of the Hermitian pencil ``a v = λ b v`` (``b`` SPD); PETSc options
     with ``prefix`` override its set-up."""
     SLEPc = runtime.slepc()
@@ -129,7 +135,7 @@ def _shift_invert(a: Any, b: Any, count: int, *, target: float, solver: str, pre
     """The ``count`` eigenpairs of ``a v = λ b v`` nearest ``target`` (ascending), this rank's rows, and the EPS
     (Krylov–Schur, shift-and-invert)."""
     SLEPc = runtime.slepc()
-    eps = _eps(a, b, count, EIGEN_TOL, 1000, prefix)
+    eps = _eps(a, b, count, tol=EIGEN_TOL, max_it=1000, prefix=prefix)
     eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
     eps.setTarget(target)
     eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
@@ -146,7 +152,14 @@ def _preconditioned(a: Any, b: Any, count: int, *, largest: bool, preconditioner
     V-cycle on ``preconditioner`` per new direction, kept ``b``-orthogonal to ``deflation``; eigenvalues in
     that order, this rank's rows, and the iterations."""
     SLEPc = runtime.slepc()
-    eps = _eps(a, b, count, BLOCK_TOL, BLOCK_MAX_ITERATIONS, prefix)
+    # SI operators of µm voxels have entries ~1e-7: b-normalised vectors then have huge 2-norms and SLEPc's
+    # residual, relative to the matrix norms, stalls above round-off.  Both scaled by a power of two (exact, λ
+    # unchanged) to a unit mean diagonal of b, restored after.
+    trace = runtime.allsum([convert.array(b.getDiagonal()).sum(), b.getSize()[0]], a.getComm())
+    scale = 2.0 ** -np.round(np.log2(trace[0] / trace[1]))
+    for mat in {id(m): m for m in (a, b, preconditioner)}.values():
+        mat.scale(scale)
+    eps = _eps(a, b, count, tol=BLOCK_TOL, max_it=BLOCK_MAX_ITERATIONS, prefix=prefix)
     eps.setType(SLEPc.EPS.Type.GD)
     eps.setConvergenceTest(SLEPc.EPS.Conv.NORM)
     eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL if largest else SLEPc.EPS.Which.SMALLEST_REAL)
@@ -161,6 +174,8 @@ def _preconditioned(a: Any, b: Any, count: int, *, largest: bool, preconditioner
     lam, vec = _run(eps, count, what="Generalized Davidson + GAMG", descending=largest)
     iterations = int(eps.getIterationNumber())
     eps.destroy()
+    for mat in {id(m): m for m in (a, b, preconditioner)}.values():
+        mat.scale(1.0 / scale)
     return lam, vec, iterations
 
 
@@ -227,14 +242,16 @@ def steklov_modes(ref: Reference, count: int, constants: FloatArray, solver: str
     if count <= 0:
         return np.zeros(0), np.zeros((rows.local, 0)), 0
     ratio = convert.array(ref.stiffness.getDiagonal())[gamma] / convert.array(b.getDiagonal())[gamma]
-    sigma = -STEKLOV_SHIFT * runtime.allmax(float(ratio.max(initial=0.0)), comm)
+    top = runtime.allmax(float(ratio.max(initial=0.0)), comm)
+    sigma = -STEKLOV_SHIFT * top
     iterations = 0
     if choose(eigensolver, rows.n) == "lobpcg":
         label = "Generalized Davidson + GAMG"
+        sigma = -PRECONDITIONED_SHIFT * top
         lam, vec, iterations = _steklov_preconditioned(ref, b, count, sigma, constants)
     else:
         label = solver
-        lam, vec = _steklov_shift_invert(ref, b, count, n_zero, sigma, solver)
+        lam, vec = _steklov_shift_invert(ref, b, count, n_zero, sigma=sigma, solver=solver)
     res = _residuals(ref.stiffness, b, lam, vec, comm)
     if res.max(initial=0.0) > RESIDUAL_TOL:
         raise NumericalError(f"SLEPc Steklov eigensolver (shift {sigma:.2e} s⁻¹, {label}): relative residual "
@@ -260,7 +277,7 @@ def _steklov_preconditioned(ref: Reference, b: Any, count: int, sigma: float, co
     return sigma + 1.0 / mu, vec, iterations
 
 
-def _steklov_shift_invert(ref: Reference, b: Any, count: int, n_zero: int, sigma: float, solver: str) -> tuple[
+def _steklov_shift_invert(ref: Reference, b: Any, count: int, n_zero: int, *, sigma: float, solver: str) -> tuple[
         FloatArray, FloatArray]:
     """Krylov–Schur shift-invert at σ, purification and Rayleigh–Ritz; the constants dropped."""
     comm = ref.comm

@@ -81,7 +81,8 @@ class PetscModalEngine:
     ``"auto"``."""
 
     def __init__(self, system: DistributedSystem, others: Sequence[tuple[DistributedSystem, Source | ReferenceCase]],
-                 reference: Mapping[str, float], solver: str, memory: StageMemory, eigensolver: str = "auto") -> None:
+                 reference: Mapping[str, float], solver: str, memory: StageMemory, *,
+                 eigensolver: str = "auto") -> None:
         self.system, self.others, self.solver, self.memory = system, others, solver, memory
         self.eigensolver = choose(eigensolver, system.n)
         self.iterations: dict[str, float] = {}
@@ -158,13 +159,15 @@ def reduce(source: Source, settings: ReductionSettings, *, references: Sequence[
     for other, _ in others:
         if other.n != system.n:
             raise InputError(f"reference case {other.description!r} has {other.n} unknowns, the system {system.n}")
-    engine = PetscModalEngine(system, others, settings.reference, solver, memory, settings.eigensolver)
+    engine = PetscModalEngine(system, others, settings.reference, solver, memory,
+                              eigensolver=settings.eigensolver)
     chosen = modal_pipeline.plan(engine, replace(settings, solver=solver), reductor)
     store = resolve_cache(cache)
     found = cached(store, chosen.key, comm)
     if found is not None:
         return found
-    rom, _, basis = modal_pipeline.build(engine, replace(settings, solver=solver), reductor, chosen)
+    with runtime.root_logs(comm, modal_pipeline.__name__):  # its log lines once, not once per rank
+        rom, _, basis = modal_pipeline.build(engine, replace(settings, solver=solver), reductor, chosen)
     engine.stage("", "done")
     info = {**rom.info, "offline_seconds": time.perf_counter() - start, "assembly_seconds": assembly, **engine.stages,
             **memory.record(), "basis_bytes": runtime.allmax(basis.vectors.nbytes, comm), "engine": "petsc",
