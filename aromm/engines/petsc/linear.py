@@ -81,9 +81,9 @@ def solve(ksp: Any, b: Any, x: Any, label: str, rtol: float) -> int:
     reason = int(ksp.getConvergedReason())
     iterations = int(ksp.getIterationNumber())
     if reason < 0:
+        why = mumps.failure(ksp) or ("is part of the body insulated from every fixed temperature or exchange?")
         raise NumericalError(f"PETSc {ksp.getType()}/{ksp.getPC().getType()} ({label}) diverged (reason {reason}) "
-                             f"after {iterations} iterations: is part of the body insulated from every fixed "
-                             "temperature or exchange?")
+                             f"after {iterations} iterations: {why}")
     mat = ksp.getOperators()[0]
     residual = b.duplicate()
     mat.mult(x, residual)

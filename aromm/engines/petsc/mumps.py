@@ -3,8 +3,9 @@
 By default MUMPS orders the whole matrix on one process (ICNTL(28) = 1): at 512³ that rank holds the graph of
 every unknown.  Where the engine factors with MUMPS (``solver="mumps"``: :func:`aromm.engines.petsc.linear.configure`)
 it asks for the parallel analysis, ICNTL(28) = 2, with ICNTL(29) = 0 (MUMPS chooses PT-Scotch or ParMETIS,
-whichever it was built with).  A MUMPS built with neither (Debian 12's libmumps 5.5) cannot: asked anyway it
-prints "No parallel ordering tools available" on stdout and orders sequentially.  This module looks for either
+whichever it was built with).  A MUMPS built with neither (Debian 12's libmumps 5.5) cannot: asked anyway at
+2 ranks or more it prints "No parallel ordering tools available" on stdout and fails the analysis (INFOG(1) = −38,
+the solve then diverges: :func:`failure` says why).  This module looks for either
 tool in the MUMPS library the process has loaded (their library names or their API symbols in the shared
 object, found through ``/proc/self/maps``); when neither is there it keeps ICNTL(28) = 1 and says once, in the
 log of rank 0, that the analysis stays sequential and why.  When the library cannot be found (not Linux, MUMPS
@@ -81,3 +82,18 @@ def _say_sequential(where: str) -> None:
     log.info("MUMPS analysis falls back to sequential (ICNTL(28) = 1, one rank orders the whole matrix): this MUMPS "
              "(%s) is built without PT-Scotch or ParMETIS, which the parallel analysis ICNTL(28) = 2 needs "
              "(docs/scaling.md)", where)
+
+
+def failure(ksp: Any) -> str:
+    """Why the MUMPS factorisation of ``ksp`` failed (its INFOG(1) < 0), or "" (not MUMPS, or no failure)."""
+    pc = ksp.getPC()
+    if pc.getType() not in ("cholesky", "lu") or pc.getFactorSolverType() != "mumps":
+        return ""
+    code = int(pc.getFactorMatrix().getMumpsInfog(1))
+    if code >= 0:
+        return ""
+    hint = {-38: "the parallel analysis ICNTL(28) = 2 needs PT-Scotch or ParMETIS, which this MUMPS lacks; "
+                 "set ICNTL(28) to 1",
+            -9: "its working memory was too small (raise ICNTL(14))",
+            -10: "the matrix is numerically singular"}.get(code, "see the MUMPS user guide")
+    return f"MUMPS failed with INFOG(1) = {code}: {hint}"
