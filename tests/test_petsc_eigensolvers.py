@@ -135,3 +135,14 @@ def test_sequential_fallback_said_once(monkeypatch: pytest.MonkeyPatch, caplog: 
             assert int(found["icntl_28"]) == mumps.SEQUENTIAL
     said = [r.getMessage() for r in caplog.records if "falls back to sequential" in r.getMessage()]
     assert len(said) == 1 and "without PT-Scotch or ParMETIS" in said[0]
+
+
+def test_auto_takes_the_preconditioned_eigensolver_on_ranks_above_the_measured_size() -> None:
+    from aromm.core.errors import InputError
+    from aromm.engines.petsc.eigen import PRECONDITIONED_ABOVE, choose
+
+    big = PRECONDITIONED_ABOVE + 1
+    assert choose("auto", big, 2) == "lobpcg" and choose("auto", big, 1) == "arpack"
+    assert choose("auto", PRECONDITIONED_ABOVE, 2) == "arpack" and choose("arpack", big, 2) == "arpack"
+    with pytest.raises(InputError, match="allowed: auto, arpack, lobpcg"):
+        choose("gd", big, 2)

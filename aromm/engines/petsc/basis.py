@@ -79,7 +79,7 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
     n0 = z.shape[1]
     buffer = np.empty((ref.rows.local, max(n_steklov, n0) + n_dirichlet + reserve), order="F")
     buffer[:, :n0] = z
-    method = choose(eigensolver, ref.rows.n)
+    method = choose(eigensolver, ref.rows.n, len(ref.rows.starts) - 1)
     lam_s, v_s, its_s = steklov_modes(ref, n_steklov - n0, z, solver, method)
     buffer[:, n0:n0 + lam_s.size] = v_s
     del v_s

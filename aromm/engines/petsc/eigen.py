@@ -63,18 +63,23 @@ BLOCK_TOL = 1e-10
 #: direction is M's smallest eigenvalue (∝ |σ|), and at the shift-invert's 1e-6 Generalized Davidson stalled at a
 #: residual of 1.2e-10 on the 12³ wood VER (round-off of the near-singular M); 1e-4 converges, in as many iterations.
 PRECONDITIONED_SHIFT = 1e-4
-#: ``eigensolver="auto"`` uses the preconditioned eigensolver for bases of systems with more unknowns than this.
+#: ``eigensolver="auto"`` uses the preconditioned eigensolver on two ranks or more for bases of systems with more
+#: unknowns than this, shift-invert otherwise.  Measured at 32³ (35,937 unknowns, wood VER, Ñ = 80, CG + GAMG inner
+#: solves, benchmarks/petsc_engine.py, 2026-12-02, 2 shared cores at load 9–11): on 2 ranks equal CPU per rank (56.2
+#: against 57.8 s) and half the wall time of the bases (293 against 596 s: no tight inner solve, fewer
+#: collectives); on 1 rank 1.25× shift-invert's CPU (66.5 against 53.0 s), so one rank keeps shift-invert.
 PRECONDITIONED_ABOVE = 30_000
 #: Iterations allowed to the preconditioned eigensolver (one new direction each).
 BLOCK_MAX_ITERATIONS = 20_000
 
 
-def choose(eigensolver: str, n: int) -> str:
-    """``"arpack"`` (Krylov–Schur shift-invert) or ``"lobpcg"`` (preconditioned Davidson) for ``n`` unknowns."""
+def choose(eigensolver: str, n: int, ranks: int) -> str:
+    """``"arpack"`` (Krylov–Schur shift-invert) or ``"lobpcg"`` (preconditioned Davidson) for ``n`` unknowns on
+    ``ranks`` ranks (``"auto"``: :data:`PRECONDITIONED_ABOVE`)."""
     if eigensolver not in EIGENSOLVERS:
         raise InputError(f"unknown eigensolver {eigensolver!r}; allowed: {', '.join(EIGENSOLVERS)}")
     if eigensolver == "auto":
-        return "lobpcg" if n > PRECONDITIONED_ABOVE else "arpack"
+        return "lobpcg" if n > PRECONDITIONED_ABOVE and ranks > 1 else "arpack"
     return eigensolver
 
 
@@ -205,7 +210,7 @@ def dirichlet_modes(ref: Reference, count: int, solver: str, out: FloatArray, ei
     k_ii = ref.stiffness.createSubMatrix(index, index)
     c_ii = ref.capacity.createSubMatrix(index, index)
     iterations = 0
-    if choose(eigensolver, rows.n) == "lobpcg":
+    if choose(eigensolver, rows.n, len(rows.starts) - 1) == "lobpcg":
         label = "Generalized Davidson + GAMG"
         lam, vec, iterations = _preconditioned(k_ii, c_ii, count, largest=False, preconditioner=k_ii,
                                                prefix="aromm_dirichlet_")
@@ -245,7 +250,7 @@ def steklov_modes(ref: Reference, count: int, constants: FloatArray, solver: str
     top = runtime.allmax(float(ratio.max(initial=0.0)), comm)
     sigma = -STEKLOV_SHIFT * top
     iterations = 0
-    if choose(eigensolver, rows.n) == "lobpcg":
+    if choose(eigensolver, rows.n, len(rows.starts) - 1) == "lobpcg":
         label = "Generalized Davidson + GAMG"
         sigma = -PRECONDITIONED_SHIFT * top
         lam, vec, iterations = _steklov_preconditioned(ref, b, count, sigma, constants)

@@ -84,7 +84,7 @@ class PetscModalEngine:
                  reference: Mapping[str, float], solver: str, memory: StageMemory, *,
                  eigensolver: str = "auto") -> None:
         self.system, self.others, self.solver, self.memory = system, others, solver, memory
-        self.eigensolver = choose(eigensolver, system.n)
+        self.eigensolver = choose(eigensolver, system.n, runtime.size(system.comm))
         self.iterations: dict[str, float] = {}
         self.cases = reference_cases(system.template, [replace(given, system=other.template)
                                                        if isinstance(given, ReferenceCase) else other.template
