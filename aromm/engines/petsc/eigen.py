@@ -64,7 +64,7 @@ BLOCK_TOL = 1e-10
 #: residual of 1.2e-10 on the 12³ wood VER (round-off of the near-singular M); 1e-4 converges, in as many iterations.
 PRECONDITIONED_SHIFT = 1e-4
 #: ``eigensolver="auto"`` uses the preconditioned eigensolver on two ranks or more for bases of systems with more
-#: unknowns than this, shift-invert otherwise.  Measured at 32³ (35,937 unknowns, wood VER, Ñ = 80, CG + GAMG inner
+#: unknowns than this, shift-invert otherwise.  Measured at 32³ (35,937 unknowns, wood VER, Ñ = 94, CG + GAMG inner
 #: solves, benchmarks/petsc_engine.py, 2026-12-02, 2 shared cores at load 9–11): on 2 ranks equal CPU per rank (56.2
 #: against 57.8 s) and half the wall time of the bases (293 against 596 s: no tight inner solve, fewer
 #: collectives); on 1 rank 1.25× shift-invert's CPU (66.5 against 53.0 s), so one rank keeps shift-invert.
