@@ -23,7 +23,7 @@ aromm.linalg.eigensolvers; :func:`choose`):
   preconditioned by GAMG on M, with the constants deflated (kept M-orthogonal); its eigenvectors are discretely
   harmonic, no purification is needed.
   SLEPc's own LOBPCG (``-aromm_steklov_eps_type lobpcg``) fails on that pencil (LAPACK sygvd on a
-  near-singular Gram matrix, 24³ wood VER, measured) and was 1.6× slower than GD on the Dirichlet modes.
+  near-singular Gram matrix, 24³ wood VER, measured) and took 1.4–1.6× GD's CPU on the Dirichlet modes there.
 
 Every mode is capacity-normalised, ``vᵀ C0 v = 1``.  Residuals and orthogonality are checked against the tolerances
 of aromm.reduction.modal_bases; a :class:`~aromm.core.errors.NumericalError` names the solver when they fail.
@@ -156,14 +156,26 @@ def _preconditioned(a: Any, b: Any, count: int, *, largest: bool, preconditioner
     """The ``count`` smallest (or ``largest``) eigenpairs of ``a v = λ b v`` by Generalized Davidson with one GAMG
     V-cycle on ``preconditioner`` per new direction, kept ``b``-orthogonal to ``deflation``; eigenvalues in
     that order, this rank's rows, and the iterations."""
-    SLEPc = runtime.slepc()
-    # SI operators of µm voxels have entries ~1e-7: b-normalised vectors then have huge 2-norms and SLEPc's
-    # residual, relative to the matrix norms, stalls above round-off.  Both scaled by a power of two (exact, λ
-    # unchanged) to a unit mean diagonal of b, restored after.
+    # The SI operators of µm voxels have entries ~1e-7, so b-normalised vectors have 2-norms ~1e3: the operators
+    # are scaled by a power of two (exact, λ unchanged) to a mean diagonal of b near 1 while SLEPc works, then
+    # restored.
     trace = runtime.allsum([convert.array(b.getDiagonal()).sum(), b.getSize()[0]], a.getComm())
     scale = 2.0 ** -np.round(np.log2(trace[0] / trace[1]))
-    for mat in {id(m): m for m in (a, b, preconditioner)}.values():
+    operators = {id(m): m for m in (a, b, preconditioner)}.values()
+    for mat in operators:
         mat.scale(scale)
+    try:
+        return _davidson(a, b, count, largest=largest, preconditioner=preconditioner, prefix=prefix,
+                         deflation=deflation)
+    finally:
+        for mat in operators:
+            mat.scale(1.0 / scale)
+
+
+def _davidson(a: Any, b: Any, count: int, *, largest: bool, preconditioner: Any, prefix: str,
+              deflation: list[Any] | None) -> tuple[FloatArray, FloatArray, int]:
+    """:func:`_preconditioned` on the scaled operators."""
+    SLEPc = runtime.slepc()
     eps = _eps(a, b, count, tol=BLOCK_TOL, max_it=BLOCK_MAX_ITERATIONS, prefix=prefix)
     eps.setType(SLEPc.EPS.Type.GD)
     eps.setConvergenceTest(SLEPc.EPS.Conv.NORM)
@@ -179,8 +191,6 @@ def _preconditioned(a: Any, b: Any, count: int, *, largest: bool, preconditioner
     lam, vec = _run(eps, count, what="Generalized Davidson + GAMG", descending=largest)
     iterations = int(eps.getIterationNumber())
     eps.destroy()
-    for mat in {id(m): m for m in (a, b, preconditioner)}.values():
-        mat.scale(1.0 / scale)
     return lam, vec, iterations
 
 
