@@ -67,8 +67,8 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
                   values: Mapping[str, float] | None = None, solver: str = "gamg", *, reserve: int = 0,
                   eigensolver: str = "arpack") -> ModalBasis:
     """Constants + ``n_steklov`` Steklov (counting the constants) + ``n_dirichlet`` Dirichlet modes, by shift-invert
-    (``eigensolver="arpack"``, inner ``solver``) or the preconditioned eigensolver (``"lobpcg"``; ``"auto"`` by
-    size: aromm.engines.petsc.eigen).  ``info`` records the iterations of the preconditioned eigensolver.
+    (``eigensolver="arpack"``, inner ``solver``; also ``"auto"``) or the preconditioned eigensolver (``"lobpcg"``:
+    aromm.engines.petsc.eigen).  ``info`` records the iterations of the preconditioned eigensolver.
 
     The modes are written into one Fortran-ordered array with ``reserve`` more columns, which
     :func:`with_corrections` fills (:func:`correction_count`): the basis is never copied whole."""
@@ -79,7 +79,7 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
     n0 = z.shape[1]
     buffer = np.empty((ref.rows.local, max(n_steklov, n0) + n_dirichlet + reserve), order="F")
     buffer[:, :n0] = z
-    method = choose(eigensolver, ref.rows.n, len(ref.rows.starts) - 1)
+    method = choose(eigensolver)
     lam_s, v_s, its_s = steklov_modes(ref, n_steklov - n0, z, solver, method)
     buffer[:, n0:n0 + lam_s.size] = v_s
     del v_s

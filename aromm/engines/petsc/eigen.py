@@ -8,7 +8,7 @@ With reference operators K0 (conduction), C0 (capacity) and the boundary mass B 
   computed apart (:func:`aromm.reduction.modal_bases.zero_modes`) and dropped here.
 
 Both are generalised Hermitian problems, solved by one of two methods (``eigensolver``, the knob of
-aromm.linalg.eigensolvers; :func:`choose`):
+aromm.linalg.eigensolvers; :func:`choose`, ``"auto"`` is shift-invert, measured):
 
 * ``"arpack"``: Krylov–Schur with shift-and-invert (SLEPc ``EPS`` + ``ST sinvert``), the inner solves being a
   MUMPS Cholesky factorisation or CG + GAMG to a tight tolerance (``solver``, aromm.engines.petsc.linear).  As in
@@ -63,24 +63,20 @@ BLOCK_TOL = 1e-10
 #: direction is M's smallest eigenvalue (∝ |σ|), and at the shift-invert's 1e-6 Generalized Davidson stalled at a
 #: residual of 1.2e-10 on the 12³ wood VER (round-off of the near-singular M); 1e-4 converges, in as many iterations.
 PRECONDITIONED_SHIFT = 1e-4
-#: ``eigensolver="auto"`` uses the preconditioned eigensolver on two ranks or more for bases of systems with more
-#: unknowns than this, shift-invert otherwise.  Measured at 32³ (35,937 unknowns, wood VER, Ñ = 94, CG + GAMG inner
-#: solves, benchmarks/petsc_engine.py, 2026-12-02, 2 shared cores at load 9–11): on 2 ranks equal CPU per rank (56.2
-#: against 57.8 s) and half the wall time of the bases (293 against 596 s: no tight inner solve, fewer
-#: collectives); on 1 rank 1.25× shift-invert's CPU (66.5 against 53.0 s), so one rank keeps shift-invert.
-PRECONDITIONED_ABOVE = 30_000
+#: ``eigensolver="auto"`` keeps shift-invert: the preconditioned eigensolver did not pay where measured
+#: (benchmarks/petsc_engine.py, wood VER, Ñ = 94, CG + GAMG, 2026-12-02, 2 shared cores at load 7–11): CPU per rank
+#: 1.25× shift-invert's on 1 rank at 32³ (66.5 against 53.0 s), equal on 2 ranks (56.2 / 57.8 s at 32³, 136.9 /
+#: 136.0 s at 40³); wall time of the bases 0.49× at 32³ but 1.08× at 40³ on 2 ranks (the load decides); peak memory
+#: per rank within 3 %.  It stays the choice to try where the inner solves are the trouble (``eigensolver="lobpcg"``).
 #: Iterations allowed to the preconditioned eigensolver (one new direction each).
 BLOCK_MAX_ITERATIONS = 20_000
 
 
-def choose(eigensolver: str, n: int, ranks: int) -> str:
-    """``"arpack"`` (Krylov–Schur shift-invert) or ``"lobpcg"`` (preconditioned Davidson) for ``n`` unknowns on
-    ``ranks`` ranks (``"auto"``: :data:`PRECONDITIONED_ABOVE`)."""
+def choose(eigensolver: str) -> str:
+    """``"arpack"`` (Krylov–Schur shift-invert; also for ``"auto"``) or ``"lobpcg"`` (preconditioned Davidson)."""
     if eigensolver not in EIGENSOLVERS:
         raise InputError(f"unknown eigensolver {eigensolver!r}; allowed: {', '.join(EIGENSOLVERS)}")
-    if eigensolver == "auto":
-        return "lobpcg" if n > PRECONDITIONED_ABOVE and ranks > 1 else "arpack"
-    return eigensolver
+    return "arpack" if eigensolver == "auto" else eigensolver
 
 
 @dataclass(frozen=True)
@@ -220,7 +216,7 @@ def dirichlet_modes(ref: Reference, count: int, solver: str, out: FloatArray, ei
     k_ii = ref.stiffness.createSubMatrix(index, index)
     c_ii = ref.capacity.createSubMatrix(index, index)
     iterations = 0
-    if choose(eigensolver, rows.n, len(rows.starts) - 1) == "lobpcg":
+    if choose(eigensolver) == "lobpcg":
         label = "Generalized Davidson + GAMG"
         lam, vec, iterations = _preconditioned(k_ii, c_ii, count, largest=False, preconditioner=k_ii,
                                                prefix="aromm_dirichlet_")
@@ -260,7 +256,7 @@ def steklov_modes(ref: Reference, count: int, constants: FloatArray, solver: str
     top = runtime.allmax(float(ratio.max(initial=0.0)), comm)
     sigma = -STEKLOV_SHIFT * top
     iterations = 0
-    if choose(eigensolver, rows.n, len(rows.starts) - 1) == "lobpcg":
+    if choose(eigensolver) == "lobpcg":
         label = "Generalized Davidson + GAMG"
         sigma = -PRECONDITIONED_SHIFT * top
         lam, vec, iterations = _steklov_preconditioned(ref, b, count, sigma, constants)

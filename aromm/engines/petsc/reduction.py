@@ -84,7 +84,7 @@ class PetscModalEngine:
                  reference: Mapping[str, float], solver: str, memory: StageMemory, *,
                  eigensolver: str = "auto") -> None:
         self.system, self.others, self.solver, self.memory = system, others, solver, memory
-        self.eigensolver = choose(eigensolver, system.n, runtime.size(system.comm))
+        self.eigensolver = choose(eigensolver)
         self.iterations: dict[str, float] = {}
         self.cases = reference_cases(system.template, [replace(given, system=other.template)
                                                        if isinstance(given, ReferenceCase) else other.template
@@ -144,8 +144,8 @@ def reduce(source: Source, settings: ReductionSettings, *, references: Sequence[
     ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or box-read :class:`VoxelProblem` (assembled by
     boxes), or a ThermalSystem every rank holds (distributed by rows).  ``settings.solver``: ``"gamg"`` or
     ``"mumps"`` (:func:`aromm.engines.petsc.linear.check_solver`); ``settings.eigensolver``: the eigenbases by
-    SLEPc's shift-invert (``"arpack"``) or preconditioned eigensolver (``"lobpcg"``), ``"auto"`` by size
-    (:func:`aromm.engines.petsc.eigen.choose`).
+    SLEPc's shift-invert (``"arpack"``, also ``"auto"``) or preconditioned eigensolver (``"lobpcg"``,
+    :func:`aromm.engines.petsc.eigen.choose`).
     """
     reductor = resolve_reductor(settings.method)
     solver = linear.check_solver(settings.solver)
