@@ -59,9 +59,10 @@ STEKLOV_SHIFT = 1e-6
 #: denominator) is up to ~100× larger for the smooth modes: 1e-8 left 1.1e-6 > RESIDUAL_TOL on the 12³ wood VER,
 #: 1e-10 leaves ≤ 2.5e-8 there and at 24³.
 BLOCK_TOL = 1e-10
-#: Steklov shift of the preconditioned eigensolver, ``σ = −PRECONDITIONED_SHIFT max(diag K0 / diag ζB)``: the constants'
-#: direction is M's smallest eigenvalue (∝ |σ|), and at the shift-invert's 1e-6 Generalized Davidson stalled at a
-#: residual of 1.2e-10 on the 12³ wood VER (round-off of the near-singular M); 1e-4 converges, in as many iterations.
+#: Steklov shift of the preconditioned eigensolver, ``σ = −PRECONDITIONED_SHIFT max(diag K0 / diag ζB)``: the
+#: constants' direction is M's smallest eigenvalue (proportional to −σ), and at the shift-invert's 1e-6 Generalized
+#: Davidson stalled at a residual of 1.2e-10 on the 12³ wood VER (round-off of the near-singular M); 1e-4 converges,
+#: in as many iterations.
 PRECONDITIONED_SHIFT = 1e-4
 #: ``eigensolver="auto"`` keeps shift-invert: the preconditioned eigensolver did not pay where measured
 #: (benchmarks/petsc_engine.py, wood VER, Ñ = 94, CG + GAMG, 2026-12-02, 2 shared cores at load 7–11): CPU per rank
