@@ -65,10 +65,10 @@ BLOCK_TOL = 1e-10
 #: in as many iterations.
 PRECONDITIONED_SHIFT = 1e-4
 #: ``eigensolver="auto"`` keeps shift-invert: the preconditioned eigensolver did not pay where measured
-#: (benchmarks/petsc_engine.py, wood VER, Ñ = 94, CG + GAMG, 2026-12-02, 2 shared cores at load 7–11): CPU per rank
-#: 1.25× shift-invert's on 1 rank at 32³ (66.5 against 53.0 s), equal on 2 ranks (56.2 / 57.8 s at 32³, 136.9 /
-#: 136.0 s at 40³); wall time of the bases 0.49× at 32³ but 1.08× at 40³ on 2 ranks (the load decides); peak memory
-#: per rank within 3 %.  It stays the choice to try where the inner solves are the trouble (``eigensolver="lobpcg"``).
+#: (benchmarks/petsc_engine.py, wood VER, Ñ = 94, CG + GAMG, 2026-12-02, 2 shared cores at load 5–11): CPU per rank
+#: 1.25× shift-invert's on 1 rank at 32³ (66.5 against 53.0 s) and 0.97× at 40³ (133.8 / 137.6 s); on 2 ranks
+#: 0.97× at 32³ and 1.01× at 40³ (136.9 / 136.0 s); peak memory per rank within 3 %; its iterations (≈ 2,000) did
+#: not grow from 32³ to 40³, so it is the choice to measure first on a cluster (``eigensolver="lobpcg"``).
 #: Iterations allowed to the preconditioned eigensolver (one new direction each).
 BLOCK_MAX_ITERATIONS = 20_000
 
