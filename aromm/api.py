@@ -84,7 +84,8 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
 
     ``engine="petsc"``: the offline work on PETSc/SLEPc under ``mpiexec`` (collective,
     :func:`aromm.engines.petsc.reduction.reduce`; ``system`` may then be a voxel Scene and ``solver`` is ``gamg``
-    or ``mumps``); it keeps no fields, and the eigensolver and basis storage are SLEPc's.  With
+    or ``mumps``, and ``eigensolver`` SLEPc's shift-invert or preconditioned eigensolver,
+    aromm.engines.petsc.eigen); it keeps no fields and the basis in float64.  With
     ``method="krylov"`` (and ``"auto"`` above the size where it pays) the Krylov reductor runs on KSP solves only,
     no SLEPc (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`).
 
@@ -150,8 +151,8 @@ def _build(system: Any, settings: ReductionSettings, engine: str, run: dict[str,
         return offline.reduce(system, settings=settings, references=references, **run)
     if run.get("fields"):
         raise InputError("reduce: fields (the basis Ψ) are kept by the scipy engine only")
-    if settings.eigensolver != "auto" or settings.basis_storage != "float64":
-        raise InputError("eigensolver and basis_storage apply to the scipy engine (the petsc engine uses SLEPc)")
+    if settings.basis_storage != "float64":
+        raise InputError("basis_storage applies to the scipy engine (the petsc engine keeps the basis in float64)")
     cache = run.get("cache", True)
     reductor = KrylovReductor.named(settings.method, settings.bounds)
     if reductor is not None:

@@ -10,8 +10,12 @@ machine before and after (the machine is shared: ~6 agents on 2 cores), and the 
 reduced model's face means from the scipy engine's (°C).  Then the growth exponents d log(cost) / d log(N)
 (N unknowns) fitted over the sizes, the inputs of docs/scaling.md.
 
+``--eigensolvers arpack lobpcg`` measures the petsc engine's two eigenbasis methods side by side (SLEPc
+Krylov–Schur shift-invert with tight inner solves, against Generalized Davidson + GAMG, aromm.engines.petsc.eigen):
+the basis stage's seconds and the preconditioned eigensolver's iterations (Steklov + Dirichlet) are printed.
+
 Usage: python benchmarks/petsc_engine.py [--sizes 16 24 32 48] [--ranks 1 2] [--order 40] [--solver gamg]
-       [--no-scipy] [--json results.json]
+       [--eigensolvers auto] [--no-scipy] [--json results.json]
 (needs petsc4py/slepc4py/mpi4py and mpiexec: README "Running on a cluster"; OMPI_ALLOW_RUN_AS_ROOT is set for
 Open MPI under root.)  Worker mode (one measurement, JSON on stdout): --worker N --engine scipy|petsc.
 """
@@ -41,7 +45,7 @@ def scene(n: int):  # type: ignore[no-untyped-def]
     return loading(small_wood(n, box=n * 5e-6), "z", end=60.0, dt=0.5)
 
 
-def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
+def worker(n: int, engine: str, order: int, solver: str, eigensolver: str = "auto") -> dict[str, object]:
     """One measurement in this process (all ranks under mpiexec); the record is complete on rank 0."""
     import aromm
     from aromm.scene.scene_file import assemble
@@ -50,7 +54,7 @@ def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
     cpu0, wall0 = time.process_time(), time.perf_counter()
     sc = scene(n)
     if engine == "petsc":
-        rom = aromm.reduce(sc, order, cache=False, engine="petsc", solver=solver)
+        rom = aromm.reduce(sc, order, cache=False, engine="petsc", solver=solver, eigensolver=eigensolver)
     else:
         rom = aromm.reduce(assemble(sc), order, cache=False)
     build_wall, build_cpu = time.perf_counter() - wall0, time.process_time() - cpu0
@@ -77,12 +81,15 @@ def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
             "cpu": [r["cpu"] for r in ranks], "steady_cpu": [r["steady_cpu"] for r in ranks],
             "peak": [r["peak"] for r in ranks], "stages": stages, "load": [load_before, os.getloadavg()[0]],
             "rom": rom.simulate(PROBE).as_array().tolist(), "steady": means.tolist(),
-            "reference_error": float(rom.info["reference_error"])}
+            "reference_error": float(rom.info["reference_error"]),
+            "eigensolver": str(rom.info.get("eigensolver", "arpack" if engine == "petsc" else "scipy")),
+            "iterations": int(sum(float(rom.info.get(f"{k}_iterations", 0)) for k in ("steklov", "dirichlet")))}
 
 
-def measure(n: int, engine: str, ranks: int, order: int, solver: str) -> dict[str, object]:
+def measure(n: int, engine: str, ranks: int, order: int, solver: str, *, eigensolver: str = "auto",
+            ) -> dict[str, object]:
     args = [sys.executable, str(Path(__file__).resolve()), "--worker", str(n), "--engine", engine, "--order",
-            str(order), "--solver", solver]
+            str(order), "--solver", solver, "--eigensolver", eigensolver]
     if engine == "petsc":
         args = ["mpiexec", "-n", str(ranks), *args]
     run = subprocess.run(args, capture_output=True, text=True, env={**os.environ, **MPI_ENV}, cwd=ROOT, check=False)
@@ -101,15 +108,18 @@ def row(r: dict[str, object], scipy: dict[str, object] | None) -> str:
     stage = " ".join(f"{k.removesuffix('_seconds')[:5]}={v:.0f}" for k, v in stages.items() if k != "offline_seconds")
     load = r["load"]
     assert isinstance(load, list)
-    return (f"{r['n']:>4}³ {r['unknowns']:>9,} {r['engine']:>6} {r['ranks']:>2} {r['wall']:>8.1f} {cpu.max():>8.1f} "
+    eig = f"{str(r.get('eigensolver', ''))[:6]:>6} {r.get('iterations', 0):>5}"
+    return (f"{r['n']:>4}³ {r['unknowns']:>9,} {r['engine']:>6} {r['ranks']:>2} {eig} {r['wall']:>8.1f} "
+            f"{cpu.max():>8.1f} "
             f"{peak.max() / 2**20:>8.0f} {peak.sum() / int(r['n']) ** 3:>8.0f} {r['steady_wall']:>7.1f} "
             f"{load[0]:>5.1f}/{load[1]:<5.1f} {diff:>9} {steady:>9}  {stage}")
 
 
 def exponents(results: list[dict[str, object]]) -> list[str]:
     lines = []
-    for engine, ranks in sorted({(str(r["engine"]), int(r["ranks"])) for r in results}):  # type: ignore[call-overload]
-        runs = [r for r in results if r["engine"] == engine and r["ranks"] == ranks]
+    for engine, ranks, eig in sorted({(str(r["engine"]), int(r["ranks"]), str(r.get("eigensolver")))  # type: ignore[call-overload]
+                                      for r in results}):
+        runs = [r for r in results if r["engine"] == engine and r["ranks"] == ranks and r.get("eigensolver") == eig]
         if len(runs) < 2:
             continue
         n = np.log([float(r["unknowns"]) for r in runs])  # type: ignore[arg-type]
@@ -120,7 +130,7 @@ def exponents(results: list[dict[str, object]]) -> list[str]:
             "peak memory/rank": [max(r["peak"]) for r in runs],  # type: ignore[call-overload]
         }
         parts = [f"{k} N^{np.polyfit(n, np.log(np.asarray(v, dtype=float)), 1)[0]:.2f}" for k, v in fits.items()]
-        lines.append(f"{engine:>6} ×{ranks}: " + ", ".join(parts))
+        lines.append(f"{engine:>6} ×{ranks} {eig}: " + ", ".join(parts))
     return lines
 
 
@@ -131,19 +141,23 @@ def main() -> None:
                         help="rank counts of the petsc runs (none: scipy only)")
     parser.add_argument("--order", type=int, default=40)
     parser.add_argument("--solver", choices=("gamg", "mumps"), default="gamg")
+    parser.add_argument("--eigensolvers", nargs="+", choices=("auto", "arpack", "lobpcg"), default=["auto"],
+                        help="the petsc engine's eigenbasis methods, each measured (arpack: shift-invert)")
+    parser.add_argument("--eigensolver", default="auto", help=argparse.SUPPRESS)
     parser.add_argument("--no-scipy", action="store_true", help="skip the scipy engine (e.g. where it cannot fit)")
     parser.add_argument("--json", type=Path, default=None, help="append the raw records to this file")
     parser.add_argument("--worker", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--engine", choices=("scipy", "petsc"), default="petsc", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker is not None:
-        record = worker(args.worker, args.engine, args.order, args.solver)
+        record = worker(args.worker, args.engine, args.order, args.solver, args.eigensolver)
         if record:
             print(json.dumps(record))
         return
     print(f"python {sys.version.split()[0]}, order {args.order}, petsc inner solver {args.solver}, "
           f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f} (shared machine)")
-    print("   n   unknowns engine  P   wall s  CPU s/r  peak MB/r  B/voxel steady s  load b/a   ΔT̄ rom  ΔT̄ steady  "
+    print("   n   unknowns engine  P eigen  iters   wall s  CPU s/r  peak MB/r  B/voxel steady s  load b/a   ΔT̄ rom  "
+          "ΔT̄ steady  "
           "stages (s, rank 0)")
     results: list[dict[str, object]] = []
 
@@ -159,7 +173,8 @@ def main() -> None:
         if scipy is not None:
             keep(scipy, None)
         for p in args.ranks:
-            keep(measure(n, "petsc", p, args.order, args.solver), scipy)
+            for eigensolver in args.eigensolvers:
+                keep(measure(n, "petsc", p, args.order, args.solver, eigensolver=eigensolver), scipy)
     print("growth over the sizes (least-squares slope of log cost against log unknowns):")
     for line in exponents(results):
         print("  " + line)

@@ -21,6 +21,7 @@ alone, CHOLMOD against SuperLU, then differs by 1.4e-7 °C at the slow corner; w
 
 from __future__ import annotations
 
+import logging
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -76,14 +77,37 @@ def _record(rom: aromm.ReducedModel, name: str) -> dict[str, np.ndarray]:
             f"{name}_solver": np.array(str(rom.info["solver"]))}
 
 
+@contextmanager
+def krylov_lines() -> Iterator[list[str]]:
+    """The ``krylov:`` INFO lines this process logs inside (aromm.reduction.krylov's logger)."""
+    said: list[str] = []
+    handler = logging.Handler(logging.INFO)
+    handler.emit = lambda record: said.append(record.getMessage())  # type: ignore[method-assign]
+    logger = logging.getLogger(aromm.reduction.krylov.__name__)
+    level = logger.level
+    logger.setLevel(logging.INFO)
+    logger.addHandler(handler)
+    try:
+        yield said
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
 def results(comm: Any) -> dict[str, np.ndarray]:
-    """The runs of :data:`RUNS` on the petsc engine (collective), and whether SLEPc was loaded."""
+    """The runs of :data:`RUNS` on the petsc engine (collective), whether SLEPc was loaded, and the number of
+    ``krylov:`` log lines of each rank."""
+    from aromm.engines.petsc import runtime
+
     out: dict[str, np.ndarray] = {}
-    for name, (shape, order, solver, rtol) in RUNS.items():
-        with dropping(DROP):
-            rom = aromm.reduce(scene(shape), order, method=reductor(rtol), engine="petsc", solver=solver, cache=False)
-        out |= _record(rom, name)
+    with krylov_lines() as said:
+        for name, (shape, order, solver, rtol) in RUNS.items():
+            with dropping(DROP):
+                rom = aromm.reduce(scene(shape), order, method=reductor(rtol), engine="petsc", solver=solver,
+                                   cache=False)
+            out |= _record(rom, name)
     out["slepc_loaded"] = np.array("slepc4py.SLEPc" in sys.modules)
+    out["krylov_log_lines"] = np.array(runtime.mpi(comm).allgather(sum(s.startswith("krylov:") for s in said)))
     return out
 
 

@@ -67,6 +67,13 @@ def test_auto_takes_geometric_multigrid_where_the_grid_halves(runs: dict[str, di
     assert chosen == {"1 rank": "petsc-mg", "2 ranks": "petsc-mg", "2x2x1 boxes": "petsc-gamg"}
 
 
+def test_krylov_log_lines_on_rank_zero_only(runs: dict[str, dict[str, np.ndarray]]) -> None:
+    """The reductor runs on every rank (SPMD); its ``krylov:`` progress lines are said by rank 0 alone."""
+    for label in ("2 ranks", "2x2x1 boxes"):
+        lines = runs[label]["krylov_log_lines"]
+        assert lines[0] > 0 and not lines[1:].any(), (label, lines)
+
+
 def test_no_slepc_in_the_krylov_workers(runs: dict[str, dict[str, np.ndarray]]) -> None:
     for label in ("2 ranks", "2x2x1 boxes"):
         assert not bool(runs[label]["slepc_loaded"]), label

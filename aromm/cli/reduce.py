@@ -32,7 +32,8 @@ from aromm.reduction.offline import METHODS as REDUCTIONS
 @engine_cli.SOLVER
 @click.option("--eigensolver", type=click.Choice(EIGENSOLVERS), default="auto", show_default=True,
               help="Modal bases by ARPACK shift-invert on a factorisation, or by LOBPCG with a multigrid "
-                   "preconditioner (memory: the basis plus the preconditioner); auto picks by size.")
+                   "preconditioner (memory: the basis plus the preconditioner); auto picks by size. With "
+                   "--engine petsc: SLEPc shift-invert, or Generalized Davidson + GAMG.")
 @engine_cli.ENGINE
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
               help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")

@@ -22,7 +22,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem
-from aromm.engines.petsc.eigen import Reference, dirichlet_modes, steklov_modes
+from aromm.engines.petsc.eigen import Reference, choose, dirichlet_modes, steklov_modes
 from aromm.reduction.corrections import enrich
 from aromm.reduction.modal_bases import ModalBasis, check_gram, reference_operators, zero_modes
 
@@ -64,8 +64,11 @@ def correction_count(system: DistributedSystem, samples: list[dict[str, float]])
 
 
 def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
-                  values: Mapping[str, float] | None = None, solver: str = "gamg", *, reserve: int = 0) -> ModalBasis:
-    """Constants + ``n_steklov`` Steklov (counting the constants) + ``n_dirichlet`` Dirichlet modes.
+                  values: Mapping[str, float] | None = None, solver: str = "gamg", *, reserve: int = 0,
+                  eigensolver: str = "arpack") -> ModalBasis:
+    """Constants + ``n_steklov`` Steklov (counting the constants) + ``n_dirichlet`` Dirichlet modes, by shift-invert
+    (``eigensolver="arpack"``, inner ``solver``; also ``"auto"``) or the preconditioned eigensolver (``"lobpcg"``:
+    aromm.engines.petsc.eigen).  ``info`` records the iterations of the preconditioned eigensolver.
 
     The modes are written into one Fortran-ordered array with ``reserve`` more columns, which
     :func:`with_corrections` fills (:func:`correction_count`): the basis is never copied whole."""
@@ -76,11 +79,12 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
     n0 = z.shape[1]
     buffer = np.empty((ref.rows.local, max(n_steklov, n0) + n_dirichlet + reserve), order="F")
     buffer[:, :n0] = z
-    lam_s, v_s = steklov_modes(ref, n_steklov - n0, n0, solver)
+    method = choose(eigensolver)
+    lam_s, v_s, its_s = steklov_modes(ref, n_steklov - n0, z, solver, method)
     buffer[:, n0:n0 + lam_s.size] = v_s
     del v_s
     t_s = time.perf_counter() - start
-    lam_d = dirichlet_modes(ref, n_dirichlet, solver, out=buffer[:, n0 + lam_s.size:])
+    lam_d, its_d = dirichlet_modes(ref, n_dirichlet, solver, buffer[:, n0 + lam_s.size:], method)
     vectors = buffer[:, :n0 + lam_s.size + lam_d.size]
     eigenvalues = np.concatenate([np.zeros(z.shape[1]), lam_s, lam_d])
     kinds = np.array(["zero"] * z.shape[1] + ["steklov"] * lam_s.size + ["dirichlet"] * lam_d.size)
@@ -88,7 +92,8 @@ def compute_basis(system: DistributedSystem, n_dirichlet: int, n_steklov: int,
     cond = check_gram(gram)
     return ModalBasis(vectors, eigenvalues, kinds, ref.zeta, gram,
                       {"seconds": time.perf_counter() - start, "steklov_seconds": t_s, "cached": 0.0,
-                       "gram_condition": cond})
+                       "gram_condition": cond, "steklov_iterations": float(its_s),
+                       "dirichlet_iterations": float(its_d)})
 
 
 def with_corrections(system: DistributedSystem, basis: ModalBasis, samples: list[dict[str, float]],

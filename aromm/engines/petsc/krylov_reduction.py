@@ -6,7 +6,7 @@ as for the engine's other reductions (:func:`aromm.engines.petsc.reduction.distr
 so it builds the span of the scipy engine (same parameter points, shifts, moments and compression) with CG + GAMG
 solves and sums over the ranks.  Collective: every rank calls it and returns the same model; rank 0 alone
 reads and writes the cache (keyed by the content of the image, the scene and every option, not by the number
-of ranks).  No SLEPc call is made.
+of ranks).  No SLEPc call is made; the reductor's ``krylov:`` log lines are said by rank 0 only.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
     memory.start("krylov")
     engine = PetscKrylovEngine(system, linear_solver)
     try:
-        with one_blas_thread():
+        with one_blas_thread(), runtime.root_logs(comm, krylov_model.__module__):
             rom, _, info = krylov_model(engine, system.template, reductor, int(order),
                                         progress=progress and runtime.is_root(comm))
     finally:

@@ -5,7 +5,8 @@ Two choices (the knob ``solver``), both usable as the inner solver of SLEPc's sh
 * ``"gamg"`` (default): conjugate gradients preconditioned by PETSc's algebraic multigrid GAMG; memory
   O(unknowns), cost ≈ O(N^1.1–1.3) (docs/notes/solver_facts.md); converged to ``rtol`` on the
   preconditioned residual, then the true relative residual ``||b − A x|| / ||b||`` is checked.
-* ``"mumps"``: Cholesky factorisation by MUMPS (parallel direct, exact to round-off, memory ≈ N^1.3).
+* ``"mumps"``: Cholesky factorisation by MUMPS (parallel direct, exact to round-off, memory ≈ N^1.3), its
+  analysis in parallel where the MUMPS build has PT-Scotch or ParMETIS (aromm.engines.petsc.mumps).
 
 PETSc options with the prefix of each solver (``-aromm_steady_ksp_rtol 1e-8`` ...) override these choices
 for the expert; failures raise :class:`~aromm.core.errors.NumericalError` naming the solver and why.
@@ -18,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from aromm.core.errors import InputError, NumericalError
-from aromm.engines.petsc import runtime
+from aromm.engines.petsc import mumps, runtime
 
 SOLVERS = ("gamg", "mumps")
 #: Relative residual of the steady solves (face means to ~1e-9 of the temperature scale on the test cases).
@@ -38,13 +39,15 @@ def check_solver(solver: str) -> str:
 
 
 def configure(ksp: Any, solver: str, rtol: float) -> None:
-    """Set ``ksp`` (whose operators are set) to CG + GAMG at ``rtol`` or to a MUMPS Cholesky solve."""
+    """Set ``ksp`` (its options prefix set) to CG + GAMG at ``rtol`` or to a MUMPS Cholesky solve (with
+    :func:`aromm.engines.petsc.mumps.analysis_options`)."""
     PETSc = runtime.petsc()
     pc = ksp.getPC()
     if check_solver(solver) == "mumps":
         ksp.setType(PETSc.KSP.Type.PREONLY)
         pc.setType(PETSc.PC.Type.CHOLESKY)
         pc.setFactorSolverType("mumps")
+        mumps.analysis_options(ksp.getOptionsPrefix() or "", ksp.getComm())
     else:
         ksp.setType(PETSc.KSP.Type.CG)
         pc.setType(PETSc.PC.Type.GAMG)
@@ -78,9 +81,9 @@ def solve(ksp: Any, b: Any, x: Any, label: str, rtol: float) -> int:
     reason = int(ksp.getConvergedReason())
     iterations = int(ksp.getIterationNumber())
     if reason < 0:
+        why = mumps.failure(ksp) or ("is part of the body insulated from every fixed temperature or exchange?")
         raise NumericalError(f"PETSc {ksp.getType()}/{ksp.getPC().getType()} ({label}) diverged (reason {reason}) "
-                             f"after {iterations} iterations: is part of the body insulated from every fixed "
-                             "temperature or exchange?")
+                             f"after {iterations} iterations: {why}")
     mat = ksp.getOperators()[0]
     residual = b.duplicate()
     mat.mult(x, residual)

@@ -24,6 +24,7 @@ from aromm.core.system import ThermalSystem
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, assemble_boxes, distribute_system
 from aromm.engines.petsc.basis import compute_basis, correction_count, with_corrections
+from aromm.engines.petsc.eigen import choose
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.projection import project
@@ -75,11 +76,16 @@ def cached(store: NpzCache | None, key: str, comm: Any) -> ReducedModel | None:
 class PetscModalEngine:
     """The full model distributed by rows (``system``) and the reference cases on the same image (``others``, with
     the cases they were given as), for :func:`aromm.reduction.modal_pipeline.build`.  ``solver``: inner solver of
-    the eigensolvers and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky)."""
+    the eigensolvers and of the correction solves, ``"gamg"`` (CG + GAMG) or ``"mumps"`` (Cholesky);
+    ``eigensolver``: ``"arpack"`` (shift-invert), ``"lobpcg"`` (preconditioned, aromm.engines.petsc.eigen) or
+    ``"auto"``."""
 
     def __init__(self, system: DistributedSystem, others: Sequence[tuple[DistributedSystem, Source | ReferenceCase]],
-                 reference: Mapping[str, float], solver: str, memory: StageMemory) -> None:
+                 reference: Mapping[str, float], solver: str, memory: StageMemory, *,
+                 eigensolver: str = "auto") -> None:
         self.system, self.others, self.solver, self.memory = system, others, solver, memory
+        self.eigensolver = choose(eigensolver)
+        self.iterations: dict[str, float] = {}
         self.cases = reference_cases(system.template, [replace(given, system=other.template)
                                                        if isinstance(given, ReferenceCase) else other.template
                                                        for other, given in others], reference)
@@ -113,7 +119,8 @@ class PetscModalEngine:
     def modal_basis(self, n_dirichlet: int, n_steklov: int, values: Mapping[str, float],
                     samples: list[dict[str, float]]) -> ModalBasis:
         basis = compute_basis(self.system, n_dirichlet, n_steklov, values, self.solver,
-                              reserve=correction_count(self.system, samples))
+                              reserve=correction_count(self.system, samples), eigensolver=self.eigensolver)
+        self.iterations = {k: float(basis.info[k]) for k in ("steklov_iterations", "dirichlet_iterations")}
         if not samples:
             return basis
         self.stage("corrections", f"correction vectors ({len(samples)} parameter samples)")
@@ -136,7 +143,9 @@ def reduce(source: Source, settings: ReductionSettings, *, references: Sequence[
 
     ``source``: a voxel :class:`~aromm.scene.scene_file.Scene` or box-read :class:`VoxelProblem` (assembled by
     boxes), or a ThermalSystem every rank holds (distributed by rows).  ``settings.solver``: ``"gamg"`` or
-    ``"mumps"`` (:func:`aromm.engines.petsc.linear.check_solver`).
+    ``"mumps"`` (:func:`aromm.engines.petsc.linear.check_solver`); ``settings.eigensolver``: the eigenbases by
+    SLEPc's shift-invert (``"arpack"``, also ``"auto"``) or preconditioned eigensolver (``"lobpcg"``,
+    :func:`aromm.engines.petsc.eigen.choose`).
     """
     reductor = resolve_reductor(settings.method)
     solver = linear.check_solver(settings.solver)
@@ -150,17 +159,19 @@ def reduce(source: Source, settings: ReductionSettings, *, references: Sequence[
     for other, _ in others:
         if other.n != system.n:
             raise InputError(f"reference case {other.description!r} has {other.n} unknowns, the system {system.n}")
-    engine = PetscModalEngine(system, others, settings.reference, solver, memory)
+    engine = PetscModalEngine(system, others, settings.reference, solver, memory,
+                              eigensolver=settings.eigensolver)
     chosen = modal_pipeline.plan(engine, replace(settings, solver=solver), reductor)
     store = resolve_cache(cache)
     found = cached(store, chosen.key, comm)
     if found is not None:
         return found
-    rom, _, basis = modal_pipeline.build(engine, replace(settings, solver=solver), reductor, chosen)
+    with runtime.root_logs(comm, modal_pipeline.__name__):  # its log lines once, not once per rank
+        rom, _, basis = modal_pipeline.build(engine, replace(settings, solver=solver), reductor, chosen)
     engine.stage("", "done")
     info = {**rom.info, "offline_seconds": time.perf_counter() - start, "assembly_seconds": assembly, **engine.stages,
             **memory.record(), "basis_bytes": runtime.allmax(basis.vectors.nbytes, comm), "engine": "petsc",
-            "ranks": runtime.size(comm), "solver": solver}
+            "ranks": runtime.size(comm), "solver": solver, "eigensolver": engine.eigensolver, **engine.iterations}
     rom = replace(rom, info=info)
     if store is not None and runtime.is_root(comm):
         store.save("rom", chosen.key, to_arrays(rom))

@@ -6,6 +6,9 @@ every rank, so a check that fails fails everywhere and every rank raises the sam
 
 from __future__ import annotations
 
+import contextlib
+import logging
+from collections.abc import Iterator
 from types import ModuleType
 from typing import Any
 
@@ -51,6 +54,24 @@ def size(comm: Any) -> int:
 
 def is_root(comm: Any) -> bool:
     return rank(comm) == 0
+
+
+@contextlib.contextmanager
+def root_logs(comm: Any, *names: str) -> Iterator[None]:
+    """While inside, the records below WARNING of the loggers ``names`` are dropped on every rank but 0: the serial
+    code those loggers belong to runs unchanged on every rank (SPMD) and would say the same line once per rank."""
+
+    def below_warning(record: logging.LogRecord) -> bool:
+        return record.levelno >= logging.WARNING
+
+    loggers = [logging.getLogger(name) for name in names] if not is_root(comm) else []
+    for logger in loggers:
+        logger.addFilter(below_warning)
+    try:
+        yield
+    finally:
+        for logger in loggers:
+            logger.removeFilter(below_warning)
 
 
 def allsum(values: npt.ArrayLike, comm: Any) -> np.ndarray:
