@@ -189,3 +189,16 @@ def test_fingerprint_tells_matrix_free_systems_apart() -> None:
     assert a.fingerprint() == b.fingerprint() != c.fingerprint()
     term = a.conductance.terms[0].operator
     assert isinstance(term, VoxelTerm) and term.restricted(np.arange(3)) is None
+
+
+def test_krylov_reduction_of_a_large_voxel_scene_assembles_matrix_free_terms() -> None:
+    """Above MATRIX_FREE_ABOVE nodes a voxel scene reduced by the Krylov method gets matrix-free terms; the amalgam
+    and small scenes keep the assembled ones."""
+    from aromm.reduction.offline import MATRIX_FREE_ABOVE, matrix_free_krylov
+    from aromm.scene.reduction_section import ReductionSettings
+    from aromm.studies.chavez2020 import loading, small_wood
+
+    for n, method, expected in ((28, "krylov", True), (28, "aromm", False), (12, "krylov", False)):
+        scene = loading(small_wood(n), "z")
+        assert ((n + 1) ** 3 > MATRIX_FREE_ABOVE) == (n == 28)
+        assert matrix_free_krylov(scene, ReductionSettings(method=method), references=False) is expected
