@@ -90,7 +90,10 @@ class VoxelTerm:
         """``A x`` for a vector (n,) or a block (n, m) on the unknowns."""
         x = np.asarray(x, dtype=float)
         if x.ndim == 2:
-            return np.column_stack([self @ x[:, j] for j in range(x.shape[1])]) if x.shape[1] else x.copy()
+            out = np.empty((self.free.size, x.shape[1]))
+            for j in range(x.shape[1]):
+                out[:, j] = self @ x[:, j]
+            return out
         if self.kind == "exchange":
             return np.asarray(self.grid.face_mass(self.face) @ self._embed(x))[self.free]
         return self.operator.matvec(self._embed(x), constrained=False)[self.free]

@@ -89,8 +89,10 @@ def project(affine: Affine, basis: FloatArray, memo: dict[int, FloatArray] | Non
     for t in affine.terms:
         key = id(t.operator)
         if key not in memo:
-            if is_matrix_free(t.operator):
-                memo[key] = basis.T @ np.asarray(t.operator @ basis)
+            if is_matrix_free(t.operator):  # column by column: no (n × r) product held
+                memo[key] = np.column_stack([basis.T @ np.asarray(t.operator @ basis[:, j])
+                                             for j in range(basis.shape[1])]) if basis.shape[1] else \
+                    np.zeros((0, 0))
             elif sp.issparse(t.operator):
                 memo[key] = basis.T @ (sp.csr_array(t.operator) @ basis)
             else:
