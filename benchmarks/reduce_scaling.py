@@ -110,8 +110,17 @@ def worker(n: int, eigensolver: str, steps: int, amg_above: int, *, float32: boo
     return out
 
 
+def matrix_free_system(scene: Any) -> Any:
+    """The scene's voxel system with matrix-free conduction, capacity and convection terms (aromm.fem.voxel_terms)."""
+    from aromm.fem.voxel import assemble_voxels
+
+    geo = scene.geometry
+    return assemble_voxels(geo.labels, geo.voxel_size, scene.phases, scene.boundary, time=scene.time,
+                           initial_T=scene.initial_T, outputs=scene.outputs, matrix_free=True)
+
+
 def krylov_worker(n: int, *, rtol: float, order: int, truth_dir: Path | None, cache: Path | None,
-                  check_only: bool = False) -> dict[str, object]:
+                  check_only: bool = False, assembled: bool = False) -> dict[str, object]:
     """The Krylov reductor (order ``order`` over :data:`BOX`) on the n³ VER, checked against the stored full model
     (benchmarks/scaling_truth.py) at the reference and at the slow corner.  ``cache``: a folder the model is stored
     in (the key of ``aromm reduce`` on the same scene: benchmarks/end_to_end.py then identifies with it)."""
@@ -127,10 +136,11 @@ def krylov_worker(n: int, *, rtol: float, order: int, truth_dir: Path | None, ca
     from aromm.studies.chavez2020 import loading, small_wood
 
     logging.basicConfig(level=logging.INFO, stream=sys.stderr, format="%(asctime)s %(message)s")
-    out: dict[str, object] = {"n": n, "eigensolver": "krylov", "load_start": os.getloadavg()[0], "rtol": rtol}
+    out: dict[str, object] = {"n": n, "eigensolver": "krylov", "load_start": os.getloadavg()[0], "rtol": rtol,
+                              "terms": "assembled" if assembled else "matrix-free"}
     wall, cpu = time.perf_counter(), time.process_time()
     scene = loading(small_wood(n), "z")
-    system = assemble(scene)
+    system = assemble(scene) if assembled else matrix_free_system(scene)
     out["nodes"], out["assembly_cpu"] = system.n, time.process_time() - cpu
     out["peak_gb_assembly"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     reductor = KrylovReductor.over(BOX, rtol=rtol)
@@ -209,6 +219,8 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, default=None, help="Krylov: keep the model in this cache folder")
     parser.add_argument("--check-only", action="store_true",
                         help="Krylov: check the model stored in --cache against --truth-dir (its build is not timed)")
+    parser.add_argument("--assembled", action="store_true",
+                        help="Krylov: assemble the terms as sparse matrices (default: matrix-free voxel terms)")
     parser.add_argument("--truth-dir", type=Path, default=None,
                         help="Krylov: folder of the full-model references of benchmarks/scaling_truth.py")
     parser.add_argument("--steps", type=int, default=300, help="time steps of the full model compared (dt 0.1 s)")
@@ -237,7 +249,8 @@ def main() -> None:
         if args.worker[1] == "krylov":
             sys.path.insert(0, str(Path(__file__).parent))
             result = krylov_worker(int(args.worker[0]), rtol=args.rtol, order=args.krylov_order,
-                                   truth_dir=args.truth_dir, cache=args.cache, check_only=args.check_only)
+                                   truth_dir=args.truth_dir, cache=args.cache, check_only=args.check_only,
+                                   assembled=args.assembled)
         else:
             result = worker(int(args.worker[0]), args.worker[1], args.steps, args.amg_above, float32=args.float32,
                             half_step=args.half_step)
@@ -253,7 +266,7 @@ def main() -> None:
                        "--rtol", str(args.rtol), "--krylov-order", str(args.krylov_order)] + (
                        ["--truth-dir", str(args.truth_dir)] if args.truth_dir else []) + (
                        ["--cache", str(args.cache)] if args.cache else []) + (
-                       ["--check-only"] if args.check_only else [])
+                       ["--check-only"] if args.check_only else []) + (["--assembled"] if args.assembled else [])
             env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
             done = subprocess.run(cmd, stdout=subprocess.PIPE, text=True, env=env, check=False)  # stderr: progress
             if done.returncode != 0:

@@ -4,7 +4,8 @@ Scenario 1 of [Chavez2020, Table 1] on ``aromm.studies.chavez2020.small_wood(n)`
 on z1), at the reference point (k_F, c_F) = (0.3 W/(m K), 4e6 J/(m³ K)) and at the slow corner of the identification
 box (0.1, 1e7), over the first ``--horizon`` seconds (outputs every 2 dt, the times both runs share).  The full
 model is stepped by BDF2 (``aromm.full.solve.transient``, linear solver ``mg``: multigrid-preconditioned CG, relative
-residual 1e-8 per step) at dt = 0.1 s and at dt/2; the file keeps both, so the reader forms the Richardson value
+residual 1e-8 per step, on matrix-free voxel terms: :mod:`aromm.full.voxel_transient`) at dt = 0.1 s and at dt/2;
+the file keeps both, so the reader forms the Richardson value
 (4 T(dt/2) − T(dt)) / 3 (time error O(dt³)) and the full model's own BDF2 error 4/3 |T(dt) − T(dt/2)|.
 
     nice python benchmarks/scaling_truth.py --sizes 46 64 96 128 --out truth/
@@ -37,13 +38,14 @@ def path_for(out: Path, n: int) -> Path:
 
 
 def compute(n: int, horizon: float, out: Path, half: bool) -> dict[str, float]:
+    from reduce_scaling import matrix_free_system
+
     from aromm.core.system import TimeGrid
     from aromm.full.solve import transient
-    from aromm.scene.scene_file import assemble
     from aromm.studies.chavez2020 import loading, small_wood
 
     wall, cpu, load = time.perf_counter(), time.process_time(), os.getloadavg()[0]
-    system = assemble(loading(small_wood(n), "z"))
+    system = matrix_free_system(loading(small_wood(n), "z"))  # no matrix assembled (aromm.full.voxel_transient)
     times = np.arange(0.0, horizon + 1e-9, 2 * DT)
     arrays: dict[str, np.ndarray] = {"times": times, "names": np.array(system.observation_matrix()[0])}
     for name, point in POINTS.items():
@@ -83,6 +85,7 @@ def main() -> None:
     parser.add_argument("--worker", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
+        sys.path.insert(0, str(Path(__file__).parent))
         print(json.dumps(compute(args.worker, args.horizon, args.out, args.worker <= args.half_up_to)))
         return
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}

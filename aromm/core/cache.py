@@ -85,6 +85,8 @@ def _feed(h: hashlib._Hash, part: object) -> None:
         for k in sorted(part):
             _feed(h, str(k))
             _feed(h, part[k])
+    elif hasattr(part, "content_parts"):  # a matrix-free operator names what identifies it
+        _feed(h, part.content_parts())
     elif isinstance(part, list | tuple):
         h.update(b"seq%d" % len(part))
         for p in part:

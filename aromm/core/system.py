@@ -100,6 +100,19 @@ Role = Literal["capacity", "conduction", "exchange", "load", "initial", "output"
 ROLES: tuple[Role, ...] = ("capacity", "conduction", "exchange", "load", "initial", "output")
 
 
+def is_matrix_free(operator: object) -> bool:
+    """True for a matrix-free term operator (``@``, ``shape``, ``diagonal`` and ``tocsr``, e.g.
+    aromm.fem.voxel_terms.VoxelTerm), false for sparse matrices and arrays."""
+    return not sp.issparse(operator) and not isinstance(operator, np.ndarray) and hasattr(operator, "tocsr")
+
+
+def sparse(operator: object) -> sp.csr_array:
+    """A term's matrix as CSR; a matrix-free operator is assembled (small systems, code that needs a matrix)."""
+    if is_matrix_free(operator):
+        return sp.csr_array(operator.tocsr())  # type: ignore[attr-defined]
+    return sp.csr_array(operator)
+
+
 @dataclass(frozen=True)
 class Term:
     """One named affine term: ``coefficient(p) * operator`` (a sparse or dense matrix, or a vector).
@@ -182,7 +195,7 @@ class Affine:
         factors = self._factors(at)
         total: sp.csr_array | FloatArray | None = None
         for t, g in zip(self.terms, factors, strict=True):
-            part = float(t.coefficient(values)) * g * t.operator
+            part = float(t.coefficient(values)) * g * (sparse(t.operator) if is_matrix_free(t.operator) else t.operator)
             total = part if total is None else total + part
         assert total is not None
         return sp.csr_array(total) if sp.issparse(total) else np.asarray(total)

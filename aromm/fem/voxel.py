@@ -177,6 +177,18 @@ class VoxelGrid:
     def _reference(self) -> dict[str, FloatArray]:
         return element_matrices(self.voxel_size)
 
+    @functools.cached_property
+    def all_nodes(self) -> npt.NDArray[np.intp]:
+        """``arange(n)``, shared by the matrix-free terms of a grid without fixed faces."""
+        return np.arange(self.n)
+
+    @functools.cached_property
+    def voxel_phase(self) -> npt.NDArray[np.integer]:
+        """Phase index per voxel as a (nz, ny, nx) array (the layout of aromm.linalg.multigrid), smallest dtype."""
+        nx, ny, nz = self.shape
+        dtype = np.min_scalar_type(max(int(self.phase.max()), 0))
+        return np.ascontiguousarray(self.phase.reshape(nx, ny, nz).transpose(2, 1, 0).astype(dtype))
+
     def _connectivity(self, phase: int) -> npt.NDArray[np.int64]:
         return connectivity(self.shape, np.flatnonzero(self.phase == phase))
 
@@ -224,8 +236,13 @@ def assemble_voxels(
     time: TimeGrid | None = None,
     initial_T: float = 0.0,
     outputs: Sequence[str] = (),
+    matrix_free: bool = False,
 ) -> ThermalSystem:
     """Assemble the voxel model into a :class:`ThermalSystem` with only the terms asked for.
+
+    ``matrix_free``: conduction, capacity and convection terms as matrix-free operators
+    (:mod:`aromm.fem.voxel_terms`, ≈ 1 byte per voxel instead of ≈ 330 bytes per node each), which the Krylov
+    reduction and the multigrid transient use as they are; other consumers assemble them (``tocsr``).
 
     >>> import numpy as np
     >>> labels = np.zeros((2, 2, 2), dtype=int)
@@ -245,8 +262,13 @@ def assemble_voxels(
     grid = VoxelGrid(shape, (voxel_size[0], voxel_size[1], voxel_size[2]), phase)
     present = [i for i in range(len(phases)) if np.any(phase == i)]
     transient = time is not None
-    volume = phase_terms(grid, phases, present, transient=transient)
-    faces, dirichlet = face_terms(grid, boundary)
+    disc = grid
+    if matrix_free:
+        from aromm.fem.voxel_terms import MatrixFreeGrid  # the matrix-free terms sit on this module's grid
+
+        disc = MatrixFreeGrid(grid)  # type: ignore[assignment]
+    volume = phase_terms(disc, phases, present, transient=transient)
+    faces, dirichlet = face_terms(disc, boundary)
     terms = volume + faces
     return ThermalSystem(
         n=grid.n,

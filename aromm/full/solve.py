@@ -6,7 +6,8 @@ Transient:  C(p) dT/dt + K(p) T = F(p), T(0) = T0    [Chavez2020, eq. 3]
 Time stepping is implicit and L-stable: backward Euler (order 1) or BDF2 (order 2,
 started by one backward-Euler step).  The iteration matrix ``a C / dt + K`` is
 factorised once per parameter set and reused at every step (aromm.linalg.direct; CHOLMOD when
-available).  Fixed temperatures are eliminated: the unknowns are the free nodes only,
+available); a matrix-free voxel system with ``method="mg"`` is stepped without any matrix
+(:mod:`aromm.full.voxel_transient`).  Fixed temperatures are eliminated: the unknowns are the free nodes only,
 and the fixed nodes hold their value from t = 0 on.  Loads and fixed temperatures that vary in
 time (a history g(t), :mod:`aromm.core.profiles`) are evaluated at the step times ``t_n`` (implicit);
 a fixed temperature that varies adds its capacity coupling ``C_fd dT_d/dt``, differentiated by the
@@ -35,6 +36,7 @@ from aromm.core.observables import Observables
 from aromm.core.profiles import Profile, time_factor
 from aromm.core.resources import FLOAT
 from aromm.core.system import FloatArray, ParamValues, ThermalSystem, TimeGrid
+from aromm.full.voxel_transient import is_matrix_free_voxel, voxel_steps
 from aromm.linalg.direct import factorize
 
 Scheme = Literal["bdf2", "euler"]
@@ -218,6 +220,12 @@ def transient(
     grid = transient_grid(system.time, system.is_steady, scheme)
     t_out, steps = output_steps(times, grid)
     v = system.values(values)
+    if method == "mg" and not fields and not system.dirichlet and is_matrix_free_voxel(system):  # no matrix at all
+        names, e = system.observation_matrix()
+        step_t, step_y = voxel_steps(system, v, steps, grid.dt, scheme=scheme,
+                                     output=lambda x, t: e @ x + _outputs_at(system, v, t))
+        rows = interpolate_rows(t_out, np.asarray(step_t), np.asarray(step_y))
+        return Observables(t=t_out, mean_T={name: rows[:, i] for i, name in enumerate(names)})
     part = _partition(system, v)
     c_ff, c_fd = _split(sp.csr_array(system.capacity.evaluate(v)), part)
     k_ff, k_fd = _split(sp.csr_array(system.conductance.evaluate(v)), part)

@@ -37,8 +37,12 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.profiles import Profile
-from aromm.core.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem
+from aromm.core.system import Affine, Coefficient, FloatArray, Geometry, Term, ThermalSystem, is_matrix_free, sparse
+from aromm.fem.voxel_terms import as_voxel_terms, harmonic_extension, is_voxel_family
 from aromm.linalg.direct import factorize
+
+#: Unknowns from which a system of matrix-free voxel terms is lifted by matrix-free multigrid (below: assembled).
+MATRIX_FREE_LIFTING = 20_000
 
 
 def _restricted(affine: Affine, free: np.ndarray) -> list[Term]:
@@ -46,7 +50,10 @@ def _restricted(affine: Affine, free: np.ndarray) -> list[Term]:
     out = []
     for t in affine.terms:
         op = t.operator
-        sub = sp.csr_array(sp.csr_array(op)[free][:, free]) if sp.issparse(op) else np.asarray(op)[free]
+        if is_matrix_free(op):  # a voxel term stays matrix-free when the fixed nodes are whole faces
+            sub = op.restricted(free) or sparse(op)[free][:, free]  # type: ignore[union-attr]
+        else:
+            sub = sp.csr_array(sp.csr_array(op)[free][:, free]) if sp.issparse(op) else np.asarray(op)[free]
         out.append(Term(t.name, t.coefficient, sub, t.role, t.time))
     return out
 
@@ -62,7 +69,9 @@ def _lifting_loads(affine: Affine, vec: FloatArray, free: np.ndarray, scale: Coe
     out = []
     for t in affine.terms:
         load = -np.asarray(t.operator @ vec)[free]
-        size = float(np.abs(sp.csr_array(t.operator).data).max(initial=0.0)) * float(np.abs(vec).max(initial=0.0))
+        largest = t.operator.abs_max() if is_matrix_free(t.operator) else float(  # type: ignore[union-attr]
+            np.abs(sp.csr_array(t.operator).data).max(initial=0.0))
+        size = largest * float(np.abs(vec).max(initial=0.0))
         if float(np.abs(load).max(initial=0.0)) > NULL_LOAD * size:
             out.append(Term(f"{t.name}·{suffix}", t.coefficient.times(scale), load, "load", time))
     return out
@@ -76,6 +85,15 @@ def liftings(system: ThermalSystem, values: Mapping[str, float] | None = None, m
     if free.size == 0:
         raise InputError("every unknown has a fixed temperature: nothing to reduce")
     vals = system.values({k: v for k, v in (values or {}).items() if k in system.parameter_names})
+    ell = np.zeros((system.n, len(system.dirichlet)))
+    for i in range(len(system.dirichlet)):
+        ell[fixed, i] = (owner[fixed] == i).astype(float)
+    ops = [t.operator for t in system.conductance.terms]
+    if is_voxel_family(ops) and method in ("auto", "mg") and system.n >= MATRIX_FREE_LIFTING:
+        weights = [float(t.coefficient(vals)) for t in system.conductance.terms]
+        for i in range(ell.shape[1]):
+            ell[:, i] = harmonic_extension(as_voxel_terms(ops), weights, ell[:, i], free)
+        return ell
     k = sp.csr_array(system.conductance.evaluate(vals))
     rows = k[free]
     k_ff, k_fd = sp.csr_array(rows[:, free]), sp.csr_array(rows[:, fixed])

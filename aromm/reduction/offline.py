@@ -44,6 +44,7 @@ from aromm.reduction.modal_pipeline import ReferenceCase, default_modes, relaxat
 from aromm.reduction.pod import PodReductor
 from aromm.reduction.reductors import Reductor
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
+from aromm.reduction.scipy_engine import DIRECT_BELOW
 from aromm.reduction.scipy_modal import ScipyModalEngine
 from aromm.scene.reduction_section import REDUCTION_METHODS, ReductionSettings
 from aromm.scene.scene_file import Scene, assemble
@@ -137,7 +138,7 @@ def reduce(
     """
     settings = (settings or ReductionSettings()).updated(order=order, **options)
     if isinstance(system, Scene):
-        system = assemble(system)
+        system = assemble(system, matrix_free=matrix_free_krylov(system, settings, bool(references)))
     for label, given in (("basis_values", settings.basis), ("reference_values", settings.reference)):
         unknown = sorted(set(given) - system.parameter_names)
         if unknown:
@@ -195,6 +196,23 @@ def _check_mode_count(settings: ReductionSettings, chosen: modal_pipeline.ModalP
         default = '' if settings.modes is not None else f' (default 1.5 × order {settings.order} + 20)'
         warnings.warn(f"Ñ = {asked} modes asked{default}, but the mesh has {n} free unknowns: Ñ = {used} modes used "
                       f"({chosen.n_dirichlet} Dirichlet, {chosen.n_steklov} Steklov)", InputWarning, stacklevel=3)
+
+
+#: Grid nodes above which a voxel scene reduced by the Krylov method is assembled with matrix-free terms
+#: (aromm.fem.voxel_terms): where its shifted solves use multigrid (aromm.reduction.scipy_engine.DIRECT_BELOW); below,
+#: CHOLMOD needs the matrices anyway.  Measured on small_wood(32) (35,937 nodes; benchmarks/reduce_scaling.py,
+#: docs/one_machine.md): 15.2 CPU s and 0.35 GB matrix-free against 18.5 CPU s and 0.42 GB assembled.
+MATRIX_FREE_ABOVE = DIRECT_BELOW
+
+
+def matrix_free_krylov(scene: Scene, settings: ReductionSettings, references: bool) -> bool:
+    """True for a voxel scene above :data:`MATRIX_FREE_ABOVE` nodes that the Krylov method reduces."""
+    shape = getattr(scene.geometry, "shape", None)
+    if not isinstance(shape, tuple):
+        return False
+    nodes = int(np.prod(np.asarray(shape) + 1))
+    return nodes > MATRIX_FREE_ABOVE and KrylovReductor.named(settings.method_for(nodes, references),
+                                                               settings.bounds) is not None
 
 
 def _with_fields(rom: ReducedModel, original: ThermalSystem, psi: FloatArray, basis_values: Mapping[str, float],

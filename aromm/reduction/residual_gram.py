@@ -43,7 +43,7 @@ class ResidualGram:
         gram = np.zeros((p + m * r, p + m * r))
         for start in range(0, basis.shape[0], chunk):
             rows = slice(start, min(start + chunk, basis.shape[0]))
-            block = np.hstack([u[rows], *(np.asarray(a[rows] @ basis) for a in operators)])
+            block = np.hstack([u[rows], *(_rows_product(a, rows, basis) for a in operators)])
             gram += block.T @ block
         return cls(key, gram, p, m, r)
 
@@ -55,3 +55,10 @@ class ResidualGram:
         c = np.concatenate([np.broadcast_to(a.T, (s, q, self.inputs)), parts], axis=2)
         squared = np.einsum("kij,jl,kil->ki", c, self.gram, c)
         return np.sqrt(np.maximum(squared, 0.0))
+
+
+def _rows_product(a: sp.csr_array, rows: slice, basis: FloatArray) -> FloatArray:
+    """Rows ``rows`` of ``a @ basis``; a matrix-free operator computes them from its own slab (``row_block``)."""
+    if hasattr(a, "row_block"):
+        return np.asarray(a.row_block(rows.start, rows.stop, basis))
+    return np.asarray(a[rows] @ basis)

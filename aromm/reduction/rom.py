@@ -44,7 +44,16 @@ from aromm.core.forward_model import one_set
 from aromm.core.observables import Observables
 from aromm.core.profiles import Profile
 from aromm.core.resources import FLOAT
-from aromm.core.system import Affine, Coefficient, FloatArray, Term, ThermalSystem, TimeGrid, require_free_transient
+from aromm.core.system import (
+    Affine,
+    Coefficient,
+    FloatArray,
+    Term,
+    ThermalSystem,
+    TimeGrid,
+    is_matrix_free,
+    require_free_transient,
+)
 from aromm.reduction.modal_integration import ModalForm
 
 #: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
@@ -80,7 +89,11 @@ def project(affine: Affine, basis: FloatArray, memo: dict[int, FloatArray] | Non
     for t in affine.terms:
         key = id(t.operator)
         if key not in memo:
-            if sp.issparse(t.operator):
+            if is_matrix_free(t.operator):  # column by column: no (n × r) product held
+                memo[key] = np.column_stack([basis.T @ np.asarray(t.operator @ basis[:, j])
+                                             for j in range(basis.shape[1])]) if basis.shape[1] else \
+                    np.zeros((0, 0))
+            elif sp.issparse(t.operator):
                 memo[key] = basis.T @ (sp.csr_array(t.operator) @ basis)
             else:
                 memo[key] = basis.T @ np.asarray(t.operator, dtype=float)
@@ -126,7 +139,7 @@ class ReducedModel:
         fields = [(Coefficient(("initial.T",)), np.ones(system.n), "")]
         fields += [(t.coefficient, np.asarray(t.operator, dtype=float), f"·{t.name}") for t in system.initial.terms]
         initial = Affine(tuple(
-            Term(t.name + suffix, t.coefficient.times(coef), basis.T @ (sp.csr_array(t.operator) @ vec), "capacity")
+            Term(t.name + suffix, t.coefficient.times(coef), basis.T @ np.asarray(t.operator @ vec), "capacity")
             for coef, vec, suffix in fields for t in system.capacity.terms))
         outputs, e = system.observation_matrix()
         e_basis = np.asarray(e @ basis)  # dense or sparse (sensor) rows

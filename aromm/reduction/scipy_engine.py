@@ -28,7 +28,8 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from aromm.core.errors import InputError
-from aromm.core.system import FloatArray, ThermalSystem, dense
+from aromm.core.system import FloatArray, ThermalSystem, dense, is_matrix_free, sparse
+from aromm.fem.voxel_terms import VoxelTerm, as_voxel_terms, is_voxel_family, shifted_operator, weighted_product
 from aromm.linalg.direct import check_residual, factorize, resolve_method
 from aromm.linalg.orderings import nested_dissection
 from aromm.reduction.engine_protocol import SolveStats
@@ -90,8 +91,11 @@ class ScipyEngine:
         self.system = system
         points = system.geometry.points if system.geometry is not None else None
         self.points = points if points is not None and points.shape[0] == system.n else None
+        operators = [t.operator for t in (*system.conductance.terms, *system.capacity.terms)]
+        self.voxel = is_voxel_family(operators)  # matrix-free voxel terms: no matrix is ever assembled
         if solver == "auto":
-            solver = "mg" if system.n >= DIRECT_BELOW and self.points is not None else resolve_method("auto")
+            on_grid = self.points is not None or self.voxel
+            solver = "mg" if system.n >= DIRECT_BELOW and on_grid else resolve_method("auto")
         self.method = resolve_method(solver) if solver != "mg" else "mg"
         self._stats = SolveStats(method=self.method)
         self._solver: tuple[tuple[object, ...], object] | None = None
@@ -114,7 +118,7 @@ class ScipyEngine:
         cols = [np.asarray(t.operator, dtype=float) for t in self.system.load.terms]
         if self.initial:
             fields = [np.ones(self.size)] + [np.asarray(t.operator, dtype=float) for t in self.system.initial.terms]
-            cols += [sp.csr_array(c.operator) @ f for f in fields for c in self.system.capacity.terms]
+            cols += [np.asarray(c.operator @ f) for f in fields for c in self.system.capacity.terms]
         return np.column_stack(cols) if cols else np.zeros((self.size, 0))
 
     def input_terms(self) -> FloatArray:
@@ -148,6 +152,9 @@ class ScipyEngine:
         """``C(μ) X`` term by term, ``Σ_t c_t(μ) (C_t X)``: no summed matrix is formed."""
         v = self.system.values(values)
         terms = self.system.capacity.terms
+        if self.voxel:  # one matrix-free pass for all phases
+            return weighted_product(as_voxel_terms([t.operator for t in terms]),
+                                    [float(t.coefficient(v)) for t in terms], block)
         out = float(terms[0].coefficient(v)) * np.asarray(terms[0].operator @ block)
         for t in terms[1:]:
             out += float(t.coefficient(v)) * np.asarray(t.operator @ block)
@@ -184,11 +191,13 @@ class ScipyEngine:
         from aromm.linalg.multigrid.pcg import MultigridSolver
 
         terms = (*self.system.conductance.terms, *self.system.capacity.terms)
-        if self._affine is None:
-            self._affine = AffineGrid.build([t.operator for t in terms], self.points, coarsest=COARSEST)
         v = self.system.values(values)
         weights = [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
             shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
+        if self.voxel:
+            return self._voxel_solver(as_voxel_terms([t.operator for t in terms]), weights, rtol, shift)
+        if self._affine is None:
+            self._affine = AffineGrid.build([sparse(t.operator) for t in terms], self.points, coarsest=COARSEST)
         grid = self._affine.operator(weights)  # type: ignore[attr-defined]
         mg = MultigridSolver(grid, rtol=rtol, coarsest=COARSEST)
 
@@ -203,6 +212,28 @@ class ScipyEngine:
                 log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",
                          mg.at_floor, len(mg.iterations), shift, rtol)
             return np.asarray(x)
+
+        return iterative
+
+    def _voxel_solver(self, terms: list[VoxelTerm], weights: list[float], rtol: float, shift: float) -> object:
+        """Multigrid-PCG on the matrix-free ``K(μ) + s C(μ)`` (:func:`aromm.fem.voxel_terms.shifted_operator`): the
+        hierarchy from per-phase class values, the unknowns embedded in the grid (zeros on fixed faces)."""
+        from aromm.linalg.multigrid.pcg import MultigridSolver
+
+        mg = MultigridSolver(shifted_operator(terms, weights), rtol=rtol, coarsest=COARSEST)
+        free, n = terms[0].free, terms[0].grid.n
+
+        def iterative(b: FloatArray) -> FloatArray:
+            x = np.zeros_like(b)
+            for j in range(b.shape[1]):
+                full = np.zeros(n)
+                full[free] = b[:, j]
+                x[:, j] = mg.solve(full)[free]
+            self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
+            if mg.at_floor:
+                log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",
+                         mg.at_floor, len(mg.iterations), shift, rtol)
+            return x
 
         return iterative
 
@@ -249,8 +280,9 @@ class ScipyEngine:
         key = (id(basis), basis.shape, float(basis[:, -1].sum()))
         if self._gram is None or self._gram.key != key:
             self._gram = None  # release the previous one first
-            self._gram = ResidualGram.of(key, self._terms, [sp.csr_array(t.operator) for t in (*conduction, *capacity)],
-                                         basis)
+            ops = [t.operator if is_matrix_free(t.operator) else sp.csr_array(t.operator)
+                   for t in (*conduction, *capacity)]
+            self._gram = ResidualGram.of(key, self._terms, ops, basis)
         v = self.system.values(values)
         k = np.array([float(t.coefficient(v)) for t in conduction])
         c = np.array([float(t.coefficient(v)) for t in capacity])

@@ -57,12 +57,12 @@ class VoxelGeometry:
 
     def assemble(self, phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], *,
                  interfaces: Mapping[tuple[str, str], float], time: TimeGrid | None, initial_T: float,
-                 outputs: Sequence[str], where: str = "") -> ThermalSystem:
+                 outputs: Sequence[str], where: str = "", matrix_free: bool = False) -> ThermalSystem:
         if interfaces:
             raise InputError(f"{where}[interfaces]: contact resistance needs a conforming mesh (geometry.mesh); "
                              "voxel images have no interface surface to put it on")
         return assemble_voxels(self.labels, self.voxel_size, phases, boundary, time=time, initial_T=initial_T,
-                               outputs=outputs)
+                               outputs=outputs, matrix_free=matrix_free)
 
 
 @dataclass(frozen=True, eq=False)

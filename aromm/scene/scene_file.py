@@ -117,18 +117,20 @@ class Scene:
         return replace(self, boundary=boundary, outputs=outputs, time=time, sensors=())
 
 
-def assemble(scene: Scene) -> ThermalSystem:
+def assemble(scene: Scene, matrix_free: bool = False) -> ThermalSystem:
     """Assemble a scene into a :class:`ThermalSystem` holding only the effects it calls for.
 
-    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel).  Mesh scenes: Lagrange simplices with
+    Voxel scenes: one Q1 hexahedron per voxel (aromm.fem.voxel); with ``matrix_free`` its terms are matrix-free
+    operators (aromm.fem.voxel_terms; mesh scenes are assembled whatever it says).  Mesh scenes: Lagrange simplices with
     the interface conductance 1/R on split interface nodes (aromm.fem.mesh).  Sensors add their observation
     rows after the face means (aromm.scene.sensors).
     """
     singular = singular_boundary(scene.boundary, scene.time)
     if singular:
         raise InputError(f"{scene.where}{singular}")
+    free = {"matrix_free": True} if matrix_free and isinstance(scene.geometry, VoxelGeometry) else {}
     system = scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
-                                     initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where)
+                                     initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where, **free)
     if not scene.sensors:
         return system
     rows = sensor_rows(scene.sensors, scene.geometry, system, scene.where)

@@ -77,7 +77,7 @@ class ElementLevel:
     @classmethod
     def fine(cls, op: VoxelOperator) -> ElementLevel:
         """The fine level of ``op`` (27 values per voxel: for small grids, direct solvers and tests)."""
-        values = np.moveaxis(op.class_values[op.phase], (3, 4, 5), (0, 1, 2))
+        values = fine_values(op, (0, op.elements[0]), (0, op.elements[1]), (0, op.elements[2]))
         mask_fixed(values, op.fixed, (0, 0, 0), op.elements)
         return cls(np.ascontiguousarray(values), op.periodic, op.fixed)
 
@@ -89,12 +89,10 @@ class ElementLevel:
         face is one of ``len(phases)⁸`` cases: its 27 values are looked up by the code of its children's
         phases, and only the elements at fixed faces or at the lone end of an odd axis are coarsened.
         """
-        table = op.class_values
-
         def source(k0: int, k1: int) -> FloatArray:
-            return np.moveaxis(table[op.phase[k0:k1]], (3, 4, 5), (0, 1, 2))
+            return fine_values(op, (k0, k1), (0, op.elements[1]), (0, op.elements[2]))
 
-        if len(table) ** 8 > LOOKUP_CODES:
+        if len(op.class_values) ** 8 > LOOKUP_CODES:
             return cls(coarsen(op.elements, source, op.fixed), op.periodic, op.fixed)
         return cls(_coarse_by_codes(op), op.periodic, op.fixed)
 
@@ -163,6 +161,20 @@ class ElementLevel:
         out = sp.csr_array((data.ravel(), cols.ravel(), np.arange(0, 27 * n + 1, 27)), shape=(n, n))
         out.sum_duplicates()
         return out
+
+
+def fine_values(op: VoxelOperator, *ranges: tuple[int, int]) -> FloatArray:
+    """Class values (3, 3, 3, block) of the elements in ``ranges`` (z, y, x), convection faces included."""
+    block = tuple(slice(a, b) for a, b in ranges)
+    values = np.moveaxis(op.class_values[op.phase[block]], (3, 4, 5), (0, 1, 2))
+    for face, h in op.exchange:
+        axis = "zyx".index(face[0])
+        layer = 0 if face[1] == "0" else op.elements[axis] - 1
+        if ranges[axis][0] <= layer < ranges[axis][1]:
+            target: list[slice | int] = [slice(None)] * 6
+            target[3 + axis] = layer - ranges[axis][0]
+            values[tuple(target)] += op.exchange_classes(face, h)[:, :, :, None, None]
+    return values
 
 
 def assembled_matrix(op: VoxelOperator) -> sp.csr_array:
@@ -293,13 +305,13 @@ def _coarse_by_codes(op: VoxelOperator) -> FloatArray:
     out[:, :, :, :pz, :py, :px] = lookup[:, code].reshape(3, 3, 3, pz, py, px)
     special = [(axis, coarse[axis] - 1) for axis in range(3) if elements[axis] % 2]  # lone children
     special += [("zyx".index(face[0]), 0 if face[1] == "0" else coarse["zyx".index(face[0])] - 1)
-                for face in op.fixed]
+                for face in (*op.fixed, *(f for f, _ in op.exchange))]
     for axis, index in special:  # coarsened from the fine values, fixed faces masked
         fine = [slice(0, n) for n in elements]
         fine[axis] = slice(2 * index, min(elements[axis], 2 * index + 2))
         start = [0, 0, 0]
         start[axis] = 2 * index
-        v = np.moveaxis(table[op.phase[tuple(fine)]], (3, 4, 5), (0, 1, 2))
+        v = fine_values(op, *((s.start, s.stop) for s in fine))
         target = [slice(None)] * 6
         target[3 + axis] = slice(index, index + 1)
         out[tuple(target)] = _restrict_block(v, op.fixed, (start[0], start[1], start[2]), elements)

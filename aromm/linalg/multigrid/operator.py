@@ -14,6 +14,12 @@ memory of a few node arrays.  The same model is exposed as 27 numbers per elemen
 entries of the symmetric 8×8 element matrix grouped by node pair per axis: {00, 01, 11}³), which the
 Galerkin coarsening of :mod:`aromm.linalg.multigrid.hierarchy` maps to the coarse grids.
 
+The capacity (mass) term of a per-voxel volumetric capacity c (J/(m³ K)) is diagonal in the same basis: the 1-D
+mass h (S²/4 + D²/12) along each axis gives uᵀ C_e u = Σ_c w_c (T_c u)² over the eight combinations including
+SSS, with w_SSS = c V/64, w_DSS = c V/192, w_DDS = c V/576, w_DDD = c V/1728 (V = h_x h_y h_z): so a shifted
+operator K + s C [Chavez2020, eq. 3] costs one more pass.  A convection term ``h ∫_f φ_a φ_b`` on a face f
+(``exchange``) is the Q1 face mass, a tensor product of two 1-D masses on the face's node plane.
+
 Arrays are indexed (z, y, x) so that the flat node order is the one of :mod:`aromm.fem` (x fastest).  A
 ``periodic`` operator identifies the nodes of opposite faces (n nodes per axis instead of n + 1); a
 ``fixed`` face is a homogeneous Dirichlet plane: its rows and columns are replaced by the identity.
@@ -32,6 +38,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 
 COMBOS = ("DSS", "SDS", "SSD", "DDS", "DSD", "SDD", "DDD")  # letters: x, y, z
+MASS_COMBOS = (*COMBOS, "SSS")  # with a capacity term
 WEIGHT_CACHE_VOXELS = 1 << 21  # up to 128³ the gathered weights are kept: 28 (float32) + 56 (float64) B/voxel
 SLAB_NODES = 1 << 16  # nodes per slab of the matrix-free product (0.5 MB per float64 array: cache-sized)
 # 1-D reference matrices in the class basis {[0,0], [0,1], [1,1]} (lengths scaled out): stiffness, mass
@@ -45,7 +52,9 @@ class VoxelOperator:
 
     ``phase``: (nz, ny, nx) integer index per voxel into ``conductivity`` ((n_phases, 3) rows k_x, k_y, k_z,
     W/(m K)); ``voxel_size`` (dx, dy, dz) in m.  ``periodic`` identifies opposite faces on every axis;
-    ``fixed`` lists faces ("x0", ..., "z1") held at zero (box grids only).
+    ``fixed`` lists faces ("x0", ..., "z1") held at zero (box grids only).  ``capacity`` (n_phases,) adds the
+    capacity term ``Σ_e c_e ∫ φ_a φ_b`` (J/(m³ K) times whatever factor, e.g. a Laplace shift s in 1/s);
+    ``exchange`` adds ``h ∫_f φ_a φ_b`` on each listed (face, h in W/(m² K)) (box grids only).
     """
 
     phase: npt.NDArray[np.integer]
@@ -53,13 +62,16 @@ class VoxelOperator:
     voxel_size: tuple[float, float, float]
     periodic: bool = False
     fixed: tuple[str, ...] = ()
+    capacity: FloatArray | None = None
+    exchange: tuple[tuple[str, float], ...] = ()
+    keep_weights: bool = True  # keep the gathered per-voxel weights of grids up to WEIGHT_CACHE_VOXELS
     _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         if self.phase.ndim != 3 or min(self.phase.shape) < 1:
             raise InputError(f"voxel operator needs a 3-D image, got shape {self.phase.shape}")
-        if self.periodic and self.fixed:
-            raise InputError("a periodic voxel operator has no faces to fix")
+        if self.periodic and (self.fixed or self.exchange):
+            raise InputError("a periodic voxel operator has no faces to fix or to exchange heat through")
 
     @property
     def elements(self) -> tuple[int, int, int]:
@@ -81,12 +93,22 @@ class VoxelOperator:
         dx, dy, dz = self.voxel_size
         return np.asarray(self.conductivity, dtype=float) * np.array([dy * dz / dx, dx * dz / dy, dx * dy / dz])
 
+    @property
+    def combos(self) -> tuple[str, ...]:
+        return COMBOS if self.capacity is None else MASS_COMBOS
+
     @cached_property
     def weights(self) -> FloatArray:
-        """(7, n_phases) weights w_c of the Haar form, in the order of COMBOS."""
+        """(7, n_phases) weights w_c of the Haar form, in the order of COMBOS; (8, n_phases) with a capacity
+        (MASS_COMBOS)."""
         gx, gy, gz = self.conductances.T
-        return np.stack([gx / 16, gy / 16, gz / 16, (gx + gy) / 48, (gx + gz) / 48, (gy + gz) / 48,
-                         (gx + gy + gz) / 144])
+        out = np.stack([gx / 16, gy / 16, gz / 16, (gx + gy) / 48, (gx + gz) / 48, (gy + gz) / 48,
+                        (gx + gy + gz) / 144])
+        if self.capacity is None:
+            return out
+        m = np.asarray(self.capacity, dtype=float) * float(np.prod(self.voxel_size))
+        mass = np.stack([m / 192, m / 192, m / 192, m / 576, m / 576, m / 576, m / 1728, m / 64])
+        return np.vstack([out, np.zeros((1, out.shape[1]))]) + mass
 
     @cached_property
     def class_values(self) -> FloatArray:
@@ -95,7 +117,20 @@ class VoxelOperator:
         for axis in range(3):  # 0: x, 1: y, 2: z
             per_axis = [STIFF_1D if a == axis else MASS_1D for a in (2, 1, 0)]  # z, y, x factors
             out += self.conductances[:, axis, None, None, None] * np.einsum("i,j,k->ijk", *per_axis)
+        if self.capacity is not None:
+            volume = float(np.prod(self.voxel_size))
+            out += (np.asarray(self.capacity, dtype=float) * volume)[:, None, None, None] * np.einsum(
+                "i,j,k->ijk", MASS_1D, MASS_1D, MASS_1D)
         return out
+
+    def exchange_classes(self, face: str, h: float) -> FloatArray:
+        """(3, 3, 3) class values (axes z, y, x) of ``h ∫_f φ_a φ_b`` on the elements along ``face``."""
+        axis = 2 - "xyz".index(face[0])  # class axis of the normal
+        factors = []
+        for a, length in zip(range(3), self.voxel_size[::-1], strict=True):
+            factors.append((np.array([1.0, 0.0, 0.0]) if face[1] == "0" else np.array([0.0, 0.0, 1.0]))
+                           if a == axis else MASS_1D * length)
+        return float(h) * np.einsum("i,j,k->ijk", *factors)
 
     def fixed_planes(self) -> Iterator[tuple[int, int]]:
         """(array axis, index) of every fixed node plane."""
@@ -115,7 +150,7 @@ class VoxelOperator:
     def _weight_table(self, dtype: np.dtype) -> FloatArray:
         key = f"w{dtype}"
         if key not in self._cache:
-            table = np.zeros((len(COMBOS), len(self.conductances) + 1), dtype=dtype)
+            table = np.zeros((len(self.combos), len(self.conductances) + 1), dtype=dtype)
             table[:, :-1] = self.weights
             self._cache[key] = table
         return self._cache[key]
@@ -135,6 +170,14 @@ class VoxelOperator:
             if mask:
                 self._zero_fixed(ext, k0, k1)
             self._scatter(y, self._apply(ext, table, k0, k1), k0, k1)
+        for face, h in self.exchange:
+            axis, index = self._face_plane(face)
+            plane = np.array(u[_plane(axis, index)], dtype=float)
+            if mask:
+                for fixed_axis, fixed_index in self.fixed_planes():
+                    if fixed_axis != axis:
+                        plane[_plane(fixed_axis - (fixed_axis > axis), fixed_index)] = 0.0
+            y[_plane(axis, index)] += (h * self._face_mass(plane, axis)).astype(dtype)
         if mask:
             for axis, index in self.fixed_planes():
                 sl = _plane(axis, index)
@@ -151,10 +194,31 @@ class VoxelOperator:
     def diagonal(self) -> FloatArray:
         """Diagonal of the constrained operator: Σ_e (g_x + g_y + g_z)/9 over the elements at each node."""
         per_phase = self.conductances.sum(axis=1) / 9.0
+        if self.capacity is not None:
+            per_phase = per_phase + np.asarray(self.capacity, dtype=float) * float(np.prod(self.voxel_size)) / 27.0
         d = self.spread(per_phase[self.phase], "SSS")
+        for face, h in self.exchange:
+            axis, index = self._face_plane(face)
+            d.reshape(self.node_shape)[_plane(axis, index)] += h * self._face_mass(None, axis)
         for axis, index in self.fixed_planes():
             d.reshape(self.node_shape)[_plane(axis, index)] = 1.0
         return d
+
+    def _face_plane(self, face: str) -> tuple[int, int]:
+        axis = 2 - "xyz".index(face[0])
+        return axis, (0 if face[1] == "0" else self.node_shape[axis] - 1)
+
+    def _face_mass(self, plane: FloatArray | None, axis: int) -> FloatArray:
+        """``∫_f φ_a φ_b`` times a node plane normal to array ``axis`` (its diagonal when ``plane`` is None)."""
+        lengths = [h for a, h in enumerate(self.voxel_size[::-1]) if a != axis]
+        shape = [s for a, s in enumerate(self.node_shape) if a != axis]
+        if plane is None:
+            d = [np.full(n, 2 * h / 3) for n, h in zip(shape, lengths, strict=True)]
+            for v, h in zip(d, lengths, strict=True):
+                v[[0, -1]] = h / 3
+            return np.outer(d[0], d[1])
+        out = _mass_rows(plane, lengths[0])
+        return _mass_rows(out.T, lengths[1]).T
 
     def spread(self, element: FloatArray, pattern: str) -> FloatArray:
         """Adjoint of one Haar combination: nodes ← elements, e.g. ``"SSS"`` gives each element to its 8 nodes."""
@@ -213,36 +277,39 @@ class VoxelOperator:
         n = u.size
         m1, m2 = n - 1, n - 1 - row
         m = m2 - plane
+        combos = len(self.combos)
         work = self._workspace(ext.dtype, n)
         sx, dx, ss, sd, ds, dd = (work[i, :m1 if i < 2 else m2] for i in range(6))
         _pair(u, 1, sx, dx)
         _pair(sx, row, ss, sd)
         _pair(dx, row, ds, dd)
-        terms = work[6:13, :m]  # in the order of COMBOS
+        terms = work[6:6 + combos, :m]  # in the order of self.combos
         np.subtract(ss[plane:], ss[:-plane], out=terms[2])  # SSD
+        if self.capacity is not None:
+            np.add(ss[plane:], ss[:-plane], out=terms[7])  # SSS
         _pair(ds, plane, terms[0], terms[4])  # DSS, DSD
         _pair(sd, plane, terms[1], terms[5])  # SDS, SDD
         _pair(dd, plane, terms[3], terms[6])  # DDS, DDD
         terms *= self._slab_weights(table, k0, k1, m)
-        scratch = work[13, :m1]
+        scratch = work[14, :m1]
         g_ss, g_ds, g_sd, g_dd = ss, sd, ds, dd  # the pair rows are free again (length m + plane)
-        _adjoint(None, terms[2], plane, g_ss, scratch)
+        _adjoint(terms[7] if self.capacity is not None else None, terms[2], plane, g_ss, scratch)
         _adjoint(terms[0], terms[4], plane, g_ds, scratch)
         _adjoint(terms[1], terms[5], plane, g_sd, scratch)
         _adjoint(terms[3], terms[6], plane, g_dd, scratch)
         h_s, h_d = sx, dx
         _adjoint(g_ss, g_sd, row, h_s, scratch)
         _adjoint(g_ds, g_dd, row, h_d, scratch)
-        out = work[14, :n]
+        out = work[15, :n]
         _adjoint(h_s, h_d, 1, out, scratch)
         return out.reshape(planes, rows, cols)
 
     def _workspace(self, dtype: np.dtype, size: int) -> FloatArray:
-        """(15, ≥ size) scratch rows of the slab product, kept per precision (≈ 15 slab arrays)."""
+        """(16, ≥ size) scratch rows of the slab product, kept per precision (≈ 16 slab arrays)."""
         key = f"work{dtype}"
         work = self._cache.get(key)
         if work is None or work.shape[1] < size:
-            work = self._cache[key] = np.empty((15, size), dtype=dtype)
+            work = self._cache[key] = np.empty((16, size), dtype=dtype)
         return work
 
     def _slab_weights(self, table: FloatArray, k0: int, k1: int, size: int) -> FloatArray:
@@ -251,7 +318,7 @@ class VoxelOperator:
         if key in self._cache:
             return self._cache[key]
         weights = np.take(table, self._padded_phase[k0:k1].reshape(-1)[:size], axis=1)
-        if self.phase.size <= WEIGHT_CACHE_VOXELS:
+        if self.keep_weights and self.phase.size <= WEIGHT_CACHE_VOXELS:
             self._cache[key] = weights
         return weights
 
@@ -282,6 +349,16 @@ def fold_ghosts(a: FloatArray, axes: tuple[int, ...]) -> None:
     """Add the last (ghost) plane of ``a`` onto the first along each of ``axes`` (periodic identification)."""
     for axis in axes:
         a[_plane(axis, 0)] += a[_plane(axis, -1)]
+
+
+def _mass_rows(a: FloatArray, h: float) -> FloatArray:
+    """The 1-D linear-element mass h/6 tridiag(1, 4, 1) (ends 2) along the first axis of ``a``."""
+    out = 4.0 * a
+    out[[0, -1]] = 2.0 * a[[0, -1]]
+    out[1:] += a[:-1]
+    out[:-1] += a[1:]
+    out *= h / 6
+    return out
 
 
 def _plane(axis: int, index: int) -> tuple[slice | int, ...]:

@@ -33,6 +33,8 @@ COARSEST_NODES = 4_000  # a 10³–16³ coarsest grid: its factorisation and sol
 DEGREE = 2
 SPREAD = 8.0  # Chebyshev interval [λ/SPREAD, λ]: the upper part of the spectrum, which the coarse grid cannot see
 MAX_ITERATIONS = 500
+#: Gershgorin row ratio Σ_j |m_0j| / m_00 of the Q1 face mass, (4 + 2 + 2 + 1)/4: bounds a convection face's part.
+FACE_MASS_BOUND = 9.0 / 4.0
 #: The residual b − A x computed in float64 carries a rounding error of about √k · ε · ‖abs(A) abs(x)‖ (k ≤ 27 terms per
 #: row of the voxel stencil, ε the machine epsilon): no CG can certify a smaller one [Higham2002, § 3.5].
 #: ε ‖abs(A) abs(x)‖ / ‖b‖ measured on the wood VERs (K + C/60 at k_F = 1, the load): 1.9e-11 at 32³, 5.4e-11 at 64³,
@@ -191,10 +193,16 @@ class MultigridSolver:
                                      f"iterations, above the tolerance {self.rtol:.0e}")
 
     def floor(self, x: FloatArray, nb: float) -> float:
-        """The relative residual below which float64 cannot certify a solve, ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖``
-        (0 on the matrix-free operator, whose abs(A) is not at hand)."""
-        if self._matrix is None or nb == 0.0:
+        """The relative residual below which float64 cannot certify a solve, ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖``.
+
+        On the matrix-free operator abs(A) is not at hand: ``abs(A) abs(x) ≈ λ D abs(x)`` with λ the Gershgorin bound
+        of D⁻¹A (Σ_j abs(a_ij) ≤ λ a_ii) and x locally smooth, an estimate of the same size."""
+        if nb == 0.0:
             return 0.0
+        if self._matrix is None:
+            fine = self.levels[0]
+            magnitude = fine.lam * np.abs(x) / fine.inverse_diagonal.astype(float)
+            return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
         m = self._matrix
         magnitude = sp.csr_array((np.abs(m.data), m.indices, m.indptr), shape=m.shape) @ np.abs(x)
         return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
@@ -285,7 +293,8 @@ def _element_bound(op: VoxelOperator) -> float:
     """
     values = op.class_values
     row = np.abs(values[:, :2, :2, :2]).sum(axis=(1, 2, 3))
-    return float(np.max(row / values[:, 0, 0, 0]))
+    bound = float(np.max(row / values[:, 0, 0, 0]))
+    return max(bound, FACE_MASS_BOUND) if op.exchange else bound
 
 
 def _row_bound(matrix: sp.csr_array) -> float:
