@@ -196,6 +196,18 @@ def test_bad_options_are_refused_before_any_solve() -> None:
     assert len(training_set((("a", 1.0, 4.0), ("b", 1.0, 1.0)))) == 5
 
 
+def test_a_system_without_free_outputs_is_refused_before_any_solve() -> None:
+    """The reduction is output-aware: no outputs, or outputs only on fixed-temperature faces, is an input error."""
+    labels = random_labels(5)
+    phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4.0e6)]
+    faces = [FaceSpec("z0", T=25.0), FaceSpec("z1", T=100.0)]
+    for outputs, match in (((), "needs outputs"), (("z0", "z1"), "fixed-temperature faces")):
+        system = assemble_voxels(labels, (1e-4,) * 3, phases, faces, time=TimeGrid(1.0, 0.1), initial_T=25.0,
+                                 outputs=outputs)
+        with pytest.raises(InputError, match=match):
+            reduce(system, order=10, method="krylov", bounds=BOX, cache=False)
+
+
 def test_the_reductor_sees_only_the_engine_protocol() -> None:
     """aromm.reduction.krylov imports no engine implementation and no sparse algebra (a PETSc engine can plug in)."""
     tree = ast.parse(Path(__file__).resolve().parents[1].joinpath("aromm", "reduction", "krylov.py").read_text())

@@ -291,6 +291,18 @@ def build_span(engine: ReductionEngine, reductor: KrylovReductor, box: Box, time
 Info = dict[str, float | int | str]
 
 
+def _check_outputs(engine: ReductionEngine, names: tuple[str, ...]) -> None:
+    """The reduction is output-aware: refuse a system without outputs or whose outputs are all on fixed temperatures
+    (after lifting their rows vanish on the free unknowns: they are known, there is nothing to reduce for)."""
+    if not names:
+        raise InputError("the krylov reduction needs outputs ([outputs] mean_T or a [sensors] entry): its moments, "
+                         "greedy and compression are those of the outputs")
+    block = engine.output_block()
+    if not np.any(np.diag(np.asarray(engine.dot(block, block))) > 0):
+        raise InputError(f"outputs {', '.join(names)} lie on fixed-temperature faces only (known values, nothing to "
+                         "reduce for): add an output on another face or a sensor, or use method = \"aromm\"")
+
+
 def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: KrylovReductor, order: int, *,
                  progress: bool = False) -> tuple[ReducedModel, Block, Info]:
     """The reduced model of order ≤ ``order``, its basis Ψ (an engine block) and what the build recorded.
@@ -300,6 +312,7 @@ def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: Krylo
     if system.time is None:
         raise InputError("the krylov reduction needs a time grid ([time] section)")
     times = system.time.times
+    _check_outputs(engine, tuple(system.observation))
     box = material_box(system, reductor.bounds)
     shifts = reductor.shift_values(system.time)
     start = time.process_time()
