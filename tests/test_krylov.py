@@ -129,13 +129,14 @@ def test_adiabatic_body_conserves_energy_at_contrast_1e3() -> None:
 
 def test_slab_between_fixed_temperatures_is_lifted_and_exact() -> None:
     """A slab held at 25 °C on z0 and at a moving temperature on z1 (lifted fixed temperatures, their histories and
-    derivatives as inputs) equals the exact 1-D solution at the mid plane over a box of conductivities."""
+    derivatives as inputs) equals the exact 1-D solution at the mid plane over a box of conductivities; an output on
+    a fixed face (z0) is its known value."""
     nz, k, c, length = 16, 33.0, 7.02e6, 0.1
     tau = length**2 * c / k
     moving = Profile((0.0, 0.02 * tau, 0.05 * tau), (25.0, 100.0, 60.0))
     system = assemble_voxels(np.zeros((1, 1, nz), dtype=int), (length, length, length / nz),
                              [PhaseSpec("steel", 0, k, c)], [FaceSpec("z0", T=25.0), FaceSpec("z1", T=moving)],
-                             time=TimeGrid(0.2 * tau, 0.2 * tau / 200), initial_T=25.0, outputs=["x0"])
+                             time=TimeGrid(0.2 * tau, 0.2 * tau / 200), initial_T=25.0, outputs=["x0", "z0"])
     rom = reduce(system, order=20, method="krylov", bounds={"steel.k": (20.0, 50.0)}, cache=False)
     assert rom.info["lifted_faces"] == 2
     times = np.array([0.02, 0.05, 0.1, 0.2]) * tau
@@ -146,7 +147,9 @@ def test_slab_between_fixed_temperatures_is_lifted_and_exact() -> None:
         # the x0 face mean weighs the node planes by the 1-D trapezoid rule of the face (Q1 face mass)
         weights = np.full(nz + 1, 1.0 / nz)
         weights[[0, -1]] /= 2
-        assert np.abs(rom.simulate({"steel.k": kk}, times).as_array()[:, 0] - planes @ weights).max() < 1e-6
+        outputs = rom.simulate({"steel.k": kk}, times).as_array()
+        assert np.abs(outputs[:, 0] - planes @ weights).max() < 1e-6
+        assert np.abs(outputs[:, 1] - 25.0).max() < 1e-9  # an output on a fixed face: its known value
 
 
 def test_cache_fields_and_scene_key(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -140,6 +140,7 @@ def gramian_directions(span: ReducedModel, training: Sequence[Mapping[str, float
     inputs = inputs / np.linalg.norm(inputs, axis=0)
     _, e = sys_.observation_matrix()
     outputs = np.asarray(e, dtype=float)
+    outputs = outputs[np.linalg.norm(outputs, axis=1) > 0]  # an output on a fixed face: known, no direction
     outputs = outputs / np.linalg.norm(outputs, axis=1, keepdims=True)
     total = np.zeros((span.order, span.order))
     for i in range(m):
