@@ -33,7 +33,7 @@ COARSEST_NODES = 4_000  # a 10³–16³ coarsest grid: its factorisation and sol
 DEGREE = 2
 SPREAD = 8.0  # Chebyshev interval [λ/SPREAD, λ]: the upper part of the spectrum, which the coarse grid cannot see
 MAX_ITERATIONS = 500
-#: Gershgorin row ratio Σ_j |m_0j| / m_00 of the Q1 face mass, (4 + 2 + 2 + 1)/4: bounds a convection face's part.
+#: Gershgorin row ratio ``Σ_j abs(m_0j) / m_00`` of the Q1 face mass, (4 + 2 + 2 + 1)/4: bounds a convection face.
 FACE_MASS_BOUND = 9.0 / 4.0
 #: The residual b − A x computed in float64 carries a rounding error of about √k · ε · ‖abs(A) abs(x)‖ (k ≤ 27 terms per
 #: row of the voxel stencil, ε the machine epsilon): no CG can certify a smaller one [Higham2002, § 3.5].
