@@ -29,8 +29,9 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray, ThermalSystem, dense, is_matrix_free, sparse
-from aromm.fem.voxel_terms import VoxelTerm, as_voxel_terms, is_voxel_family, shifted_operator, weighted_product
+from aromm.fem.voxel_terms import as_voxel_terms, is_voxel_family, shifted_operator, weighted_product
 from aromm.linalg.direct import check_residual, factorize, resolve_method
+from aromm.linalg.multigrid.pcg import MultigridSolver
 from aromm.linalg.orderings import nested_dissection
 from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.residual_gram import ResidualGram
@@ -188,47 +189,32 @@ class ScipyEngine:
 
             return direct
         from aromm.linalg.multigrid.affine import AffineGrid
-        from aromm.linalg.multigrid.pcg import MultigridSolver
 
         terms = (*self.system.conductance.terms, *self.system.capacity.terms)
         v = self.system.values(values)
         weights = [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
             shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
         if self.voxel:
-            return self._voxel_solver(as_voxel_terms([t.operator for t in terms]), weights, rtol, shift)
+            voxel_terms = as_voxel_terms([t.operator for t in terms])
+            mg = MultigridSolver(shifted_operator(voxel_terms, weights), rtol=rtol, coarsest=COARSEST)
+            return self._grid_columns(mg, voxel_terms[0].free, voxel_terms[0].grid.n, shift, rtol)
         if self._affine is None:
             self._affine = AffineGrid.build([sparse(t.operator) for t in terms], self.points, coarsest=COARSEST)
         grid = self._affine.operator(weights)  # type: ignore[attr-defined]
         mg = MultigridSolver(grid, rtol=rtol, coarsest=COARSEST)
+        return self._grid_columns(mg, grid.index, grid.n, shift, rtol)
 
-        def iterative(b: FloatArray) -> FloatArray:  # column by column: scipy's sparse × (n, 3) block is slower
-            x = np.zeros_like(b)
-            for j in range(b.shape[1]):
-                full = np.zeros(grid.n)
-                full[grid.index] = b[:, j]
-                x[:, j] = mg.solve(full)[grid.index]
-            self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
-            if mg.at_floor:
-                log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",
-                         mg.at_floor, len(mg.iterations), shift, rtol)
-            return np.asarray(x)
-
-        return iterative
-
-    def _voxel_solver(self, terms: list[VoxelTerm], weights: list[float], rtol: float, shift: float) -> object:
-        """Multigrid-PCG on the matrix-free ``K(μ) + s C(μ)`` (:func:`aromm.fem.voxel_terms.shifted_operator`): the
-        hierarchy from per-phase class values, the unknowns embedded in the grid (zeros on fixed faces)."""
-        from aromm.linalg.multigrid.pcg import MultigridSolver
-
-        mg = MultigridSolver(shifted_operator(terms, weights), rtol=rtol, coarsest=COARSEST)
-        free, n = terms[0].free, terms[0].grid.n
+    def _grid_columns(self, mg: MultigridSolver, index: npt.NDArray[np.intp], nodes: int, shift: float,
+                      rtol: float) -> object:
+        """``b ↦ A⁻¹ b`` by ``mg`` column by column (scipy's sparse × (n, 3) block is slower), the unknowns embedded
+        at ``index`` of the grid's ``nodes`` (zeros elsewhere: absent or fixed nodes); iteration counts recorded."""
 
         def iterative(b: FloatArray) -> FloatArray:
             x = np.zeros_like(b)
             for j in range(b.shape[1]):
-                full = np.zeros(n)
-                full[free] = b[:, j]
-                x[:, j] = mg.solve(full)[free]
+                full = np.zeros(nodes)
+                full[index] = b[:, j]
+                x[:, j] = mg.solve(full)[index]
             self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
             if mg.at_floor:
                 log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",
