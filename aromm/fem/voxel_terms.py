@@ -71,20 +71,9 @@ class VoxelTerm:
 
     @functools.cached_property
     def operator(self) -> VoxelOperator:
-        """The unconstrained grid operator of this term alone."""
-        n_phases = int(self.grid.phase.max()) + 1
-        table = np.zeros((n_phases, 3))
-        capacity = None
-        exchange: tuple[tuple[str, float], ...] = ()
-        if self.kind == "conduction":
-            table[self.phase, slice(None) if self.axis is None else "xyz".index(self.axis)] = 1.0
-        elif self.kind == "capacity":
-            capacity = np.zeros(n_phases)
-            capacity[self.phase] = 1.0
-        else:
-            exchange = ((self.face, 1.0),)
-        return VoxelOperator(self.grid.voxel_phase, table, self.grid.voxel_size, capacity=capacity,
-                             exchange=exchange, keep_weights=False)
+        """The grid operator of this term alone (applied unconstrained; its per-voxel weights are not kept: a system
+        holds many terms)."""
+        return shifted_operator([self], [1.0], keep_weights=False)
 
     def __matmul__(self, x: FloatArray) -> FloatArray:
         """``A x`` for a vector (n,) or a block (n, m) on the unknowns."""
@@ -186,9 +175,10 @@ def as_voxel_terms(operators: Sequence[object]) -> list[VoxelTerm]:
     return [op for op in operators if isinstance(op, VoxelTerm)]
 
 
-def shifted_operator(terms: Sequence[VoxelTerm], weights: Sequence[float]) -> VoxelOperator:
+def shifted_operator(terms: Sequence[VoxelTerm], weights: Sequence[float], keep_weights: bool = True) -> VoxelOperator:
     """``Σ_i w_i A_i`` of voxel terms on one grid as one matrix-free operator with the terms' fixed faces held at
-    zero (identity rows): per-phase conductivities, capacities and convection coefficients summed."""
+    zero (identity rows): per-phase conductivities, capacities and convection coefficients summed;
+    ``keep_weights`` as :class:`~aromm.linalg.multigrid.operator.VoxelOperator`'s."""
     if not is_voxel_family(terms):
         raise InputError("a shifted voxel operator needs voxel terms of one grid with the same fixed faces")
     grid, fixed = terms[0].grid, terms[0].fixed
@@ -206,7 +196,7 @@ def shifted_operator(terms: Sequence[VoxelTerm], weights: Sequence[float]) -> Vo
     has_capacity = any(t.kind == "capacity" for t in terms)
     return VoxelOperator(grid.voxel_phase, table, grid.voxel_size, fixed=fixed,
                          capacity=capacity if has_capacity else None,
-                         exchange=tuple((f, h) for f, h in exchange.items() if h != 0.0))
+                         exchange=tuple((f, h) for f, h in exchange.items() if h != 0.0), keep_weights=keep_weights)
 
 
 class MatrixFreeGrid:
