@@ -62,7 +62,7 @@ def numbering_error(system: Any) -> int:
     them and the DMDA's own application-to-PETSc ordering of the natural (aromm.fem) node numbers."""
     from aromm.engines.petsc import runtime
     from aromm.engines.petsc.problem import box_layout
-    from aromm.fem.voxel import node_index
+    from aromm.fem.voxel_grid import node_index
 
     layout = box_layout(basis_scene().geometry.labels.shape, system.comm)
     rows, _ = layout.box_rows()

@@ -19,7 +19,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.fem.voxel import node_points
+from aromm.fem.voxel_grid import node_points
 from aromm.full.solve import FullModel
 from aromm.homogenization.properties import homogenize
 from aromm.scene.geometry import VoxelGeometry

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from aromm.core.errors import InputError
 from aromm.engines import check_engine, petsc_available
 from aromm.engines.petsc.layout import BoxLayout, even_split, process_grid
-from aromm.fem.voxel import node_index
+from aromm.fem.voxel_grid import node_index
 from aromm.microstructure import load_image
 from aromm.microstructure.boxes import ImageBoxes, readable_by_parts
 from aromm.scene.scene_file import scene_from_dict

@@ -20,7 +20,7 @@ periodic k̄ of such fibres in a matrix then differs from the exact-axis k̄ by 
 changed by σ: the staircase of the fibres' surface, not the axis, dominates.
 
 Each term ``k_i ∫ ∇φ_a · A_i ∇φ_b`` has a unit tensor field ``A_i`` (constant, or one 3 × 3 per voxel), assembled
-element by element in the voxel Q1 element (:func:`aromm.fem.voxel.tensor_conduction`).
+element by element in the voxel Q1 element (:func:`aromm.fem.voxel_grid.tensor_conduction`).
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from aromm.core.anisotropy import PhaseTensor
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
-from aromm.fem.voxel import VoxelGrid
+from aromm.fem.voxel_grid import VoxelGrid
 from aromm.linalg.multigrid.operator import VoxelOperator
 from aromm.linalg.multigrid.pcg import MultigridSolver
 

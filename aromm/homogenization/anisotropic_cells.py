@@ -3,7 +3,7 @@
 The matrix-free multigrid of :mod:`aromm.homogenization.cell_problems` holds one diagonal conductivity per phase.  A
 phase with a
 full tensor, or a fibre phase with one axis per voxel, contributes ``Σ_i k_i ∫ ∇φ_a · A_i ∇φ_b`` with off-diagonal
-terms (:func:`aromm.fem.voxel.tensor_conduction`), so its cell problems are solved here on the assembled matrix K
+terms (:func:`aromm.fem.voxel_grid.tensor_conduction`), so its cell problems are solved here on the assembled matrix K
 of the box, by a direct method or pyamg (aromm.linalg.direct), with the same three boundary conditions:
 
 * ``periodic`` — the nodes of opposite faces are identified by the 0/1 matrix P (box → periodic nodes); for the
@@ -23,7 +23,8 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from aromm.core.system import FloatArray
-from aromm.fem.voxel import assemble_voxels, face_mass, face_nodes_and_quads, node_points
+from aromm.fem.voxel import assemble_voxels
+from aromm.fem.voxel_grid import face_mass, face_nodes_and_quads, node_points
 from aromm.linalg.direct import check_residual, factorize
 from aromm.linalg.multigrid.pcg import pinned
 from aromm.scene.geometry import VoxelGeometry

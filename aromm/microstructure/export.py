@@ -25,7 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.core.errors import InputError
-from aromm.fem.voxel import VTK_HEX, connectivity, node_points
+from aromm.fem.voxel_grid import VTK_HEX, connectivity, node_points
 from aromm.microstructure.io import as_labels, as_voxel_size
 
 FORMATS = {".vtu": "vtu", ".xdmf": "xdmf", ".xmf": "xdmf"}

@@ -31,7 +31,8 @@ from aromm.core.system import Affine, Coefficient, ParamValues, Role, ThermalSys
 from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
-from aromm.fem.voxel import assemble_voxels, face_mass
+from aromm.fem.voxel import assemble_voxels
+from aromm.fem.voxel_grid import face_mass
 from aromm.microstructure.digest import box_lanes, lanes_hex
 from aromm.reduction import model_key
 
