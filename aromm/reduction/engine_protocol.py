@@ -105,8 +105,9 @@ class ReductionEngine(Protocol):
         """``leftᵀ right`` (Euclidean), a small dense matrix on every process."""
         ...
 
-    def combine(self, basis: Block, coefficients: FloatArray) -> Block:
-        """``basis @ coefficients`` (coefficients dense r × r')."""
+    def combine(self, basis: Block, coefficients: FloatArray, consume: bool = False) -> Block:
+        """``basis @ coefficients`` (coefficients dense r × r'); with ``consume`` the caller never uses ``basis``
+        again and the engine may write the result over it (the final compression of a large basis)."""
         ...
 
     def project(self, basis: Block) -> ReducedModel:

@@ -344,4 +344,4 @@ def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: Krylo
     info["reference_error"] = float(info["krylov_estimate"]) + float(info["compression_loss"])
     log.info("krylov: span %d columns at %d points, order %d, compression loss %.3g °C", span.model.order,
              len(span.points), rom.order, info["compression_loss"])
-    return rom, engine.combine(span.basis, coefficients), info
+    return rom, engine.combine(span.basis, coefficients, consume=True), info

@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -33,6 +34,7 @@ from aromm.fem.voxel_terms import as_voxel_terms, is_voxel_family, shifted_opera
 from aromm.linalg.direct import check_residual, factorize, resolve_method
 from aromm.linalg.multigrid.pcg import MultigridSolver
 from aromm.linalg.orderings import nested_dissection
+from aromm.reduction.column_buffer import ColumnBuffer
 from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.residual_gram import ResidualGram
 from aromm.reduction.rom import ReducedModel
@@ -105,6 +107,8 @@ class ScipyEngine:
         self._affine: object | None = None  # the multigrid levels of every term of K and C (built at the first solve)
         self.initial = initial
         self._terms = self._input_vectors()
+        self._columns = ColumnBuffer(system.n)
+        self._projections = _Projections([t.operator for t in (*system.conductance.terms, *system.capacity.terms)])
 
     # ----------------------------------------------------------------- inputs and outputs
     @property
@@ -164,6 +168,7 @@ class ScipyEngine:
     def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float) -> FloatArray:
         key = (tuple(sorted(values.items())), float(shift), float(rtol))
         if self._solver is None or self._solver[0] != key:
+            self._solver = None  # release the previous hierarchy before building the next one
             start = time.process_time()
             self._solver = (key, self._setup(values, shift, rtol))
             self._stats.setups += 1
@@ -226,38 +231,48 @@ class ScipyEngine:
     # ----------------------------------------------------------------- bases and projections
     def orthonormalise(self, basis: FloatArray | None, block: FloatArray, values: Mapping[str, float],
                        drop: float) -> tuple[FloatArray, int]:
+        """Four capacity products per block: C X is carried through every linear step (C(XT) = (CX)T) and formed
+        anew only after each Gram–Schmidt pass; the columns are appended in the engine's buffer."""
+
         def c(block: FloatArray) -> FloatArray:
             return self.capacity(values, block)
 
-        x = np.array(block, dtype=float)
-        norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c(x)), 0.0))
-        keep = norms > 0
-        x, norms = x[:, keep] / norms[keep], norms[keep]
-        for _ in range(2):
+        def remove(x: FloatArray, cx: FloatArray) -> tuple[FloatArray, FloatArray]:
             if basis is not None and basis.shape[1]:
-                x -= basis @ (basis.T @ (c(x)))
-        remaining = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, c(x)), 0.0))
-        x = x[:, remaining > drop]
+                x -= basis @ (basis.T @ cx)
+                return x, c(x)
+            return x, cx
+
+        x = np.array(block, dtype=float)
+        cx = c(x)
+        norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, cx), 0.0))
+        keep = norms > 0
+        x, cx = x[:, keep] / norms[keep], cx[:, keep] / norms[keep]
+        for _ in range(2):
+            x, cx = remove(x, cx)
+        remaining = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, cx), 0.0))
+        x, cx = x[:, remaining > drop], cx[:, remaining > drop]
         if x.shape[1] == 0:
             return (basis if basis is not None else np.zeros((self.size, 0))), 0
-        g = x.T @ (c(x))
+        g = x.T @ cx
         w, u = np.linalg.eigh((g + g.T) / 2)
         ok = w > GRAM_DROP * float(w.max())
-        x = x @ (u[:, ok] / np.sqrt(w[ok]))
-        if basis is not None and basis.shape[1]:
-            x -= basis @ (basis.T @ (c(x)))
-        x /= np.sqrt(np.einsum("ij,ij->j", x, c(x)))
-        new = x if basis is None else np.column_stack([basis, x])
-        return new, int(x.shape[1])
+        t = u[:, ok] / np.sqrt(w[ok])
+        x, cx = remove(x @ t, cx @ t)
+        x /= np.sqrt(np.einsum("ij,ij->j", x, cx))
+        return self._columns.append(basis, x), int(x.shape[1])
 
     def dot(self, left: FloatArray, right: FloatArray) -> FloatArray:
         return np.asarray(left.T @ right)
 
-    def combine(self, basis: FloatArray, coefficients: FloatArray) -> FloatArray:
-        return basis @ coefficients
+    def combine(self, basis: FloatArray, coefficients: FloatArray, consume: bool = False) -> FloatArray:
+        """With ``consume``, a basis of the engine's buffer is written over (no second n × r' array)."""
+        return self._columns.combine_in_place(basis, coefficients) if consume else basis @ coefficients
 
     def project(self, basis: FloatArray) -> ReducedModel:
-        return ReducedModel.from_system(self.system, basis)
+        """Galerkin projection; the square terms' ``VᵀAV`` grown from the last projection when ``basis`` extends
+        its basis in the engine's buffer (only the new columns' products: :class:`_Projections`)."""
+        return ReducedModel.from_system(self.system, basis, self._projections.memo(self._columns, basis))
 
     def residual_norms(self, basis: FloatArray, values: Mapping[str, float], shifts: FloatArray,
                        solutions: FloatArray) -> FloatArray:
@@ -277,3 +292,31 @@ class ScipyEngine:
 
     def to_numpy(self, block: FloatArray) -> FloatArray:
         return block
+
+
+class _Projections:
+    """``VᵀAV`` of the square terms for the latest basis of a :class:`ColumnBuffer`, grown as columns come in:
+    for V = [V₀, X] and a symmetric A, ``[[V₀ᵀAV₀, V₀ᵀAX], [XᵀAV₀, XᵀAX]]`` needs the products ``A X`` only."""
+
+    def __init__(self, operators: list[Any]) -> None:
+        self.operators = operators
+        self._width = 0
+        self._blocks: dict[int, FloatArray] = {}
+
+    def memo(self, columns: ColumnBuffer, basis: FloatArray) -> dict[int, FloatArray]:
+        """The memo of :func:`aromm.reduction.rom.project` (id of an operator → its projection) for ``basis``."""
+        start = self._width if columns.is_latest(basis) and basis.shape[1] >= self._width else 0
+        new = basis[:, start:]
+        blocks = {}
+        for a in self.operators:
+            if not is_matrix_free(a):
+                ax = np.asarray(sp.csr_array(a) @ new)
+            else:  # column by column: no second (n × k) temporary of the matrix-free product
+                ax = np.column_stack([np.asarray(a @ new[:, j]) for j in range(new.shape[1])]) if new.shape[1] else \
+                    np.zeros((basis.shape[0], 0))
+            top = basis[:, :start].T @ ax
+            corner = new.T @ ax
+            old = self._blocks[id(a)] if start else np.zeros((0, 0))
+            blocks[id(a)] = np.block([[old, top], [top.T, (corner + corner.T) / 2]])
+        self._blocks, self._width = blocks, basis.shape[1]
+        return dict(blocks)

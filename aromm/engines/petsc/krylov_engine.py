@@ -18,7 +18,8 @@ over the ranks, so every rank holds the same small arrays and takes the same dec
 * C(μ)-orthonormalisation: the algorithm of the scipy engine (:mod:`aromm.reduction.scipy_engine`) — block
   classical Gram–Schmidt twice, orthonormalisation of the new columns by the eigen-decomposition of their
   Gram matrix, one more pass — with every inner product summed over the ranks.  The basis lives in one
-  Fortran buffer that grows by :data:`GROWTH` (no copy of the basis per appended block).
+  Fortran buffer that grows as columns come in (:class:`~aromm.reduction.column_buffer.ColumnBuffer`: no copy of the
+  basis per appended block).
 * Projection and residuals share the products ``P_t = A_t V`` of every matrix term A_t (conduction, exchange,
   capacity) with the basis V, computed once per basis: the reduced operators are ``Vᵀ P_t`` and the residual of a
   reduced frequency response is ``r = U a(μ) − Σ_t θ_t(μ, s) P_t x = W z`` with ``W = [U, P_1, …, P_T]``, so
@@ -42,12 +43,11 @@ from aromm.core.system import PENALTY_INSTEAD, FloatArray, require_free_transien
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm
 from aromm.engines.petsc.projection import project
+from aromm.reduction.column_buffer import ColumnBuffer
 from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import GRAM_DROP, input_coefficients, input_weights
 
-#: The basis buffer grows by this factor when an appended block does not fit.
-GROWTH = 1.5
 #: Capacity matrices C(μ) kept for reuse, least recently used dropped first: the reference point's (the capacity
 #: product of the basis) and the current moment point's.
 KEPT_MATRICES = 2
@@ -114,7 +114,7 @@ class PetscKrylovEngine:
         self._terms = self._input_vectors()
         self._ksp: tuple[tuple[Any, ...], Any] | None = None
         self._capacities: dict[tuple[tuple[str, float], ...], Any] = {}
-        self._buffer: FloatArray | None = None
+        self._columns = ColumnBuffer(self.rows.local)
         self._gram: tuple[tuple[int, int, int], FloatArray] | None = None  # (basis id, address, width), WᵀW
 
     # ----------------------------------------------------------------- inputs and outputs
@@ -248,21 +248,6 @@ class PetscKrylovEngine:
         if basis is not None and basis.shape[1]:
             x -= basis @ self.dot(basis, self._apply(c, x))
 
-    def _append(self, basis: FloatArray | None, x: FloatArray) -> FloatArray:
-        """``[basis, x]`` in the engine's buffer: written after ``basis`` when it is the buffer's latest view."""
-        r = 0 if basis is None else basis.shape[1]
-        buf = self._buffer
-        latest = False
-        if buf is not None and basis is not None:
-            latest = basis.ctypes.data == buf.ctypes.data and basis.base is buf
-        if buf is None or not latest or buf.shape[1] < r + x.shape[1]:
-            grown = np.empty((self.rows.local, max(int(GROWTH * (r + x.shape[1])), r + x.shape[1], 8)), order="F")
-            if basis is not None:
-                grown[:, :r] = basis
-            self._buffer = buf = grown
-        buf[:, r:r + x.shape[1]] = x
-        return buf[:, :r + x.shape[1]]
-
     def orthonormalise(self, basis: FloatArray | None, block: FloatArray, values: Mapping[str, float],
                        drop: float) -> tuple[FloatArray, int]:
         c = self._capacity_matrix(values)
@@ -281,9 +266,10 @@ class PetscKrylovEngine:
         x = np.asfortranarray(x @ (u[:, ok] / np.sqrt(w[ok])))
         self._remove(basis, x, c)
         x /= self._energies(c, x)
-        return self._append(basis, x), int(x.shape[1])
+        return self._columns.append(basis, x), int(x.shape[1])
 
-    def combine(self, basis: FloatArray, coefficients: FloatArray) -> FloatArray:
+    def combine(self, basis: FloatArray, coefficients: FloatArray, consume: bool = False) -> FloatArray:
+        """A new block by row chunks (``consume`` is not used: a rank's rows are a fraction of the basis)."""
         return convert.combine_rows(basis, coefficients)
 
     def _matrix_terms(self) -> tuple[DistributedTerm, ...]:
