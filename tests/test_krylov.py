@@ -119,7 +119,7 @@ def test_adiabatic_body_conserves_energy_at_contrast_1e3() -> None:
     q, n = 500.0, 5
     system = two_phase(n, 1e3, [FaceSpec("z0", flux=q)])
     rom = reduce(system, order=12, method="krylov", bounds=BOX, cache=False, fields=True)
-    assert rom.basis is not None and rom.order == 12
+    assert rom.basis is not None and rom.order in (10, 11, 12)  # "auto" compression: 80, 90 or 100 % of the order
     t = np.linspace(0.0, 20.0, 11)
     for values in CORNERS:
         c = system.capacity.evaluate(system.values(values))

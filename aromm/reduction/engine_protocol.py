@@ -21,7 +21,7 @@ Units are SI (K, C in J/K and W/K per unknown; shifts s in 1/s).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -103,6 +103,10 @@ class ReductionEngine(Protocol):
 
     def dot(self, left: Block, right: Block) -> FloatArray:
         """``leftᵀ right`` (Euclidean), a small dense matrix on every process."""
+        ...
+
+    def join(self, blocks: Sequence[Block]) -> Block:
+        """The columns of ``blocks`` side by side, in order."""
         ...
 
     def combine(self, basis: Block, coefficients: FloatArray, consume: bool = False) -> Block:

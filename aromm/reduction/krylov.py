@@ -196,20 +196,26 @@ class _Moments:
 
     def add(self, basis: Block, mu: Mapping[str, float]) -> Block:
         eng, opt = self.engine, self.reductor
-        blocks = [eng.combine(eng.inputs(mu), self.select), *([eng.output_block()] if opt.dual else [])]
-        per_point = sum(eng.width(b) for b in blocks) * len(self.shifts) * opt.steps
+        joined = eng.join([eng.combine(eng.inputs(mu), self.select), *([eng.output_block()] if opt.dual else [])])
+        keep = independent_columns(eng, joined, opt.drop)
+        first = joined if keep.size == eng.width(joined) else eng.combine(joined, np.eye(eng.width(joined))[:, keep])
+        del joined
+        per_point = eng.width(first) * len(self.shifts) * opt.steps
         self.bar.total += per_point
         done = eng.stats.solves
-        for s in self.shifts:  # both blocks at one shift share the engine's set-up
-            for rhs in blocks:
-                x = rhs
-                for step in range(opt.steps):
-                    x = eng.shifted_solve(mu, float(s), x if step == 0 else eng.capacity(mu, x), opt.rtol)
-                    basis, _ = eng.orthonormalise(basis, x, self.reference, opt.drop)
-                    cx = eng.capacity(self.reference, x)
-                    norms = np.sqrt(np.maximum(np.diag(eng.dot(x, cx)), 1e-300))
-                    self.raw.append(eng.dot(basis, cx) / norms)
-                    self.bar.update(eng.width(x))
+        for s in self.shifts:  # both blocks at one shift share the engine's set-up; one orthonormalisation a shift
+            rhs = first
+            solutions = []
+            for step in range(opt.steps):
+                rhs = eng.shifted_solve(mu, float(s), rhs if step == 0 else eng.capacity(mu, rhs), opt.rtol)
+                solutions.append(rhs)
+            x = eng.join(solutions)
+            del solutions, rhs
+            basis, _ = eng.orthonormalise(basis, x, self.reference, opt.drop)
+            cx = eng.capacity(self.reference, x)
+            norms = np.sqrt(np.maximum(np.diag(eng.dot(x, cx)), 1e-300))
+            self.raw.append(eng.dot(basis, cx) / norms)
+            self.bar.update(eng.width(x))
         stats = eng.stats
         its = stats.iterations[-per_point:] if stats.iterations else []
         log.info("krylov: point %s: %d solves (%d in all), basis %d columns%s", _label(mu), stats.solves - done,
@@ -218,6 +224,29 @@ class _Moments:
 
     def coordinates(self, width: int) -> FloatArray:
         return np.column_stack([np.vstack([c, np.zeros((width - c.shape[0], c.shape[1]))]) for c in self.raw])
+
+
+def independent_columns(engine: ReductionEngine, block: Block, drop: float) -> npt.NDArray[np.intp]:
+    """Columns of ``block``, in order, whose part outside the span of the columns kept before them exceeds ``drop``
+    times their norm (Euclidean; the part formed explicitly, so exact multiples leave ≈ 1e-16, not the 1e-8 of a
+    Gram-matrix difference).  A right-hand side that is a combination of others (a flux load on a face and the
+    mean temperature of that face are one vector up to a factor) has solutions that are the same combination:
+    solving it adds no direction, only its cost."""
+    width = engine.width(block)
+    eye = np.eye(width)
+    kept: list[int] = []
+    for j in range(width):
+        column = engine.combine(block, eye[:, j:j + 1])
+        norm = float(np.sqrt(engine.dot(column, column)[0, 0]))
+        rest = norm
+        if kept and norm > 0:
+            others = engine.combine(block, eye[:, kept])
+            coefficients = np.linalg.lstsq(engine.dot(others, others), engine.dot(others, column), rcond=None)[0]
+            part = engine.combine(engine.join([column, others]), np.vstack([[1.0], -coefficients]))
+            rest = float(np.sqrt(engine.dot(part, part)[0, 0]))
+        if rest > drop * norm:
+            kept.append(j)
+    return np.array(kept, dtype=np.intp)
 
 
 def _label(mu: Mapping[str, float]) -> str:

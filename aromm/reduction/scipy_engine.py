@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -256,7 +256,7 @@ class ScipyEngine:
             return (basis if basis is not None else np.zeros((self.size, 0))), 0
         g = x.T @ cx
         w, u = np.linalg.eigh((g + g.T) / 2)
-        ok = w > GRAM_DROP * float(w.max())
+        ok = w > max(GRAM_DROP * float(w.max()), drop**2)  # unit columns in: a direction below drop is noise
         t = u[:, ok] / np.sqrt(w[ok])
         x, cx = remove(x @ t, cx @ t)
         x /= np.sqrt(np.einsum("ij,ij->j", x, cx))
@@ -264,6 +264,9 @@ class ScipyEngine:
 
     def dot(self, left: FloatArray, right: FloatArray) -> FloatArray:
         return np.asarray(left.T @ right)
+
+    def join(self, blocks: Sequence[FloatArray]) -> FloatArray:
+        return np.hstack(blocks)
 
     def combine(self, basis: FloatArray, coefficients: FloatArray, consume: bool = False) -> FloatArray:
         """With ``consume``, a basis of the engine's buffer is written over (no second n × r' array)."""

@@ -33,7 +33,7 @@ Units SI; tolerances as in :class:`~aromm.reduction.engine_protocol.ReductionEng
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -262,11 +262,14 @@ class PetscKrylovEngine:
             return (basis if basis is not None else self._block(0)), 0
         g = self.dot(x, self._apply(c, x))
         w, u = np.linalg.eigh((g + g.T) / 2)
-        ok = w > GRAM_DROP * float(w.max())
+        ok = w > max(GRAM_DROP * float(w.max()), drop**2)  # unit columns in: a direction below drop is noise
         x = np.asfortranarray(x @ (u[:, ok] / np.sqrt(w[ok])))
         self._remove(basis, x, c)
         x /= self._energies(c, x)
         return self._columns.append(basis, x), int(x.shape[1])
+
+    def join(self, blocks: Sequence[FloatArray]) -> FloatArray:
+        return np.asfortranarray(np.hstack(blocks))
 
     def combine(self, basis: FloatArray, coefficients: FloatArray, consume: bool = False) -> FloatArray:
         """A new block by row chunks (``consume`` is not used: a rank's rows are a fraction of the basis)."""
