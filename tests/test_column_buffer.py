@@ -1,0 +1,80 @@
+"""The growing basis of the offline reductions (aromm.reduction.column_buffer) and the block steps of the Krylov moments
+(aromm.reduction.krylov: dependent right-hand sides solved once; aromm.reduction.scipy_engine: block orthonormalisation
+in the capacity product), against plain NumPy and against the column-by-column algorithm."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from test_krylov import two_phase
+
+from aromm.reduction.column_buffer import FIRST, ColumnBuffer
+from aromm.reduction.krylov import independent_columns
+from aromm.reduction.scipy_engine import ScipyEngine
+
+
+def test_columns_are_appended_in_place_and_survive_growth() -> None:
+    rng = np.random.default_rng(0)
+    columns = ColumnBuffer(rows=50)
+    blocks = [rng.standard_normal((50, k)) for k in (1, 5, FIRST, 3)]
+    basis = None
+    for block in blocks:
+        before = basis
+        basis = columns.append(basis, block)
+        if before is not None and before.shape[1] + block.shape[1] <= FIRST:
+            assert np.shares_memory(before, basis)  # written after the previous view, no copy
+    np.testing.assert_array_equal(basis, np.hstack(blocks))  # the growth past FIRST columns copied every column
+    assert basis.flags.f_contiguous
+
+
+def test_an_older_view_is_copied_not_written_over() -> None:
+    columns = ColumnBuffer(rows=4)
+    v = columns.append(None, np.ones((4, 1)))
+    w = columns.append(v, np.full((4, 1), 2.0))
+    u = columns.append(v, np.full((4, 1), 3.0))  # v is not the latest view: w's second column must stay 2
+    np.testing.assert_array_equal(w[:, 1], 2.0)
+    np.testing.assert_array_equal(u[:, 1], 3.0)
+
+
+def test_the_final_combination_is_written_over_the_basis() -> None:
+    rng = np.random.default_rng(1)
+    columns = ColumnBuffer(rows=200_001)
+    basis = columns.append(None, rng.standard_normal((200_001, 7)))
+    coefficients = rng.standard_normal((7, 4))
+    expected = basis @ coefficients
+    out = columns.combine_in_place(basis, coefficients, chunk=65_536)
+    assert np.shares_memory(out, basis)
+    np.testing.assert_allclose(out, expected, rtol=1e-13, atol=1e-13 * np.abs(expected).max())
+
+
+def test_dependent_right_hand_sides_are_found_from_their_explicit_remainders() -> None:
+    system = two_phase(4, 10.0)
+    engine = ScipyEngine(system)
+    rng = np.random.default_rng(2)
+    a, b = rng.standard_normal((system.n, 1)), rng.standard_normal((system.n, 1))
+    assert independent_columns(engine, np.hstack([a, 3 * a, b]), 1e-10).tolist() == [0, 2]
+    assert independent_columns(engine, np.hstack([a, b, a - 2 * b]), 1e-10).tolist() == [0, 1]
+    assert independent_columns(engine, np.hstack([a, a + 1e-6 * b]), 1e-10).tolist() == [0, 1]
+    # the flux load on z0 and the mean temperature of z0 are one vector up to a factor: one solve for both
+    f = np.column_stack([np.asarray(t.operator) for t in system.load.terms if np.any(np.asarray(t.operator))])
+    assert independent_columns(engine, np.hstack([f[:, :1], engine.output_block()]), 1e-10).tolist() == [0, 2]
+
+
+def test_a_block_keeps_the_directions_the_column_by_column_algorithm_keeps() -> None:
+    """Columns whose parts outside the basis are all small (1e-6) and differ by 1e-12: one new direction, as
+    column by column (the relative eigenvalue threshold of the block's Gram matrix kept the 1e-12 one)."""
+    system = two_phase(4, 10.0)
+    engine = ScipyEngine(system)
+    mu = dict(system.parameters)
+    rng = np.random.default_rng(3)
+    basis, _ = engine.orthonormalise(None, rng.standard_normal((system.n, 3)), mu, 1e-10)
+    y, z = rng.standard_normal((system.n, 1)), rng.standard_normal((system.n, 1))
+    inside = basis @ rng.standard_normal((3, 1))
+    block = np.hstack([inside + 1e-6 * y, inside + 1e-6 * y + 1e-12 * z])
+    sequential = np.array(basis)
+    for j in range(2):
+        sequential = np.array(engine.orthonormalise(sequential, block[:, j:j + 1], mu, 1e-10)[0])
+    together, added = engine.orthonormalise(np.array(basis), block, mu, 1e-10)
+    assert added == 1 and together.shape[1] == sequential.shape[1] == 4
+    c = sp.csr_array(system.capacity.evaluate(system.values(mu)))
+    np.testing.assert_allclose(together.T @ (c @ together), np.eye(4), atol=1e-12)
