@@ -125,6 +125,12 @@ class VoxelTerm:
             return None
         return VoxelTerm(self.grid, self.kind, self.phase, self.axis, self.face, faces)
 
+    @property
+    def plane_nodes(self) -> int:
+        """Nodes of one z-plane of the grid (row blocks of whole planes cost least: :meth:`row_block`)."""
+        nx, ny, _ = self.grid.shape
+        return (nx + 1) * (ny + 1)
+
     def row_block(self, start: int, stop: int, block: FloatArray) -> FloatArray:
         """Rows ``start:stop`` of ``A @ block`` (block (n, m) on the unknowns), from the z-slab of elements that
         touch those rows' nodes: memory of the slab, not of the grid."""
