@@ -36,7 +36,9 @@ def krylov_basis(system: ThermalSystem, values: Mapping[str, float], size: int,
     v = system.values(values)
     k = sp.csr_array(system.conductance.evaluate(v))
     c = sp.csr_array(system.capacity.evaluate(v))
-    f = np.asarray(system.load.evaluate(v), dtype=float)
+    # the loads' spatial vectors with their coefficients (a history multiplies a vector in time: same space)
+    f = sum((float(t.coefficient(v)) * np.asarray(t.operator, dtype=float) for t in system.load.terms),
+            start=np.zeros(system.n))
     points = system.geometry.points if system.geometry is not None else None
     solvers = [factorize(k + shift * c, points=points) for shift in shifts]
     basis = np.zeros((system.n, size * len(shifts)))
@@ -72,7 +74,9 @@ def modal_reference(system: ThermalSystem, values: Mapping[str, float], times: F
     v = system.values(values)
     k = sp.csc_array(system.conductance.evaluate(v))
     c = sp.csc_array(system.capacity.evaluate(v))
-    f = np.asarray(system.load.evaluate(v), dtype=float)
+    # the loads' spatial vectors with their coefficients (a history multiplies a vector in time: same space)
+    f = sum((float(t.coefficient(v)) * np.asarray(t.operator, dtype=float) for t in system.load.terms),
+            start=np.zeros(system.n))
     cut = rate_times_t / float(times[0])
     count = 8
     while True:
