@@ -10,6 +10,7 @@ from test_krylov import two_phase
 
 from aromm.reduction.column_buffer import FIRST, ColumnBuffer
 from aromm.reduction.krylov import independent_columns
+from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import ScipyEngine
 
 
@@ -78,3 +79,21 @@ def test_a_block_keeps_the_directions_the_column_by_column_algorithm_keeps() -> 
     assert added == 1 and together.shape[1] == sequential.shape[1] == 4
     c = sp.csr_array(system.capacity.evaluate(system.values(mu)))
     np.testing.assert_allclose(together.T @ (c @ together), np.eye(4), atol=1e-12)
+
+
+def test_the_projection_grown_with_the_basis_equals_a_fresh_one() -> None:
+    """ScipyEngine.project on a basis that extends the last one projects only the new columns; the result equals
+    the projection of the whole basis from scratch (the square terms are symmetric)."""
+    system = two_phase(4, 1e3)
+    engine = ScipyEngine(system)
+    mu = dict(system.parameters)
+    rng = np.random.default_rng(4)
+    basis, _ = engine.orthonormalise(None, rng.standard_normal((system.n, 5)), mu, 1e-10)
+    engine.project(basis)
+    basis, _ = engine.orthonormalise(basis, rng.standard_normal((system.n, 4)), mu, 1e-10)
+    grown = engine.project(basis).projected
+    fresh = ReducedModel.from_system(system, np.array(basis)).projected
+    for a, b in ((grown.conductance, fresh.conductance), (grown.capacity, fresh.capacity)):
+        for ta, tb in zip(a.terms, b.terms, strict=True):
+            scale = np.abs(tb.operator).max()
+            np.testing.assert_allclose(ta.operator, tb.operator, rtol=0, atol=1e-12 * scale)
