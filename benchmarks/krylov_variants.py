@@ -11,7 +11,8 @@ On the wood VER of ``aromm.studies.chavez2020.small_wood(n)`` (default 24³), sc
 For each: the worst error (°C) of the two face means over the grid and the 600 output times against the full model
 exact in time (benchmarks/mor_truth.py: rational Krylov Galerkin on 4 shifts × 40 steps per grid point, its own
 error printed), for the Krylov reduction over the box at the orders asked and the amalgam of the papers (the scene's
-reference properties), with offline CPU seconds.  One BLAS thread.
+reference properties), with offline CPU seconds.  One BLAS thread; the Krylov greedy's tolerance 1e-6 °C as in
+mor_peers (``--tolerance``).
 
     python benchmarks/krylov_variants.py --variants h history --orders 30 50 --json krylov_variants.json
 """
@@ -72,7 +73,7 @@ def label(mu: Mapping[str, float]) -> str:
     return ", ".join(f"{k}={v:g}" for k, v in sorted(mu.items()))
 
 
-def run(variant: str, n: int, orders: list[int]) -> list[dict[str, object]]:
+def run(variant: str, n: int, orders: list[int], tolerance: float) -> list[dict[str, object]]:
     box, grid = VARIANTS[variant]
     scene = scene_of(variant, n)
     system: ThermalSystem = assemble(scene)
@@ -90,7 +91,7 @@ def run(variant: str, n: int, orders: list[int]) -> list[dict[str, object]]:
     for method in ("krylov", "aromm"):
         for order in orders if method == "krylov" else (50, 200):
             start = time.process_time()
-            chosen = KrylovReductor.over(box) if method == "krylov" else "aromm"
+            chosen = KrylovReductor.over(box, tolerance=tolerance) if method == "krylov" else "aromm"
             extra = {"reference_values": scene.reduction.reference} if method == "aromm" else {}
             rom = reduce(system, order, method=chosen, cache=False, basis_values=scene.reduction.basis, **extra)
             cpu = time.process_time() - start
@@ -110,13 +111,15 @@ def main() -> None:
     parser.add_argument("--variants", nargs="+", choices=sorted(VARIANTS), default=sorted(VARIANTS))
     parser.add_argument("--size", type=int, default=24, help="voxels per side of the generated VER")
     parser.add_argument("--orders", type=int, nargs="+", default=[30, 50], help="orders of the Krylov model")
+    parser.add_argument("--tolerance", type=float, default=1e-6,
+                        help="greedy tolerance of the Krylov reduction (°C; 1e-6 as benchmarks/mor_peers.py)")
     parser.add_argument("--json", type=Path, default=None, help="write the rows to this file")
     args = parser.parse_args()
     print(f"load average {os.getloadavg()}")
     rows: list[dict[str, object]] = []
     with one_blas_thread():
         for variant in args.variants:
-            rows += run(variant, args.size, args.orders)
+            rows += run(variant, args.size, args.orders, args.tolerance)
     print(f"peak {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB; load average {os.getloadavg()}")
     if args.json is not None:
         args.json.write_text(json.dumps(rows, indent=1))
