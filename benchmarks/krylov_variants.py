@@ -27,6 +27,7 @@ import sys
 import time
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -92,7 +93,7 @@ def run(variant: str, n: int, orders: list[int], tolerance: float) -> list[dict[
         for order in orders if method == "krylov" else (50, 200):
             start = time.process_time()
             chosen = KrylovReductor.over(box, tolerance=tolerance) if method == "krylov" else "aromm"
-            extra = {"reference_values": scene.reduction.reference} if method == "aromm" else {}
+            extra: dict[str, Any] = {"reference_values": scene.reduction.reference} if method == "aromm" else {}
             rom = reduce(system, order, method=chosen, cache=False, basis_values=scene.reduction.basis, **extra)
             cpu = time.process_time() - start
             error, where = worst(rom, truth, grid, times)
