@@ -154,7 +154,7 @@ def _build(system: Any, settings: ReductionSettings, engine: str, run: dict[str,
     if settings.basis_storage != "float64":
         raise InputError("basis_storage applies to the scipy engine (the petsc engine keeps the basis in float64)")
     cache = run.get("cache", True)
-    reductor = KrylovReductor.named(settings.method, settings.bounds)
+    reductor = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance)
     if reductor is not None:
         from aromm.engines.petsc.krylov_reduction import reduce_krylov
 

@@ -21,7 +21,7 @@ from aromm.core.profiles import Profile
 from aromm.core.system import ThermalSystem, TimeGrid, dense
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.reduction.krylov import KrylovReductor, build_span, centre, training_set
+from aromm.reduction.krylov import ESTIMATE_SAFETY, KrylovReductor, build_span, centre, training_set
 from aromm.reduction.offline import reduce
 from aromm.reduction.rom import one_blas_thread
 from aromm.reduction.scipy_engine import ScipyEngine
@@ -185,6 +185,37 @@ def test_cache_fields_and_scene_key(tmp_path, capsys: pytest.CaptureFixture[str]
         scene.write_text(text + bad + "\n")
         with pytest.raises(InputError, match=key):
             load_scene(scene)
+
+
+def test_the_greedy_tolerance_is_a_knob_of_reduce_the_scene_and_the_cli(tmp_path,
+                                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    """``tolerance`` (°C) stops the greedy at an estimated error below tolerance / ESTIMATE_SAFETY; a tighter one
+    is another model (not the cached one) with at least as many points; it asks "auto" for the Krylov method, and
+    a modal method refuses it; the scene's ``[reduction] tolerance`` and ``aromm reduce --tolerance`` set it."""
+    system = two_phase(4, 10.0)
+    loose = reduce(system, order=30, tolerance=1e-2, bounds=BOX, cache=tmp_path)
+    tight = reduce(system, order=30, tolerance=1e-8, bounds=BOX, cache=tmp_path)
+    assert loose.info["method"] == tight.info["method"] == "krylov" and tight.info["cached"] == 0
+    assert float(loose.info["krylov_estimate"]) <= 1e-2 / ESTIMATE_SAFETY
+    assert int(tight.info["krylov_points"]) > int(loose.info["krylov_points"])
+    with pytest.raises(InputError, match="tolerance belongs to method 'krylov'"):
+        reduce(system, order=10, tolerance=1e-6, method="aromm", cache=False)
+    np.savez(tmp_path / "img.npz", labels=random_labels(4, seed=1))
+    from scene_text import scenario_1
+
+    scene = tmp_path / "s.toml"
+    text = scenario_1("img.npz", "5.0e-6", "2.0", "0.1") + '\n[reduction]\nbounds = { "fibre.k" = [0.1, 1.0] }\n'
+    scene.write_text(text + "tolerance = 1e-6\n")
+    assert load_scene(scene).reduction.tolerance == 1e-6
+    scene.write_text(text + "tolerance = -1e-6\n")
+    with pytest.raises(InputError, match=r"reduction\.tolerance"):
+        load_scene(scene)
+    scene.write_text(text)
+    from aromm.cli import main
+
+    assert main(["reduce", str(scene), "--order", "8", "--tolerance", "1e-2", "--no-cache", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["method"] == "krylov" and float(out["krylov_estimate"]) <= 1e-2 / ESTIMATE_SAFETY
 
 
 def test_bad_options_are_refused_before_any_solve() -> None:

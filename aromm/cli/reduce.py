@@ -10,7 +10,7 @@ import click
 from aromm.api import is_root, reduce
 from aromm.cli import checks
 from aromm.cli import engine_options as engine_cli
-from aromm.cli.common import REFINE, echo_json
+from aromm.cli.common import REFINE, FiniteFloat, echo_json
 from aromm.core.cache import NpzCache
 from aromm.linalg.eigensolvers import EIGENSOLVERS
 from aromm.reduction.offline import METHODS as REDUCTIONS
@@ -27,6 +27,10 @@ from aromm.reduction.offline import METHODS as REDUCTIONS
                    "greedy: POD-greedy; krylov: eigen-free rational Krylov over the scene's [reduction] bounds. "
                    "auto: krylov above 60,000 unknowns, else aromm (or when modal options are given). "
                    "Default: the scene's [reduction] method, else auto.")
+@click.option("--tolerance", type=FiniteFloat(min=0.0, min_open=True), default=None,
+              help="Krylov reduction: the greedy over the box stops when its estimated output error is below this "
+                   "(°C; default the scene's [reduction] tolerance, else 1e-5). A Krylov option: with --method auto "
+                   "it asks for krylov.")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
               help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
 @engine_cli.SOLVER
@@ -40,7 +44,8 @@ from aromm.reduction.offline import METHODS as REDUCTIONS
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")
 @REFINE
 @click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
-def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None, references: tuple[Path, ...],
+def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None, tolerance: float | None,
+               references: tuple[Path, ...],
                solver: str, eigensolver: str, engine: str, cache_dir: Path | None, no_cache: bool, refine: int,
                as_json: bool) -> None:
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant).
@@ -51,7 +56,8 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None
         checks.cache_folder(cache_dir)
     sc, *refs = [engine_cli.load(path, engine, refine) for path in (scene, *references)]
     cache = False if no_cache else NpzCache(cache_dir)
-    settings = sc.reduction.updated(order=order, modes=modes, method=method, solver=solver, eigensolver=eigensolver)
+    settings = sc.reduction.updated(order=order, modes=modes, method=method, solver=solver, eigensolver=eigensolver,
+                                    tolerance=tolerance)
     rom = reduce(sc, settings=settings, references=refs, cache=cache, engine=engine,
                  progress=sys.stderr.isatty() and is_root(engine))
     if not is_root(engine):

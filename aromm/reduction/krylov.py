@@ -105,12 +105,15 @@ class KrylovReductor:
         return out
 
     @classmethod
-    def named(cls, method: object, bounds: Mapping[str, tuple[float, float]] | None = None) -> KrylovReductor | None:
-        """The Krylov reductor that ``method`` asks for (``"krylov"`` over ``bounds``, or a KrylovReductor itself),
-        None for any other method."""
+    def named(cls, method: object, bounds: Mapping[str, tuple[float, float]] | None = None,
+              tolerance: float | None = None) -> KrylovReductor | None:
+        """The Krylov reductor that ``method`` asks for (``"krylov"`` over ``bounds`` with ``tolerance`` (°C, None:
+        the default), or a KrylovReductor itself), None for any other method."""
         if isinstance(method, KrylovReductor):
             return method
-        return cls.over(bounds) if method == "krylov" else None
+        if method != "krylov":
+            return None
+        return cls.over(bounds) if tolerance is None else cls.over(bounds, tolerance=tolerance)
 
     def check(self) -> None:
         for name, lo, hi in self.bounds:

@@ -4,13 +4,15 @@ One frozen object holds every knob of ``aromm.reduce`` [Chavez2020, § 3]: the o
 (:data:`REDUCTION_METHODS`, ``"auto"`` by size), the detailed modal basis (Ñ and its split), the reference
 properties of the bases and of the reference simulation (``basis`` and ``reference``, overrides of the scene's
 parameters), the relaxation case and correction vectors, the identification box of the Krylov reduction
-(``bounds``) and the solvers.  A scene's ``[reduction]`` section sets ``basis``, ``reference``, ``method`` and
-``bounds``; the command line replaces the rest (:meth:`ReductionSettings.updated`); the reduction reads the object,
-and its cache key is made of :meth:`ReductionSettings.key`.
+(``bounds``) and its greedy's tolerance (``tolerance``, °C), and the solvers.  A scene's ``[reduction]`` section sets
+``basis``, ``reference``, ``method``, ``bounds`` and ``tolerance``; the command line replaces the rest
+(:meth:`ReductionSettings.updated`); the reduction reads the object, and its cache key is made of
+:meth:`ReductionSettings.key`.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from numbers import Integral
@@ -46,6 +48,8 @@ class ReductionSettings:
     value, SI) of the modal bases and of the reference simulation; ``relaxation``: the cooling reference case;
     ``corrections``: True, False or the parameter samples of the correction vectors; ``bounds``: name → (lower,
     upper), the identification box, over which the Krylov reduction trains (the modal methods do not use it);
+    ``tolerance`` (°C): the Krylov reduction's greedy stops at this estimated error (None: the reductor's default,
+    aromm.reduction.krylov.KrylovReductor; a Krylov-only option, so ``"auto"`` then picks the Krylov method);
     ``solver`` (linear solves), ``eigensolver`` and ``basis_storage`` of the modal bases."""
 
     order: int = 200
@@ -58,6 +62,7 @@ class ReductionSettings:
     relaxation: bool = True
     corrections: bool | Sequence[Mapping[str, float]] = True
     bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    tolerance: float | None = None
     solver: str = "auto"
     eigensolver: str = "auto"
     basis_storage: str = "float64"
@@ -84,6 +89,13 @@ class ReductionSettings:
         if self.method == "krylov" and modal:
             raise InputError(f"reduce: {', '.join(modal)} belong to the modal methods (aromm, pod, greedy), not to "
                              "method 'krylov' (its options are those of aromm.reduction.krylov.KrylovReductor)")
+        if self.tolerance is not None:
+            if not (isinstance(self.tolerance, int | float) and math.isfinite(self.tolerance) and self.tolerance > 0):
+                raise InputError(f"tolerance (°C, of the Krylov reduction's greedy) must be a finite number > 0, got "
+                                 f"{self.tolerance!r}")
+            if self.method in ("aromm", "pod", "greedy") or (self.method == "auto" and modal):
+                raise InputError(f"reduce: tolerance belongs to method 'krylov', not to "
+                                 f"{'the modal options ' + ', '.join(modal) if modal else repr(self.method)}")
         if self.eigensolver not in EIGENSOLVERS:
             raise InputError(f"unknown eigensolver {self.eigensolver!r}; allowed: {', '.join(EIGENSOLVERS)}")
         if self.basis_storage not in BASIS_STORAGES:
@@ -101,6 +113,8 @@ class ReductionSettings:
         :data:`KRYLOV_ABOVE`."""
         if self.method != "auto":
             return self.method
+        if self.tolerance is not None:
+            return "krylov"
         if self.modal_options() or references:
             return "aromm"
         return "krylov" if unknowns > KRYLOV_ABOVE else "aromm"
@@ -115,13 +129,14 @@ class ReductionSettings:
         method = self.method if isinstance(self.method, str) else getattr(self.method, "cache_key", self.method.name)
         return (self.order, method, self.modes, self.n_dirichlet, self.n_steklov, dict(self.basis),
                 dict(self.reference), self.relaxation, self.samples(()) if self.corrections is not True else True,
-                {k: tuple(v) for k, v in self.bounds.items()}, self.solver, self.eigensolver, self.basis_storage)
+                {k: tuple(v) for k, v in self.bounds.items()}, self.solver, self.eigensolver, self.basis_storage,
+                self.tolerance)
 
 
 def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
     """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers), a
-    ``method`` name and ``bounds`` (parameter → [lower, upper], 0 < lower <= upper)."""
-    table = r.table(data, "reduction", ("basis", "reference", "method", "bounds"))
+    ``method`` name, ``bounds`` (parameter → [lower, upper], 0 < lower <= upper) and the Krylov ``tolerance`` (°C)."""
+    table = r.table(data, "reduction", ("basis", "reference", "method", "bounds", "tolerance"))
     out: dict[str, dict[str, float]] = {}
     for part in ("basis", "reference"):
         given = r.table(table, f"reduction.{part}", None, part)
@@ -144,4 +159,6 @@ def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping
         if lo > hi:
             raise r.fail(key, f"lower bound {lo:g} above the upper bound {hi:g}")
         bounds[name] = (lo, hi)
-    return ReductionSettings(basis=out["basis"], reference=out["reference"], method=method, bounds=bounds)
+    tolerance = r.number(table["tolerance"], "reduction.tolerance", positive=True) if "tolerance" in table else None
+    return ReductionSettings(basis=out["basis"], reference=out["reference"], method=method, bounds=bounds,
+                             tolerance=tolerance)
