@@ -21,6 +21,9 @@ Measured 2026-12-01 at 24³ (``--size 24 --steps 100``, load average 5–13 on 2
 the amalgam at order 200 — the identification (60 s experiment, 645 / 650 evaluations) 0.73 vs 8.67 CPU s, an
 evaluation in the posterior 1.07 vs 11.4 ms CPU (a 1e4-sample posterior ≈ 11 vs 114 CPU s), the same estimates to
 six digits (k_F 0.299978, c_F 4.00047e6; twin data of each model, so this checks the inverse loop, not accuracy).
+Measured 2026-12-02 (``--size 24 --method krylov --order 50 --steps 313 --walkers 32``, load ≈ 3; record in
+benchmarks/records/posterior_krylov_24.json): a 1e4-sample posterior of the 60 s experiment, 10,048 evaluations in
+9.4 CPU s (0.94 ms each; σ sampled 9.5 s), the identification 0.58 CPU s for 645 evaluations.
 """
 
 from __future__ import annotations
