@@ -54,15 +54,26 @@ def phi2(x: FloatArray) -> FloatArray:
 def propagate(rates: FloatArray, y: FloatArray, b0: FloatArray, b1: FloatArray, s: FloatArray) -> FloatArray:
     """Y(a + s) for every s (n,): rates, y, b0, b1 of shape (m, r) → (m, r, n).
 
-    One transcendental evaluation per entry: ``e^{−x} = 1 + expm1(−x)`` and ``φ1(x) = −expm1(−x)/x`` share it,
-    and the φ2 term is skipped when the inputs are constant on the interval (b1 = 0): outputs of r = 200 modes at
-    600 times 5.9 ms instead of 9.7 ms per parameter set, r = 50: 0.54 instead of 1.0 ms (measured, one BLAS
-    thread, loaded machine)."""
+    One transcendental evaluation and two passes per entry: with ``em = expm1(−x)``, ``e^{−x} = 1 + em`` and
+    ``s φ1(x) = −em / λ``, so for λ > 0
+
+        Y = y + em (y − b0/λ)
+
+    (the error of ``b0/λ`` is multiplied by ``|em| ≤ λs``: absolute error ε s |b0|, as the closed form's);
+    modes with λ s < :data:`PHI1_SERIES` over the whole interval (a zero rate: the mean temperature of an
+    adiabatic body) take the series of φ1.  The φ2 term is skipped when the inputs are constant on the interval
+    (b1 = 0).  Outputs of 76 modes at 600 times for 667 parameter sets of an identification on the shipped 46³
+    VER: 1.4 s of this function with the per-term form (x, φ1, e^{−x} y, s φ1 b0 as separate arrays), now
+    ≈ 0.5 s (measured, one BLAS thread)."""
     x = rates[..., None] * s
     em = np.expm1(-x)
-    small = x < PHI1_SERIES
-    p1 = np.where(small, 1.0 - 0.5 * x, -em / np.where(small, 1.0, x))
-    out = (1.0 + em) * y[..., None] + s * p1 * b0[..., None]
+    slow = rates * (float(s.max()) if s.size else 0.0) < PHI1_SERIES
+    c = y - b0 / np.where(slow, 1.0, rates)
+    out = em * c[..., None]
+    out += y[..., None]
+    if np.any(slow):
+        xs = x[slow]
+        out[slow] = (1.0 + em[slow]) * y[slow][:, None] + s * (1.0 - 0.5 * xs) * b0[slow][:, None]
     if np.any(b1):
         out += s**2 * phi2(x) * b1[..., None]
     return out
