@@ -1,4 +1,4 @@
-"""Reduced-model build on wood-like VERs from 24³ to 96³ voxels: seconds, memory, error (issue 12, item 2).
+"""Reduced-model build on wood-like VERs from 24³ to 256³ voxels: seconds, memory, error (issues 12 and 25).
 
 Each size runs in its own process (peak memory per size).  The VER is ``aromm.studies.chavez2020.small_wood(n)``: the
 paper's 230 µm box with tracheid walls one voxel thick (so finer images hold more, thinner cells), loaded by

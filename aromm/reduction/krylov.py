@@ -10,9 +10,10 @@ A Galerkin model on a basis V that contains
 
 matches the first ``steps`` moments of H at every (μ_i, s_k) [Antoulas2005, ch. 11] (rational Krylov; with
 ``dual`` also the outputs' moments, Eᵀ taken as inputs, twice the moments for the same solves since K, C are
-symmetric).  Shifts s_k are log-spaced over 1/t_end … 3/t_first (the Laplace frequencies of the output times);
-the constant field is always in V (the mean temperature).  The parameter points μ_i are chosen greedily over
-the identification box ``bounds`` (a log-spaced training grid 𝒫):
+symmetric).  Right-hand sides that are combinations of others are solved once (:func:`independent_columns`), and the
+solutions of one shift are orthonormalised together.  Shifts s_k are log-spaced over 1/t_end … 3/t_first (the
+Laplace frequencies of the output times); the constant field is always in V (the mean temperature).  The parameter
+points μ_i are chosen greedily over the identification box ``bounds`` (a log-spaced training grid 𝒫):
 
 1. start at the box's geometric centre μ₀; V is C(μ₀)-orthonormal;
 2. indicator (selection): the relative residual of the reduced frequency response,
