@@ -59,7 +59,8 @@ def propagate(rates: FloatArray, y: FloatArray, b0: FloatArray, b1: FloatArray, 
 
         Y = y + em (y − b0/λ)
 
-    (the error of ``b0/λ`` is multiplied by ``|em| ≤ λs``: absolute error ε s |b0|, as the closed form's);
+    (the error of ``b0/λ`` is multiplied by ``abs(em) ≤ λs``: an absolute error of ε s ``abs(b0)``, as the closed
+    form's);
     modes with λ s < :data:`PHI1_SERIES` over the whole interval (a zero rate: the mean temperature of an
     adiabatic body) take the series of φ1.  The φ2 term is skipped when the inputs are constant on the interval
     (b1 = 0).  Outputs of 76 modes at 600 times for 667 parameter sets of an identification on the shipped 46³
