@@ -108,7 +108,7 @@ class ScipyEngine:
         self.initial = initial
         self._terms = self._input_vectors()
         self._columns = ColumnBuffer(system.n)
-        self._projections = _Projections([t.operator for t in (*system.conductance.terms, *system.capacity.terms)])
+        self._projections = _Projections(operators)
 
     # ----------------------------------------------------------------- inputs and outputs
     @property
