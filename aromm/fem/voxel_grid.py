@@ -195,6 +195,34 @@ class VoxelGrid:
         return face_nodes_and_quads(self.shape, face)[0]
 
     def geometry(self, labels: npt.NDArray[np.integer]) -> Geometry:
-        cells = connectivity(self.shape, np.arange(int(np.prod(self.shape))))[:, VTK_HEX]
-        return Geometry(node_points(self.shape, self.voxel_size), cells, "hexahedron",
-                        {"label": np.asarray(labels).ravel(order="C")})
+        return GridGeometry(self.shape, tuple(self.voxel_size), np.asarray(labels).ravel(order="C"))
+
+
+class GridGeometry(Geometry):
+    """The :class:`~aromm.core.system.Geometry` of a voxel grid whose points and hexahedra are formed when read.
+
+    Held, they are 88 bytes per voxel (1.5 GB at 256³) for the whole life of a system that reads them only to
+    export a field.
+
+    >>> g = GridGeometry((2, 1, 1), (1e-3, 1e-3, 1e-3), np.array([0, 1]))
+    >>> g.points.shape, g.cells.shape, g.cell_type
+    ((12, 3), (2, 8), 'hexahedron')
+    """
+
+    shape: tuple[int, int, int]
+    voxel_size: tuple[float, ...]
+
+    def __init__(self, shape: tuple[int, int, int], voxel_size: tuple[float, ...],
+                 labels: npt.NDArray[np.integer]) -> None:  # the frozen parent's fields, set as its __init__ would
+        object.__setattr__(self, "shape", shape)
+        object.__setattr__(self, "voxel_size", voxel_size)
+        object.__setattr__(self, "cell_type", "hexahedron")
+        object.__setattr__(self, "cell_data", {"label": labels})
+
+    @property  # type: ignore[override]
+    def points(self) -> FloatArray:
+        return node_points(self.shape, self.voxel_size)
+
+    @property  # type: ignore[override]
+    def cells(self) -> npt.NDArray[np.int64]:
+        return connectivity(self.shape, np.arange(int(np.prod(self.shape))))[:, VTK_HEX]

@@ -87,8 +87,10 @@ class ReductionEngine(Protocol):
         """Number of columns of a block."""
         ...
 
-    def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: Block, rtol: float) -> Block:
-        """X with ``‖(K(μ) + s C(μ)) x_j − b_j‖ ≤ rtol ‖b_j‖`` for every column; NumericalError otherwise."""
+    def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: Block, rtol: float,
+                      guess: Block | None = None) -> Block:
+        """X with ``‖(K(μ) + s C(μ)) x_j − b_j‖ ≤ rtol ‖b_j‖`` for every column; NumericalError otherwise.
+        ``guess``: initial iterates of an iterative solver (a direct one ignores it)."""
         ...
 
     def capacity(self, values: Mapping[str, float], block: Block) -> Block:

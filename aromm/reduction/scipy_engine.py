@@ -92,10 +92,10 @@ class ScipyEngine:
         if solver not in SOLVERS:
             raise InputError(f"krylov reduction: unknown linear solver {solver!r}; allowed: {', '.join(SOLVERS)}")
         self.system = system
-        points = system.geometry.points if system.geometry is not None else None
-        self.points = points if points is not None and points.shape[0] == system.n else None
         operators = [t.operator for t in (*system.conductance.terms, *system.capacity.terms)]
         self.voxel = is_voxel_family(operators)  # matrix-free voxel terms: no matrix is ever assembled
+        points = system.geometry.points if system.geometry is not None and not self.voxel else None
+        self.points = points if points is not None and points.shape[0] == system.n else None
         if solver == "auto":
             on_grid = self.points is not None or self.voxel
             solver = "mg" if system.n >= DIRECT_BELOW and on_grid else resolve_method("auto")
@@ -165,7 +165,8 @@ class ScipyEngine:
             out += float(t.coefficient(v)) * np.asarray(t.operator @ block)
         return out
 
-    def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float) -> FloatArray:
+    def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float,
+                      guess: FloatArray | None = None) -> FloatArray:
         key = (tuple(sorted(values.items())), float(shift), float(rtol))
         if self._solver is None or self._solver[0] != key:
             self._solver = None  # release the previous hierarchy before building the next one
@@ -174,7 +175,7 @@ class ScipyEngine:
             self._stats.setups += 1
             self._stats.setup_seconds += time.process_time() - start
         start = time.process_time()
-        out = self._solver[1](rhs)  # type: ignore[operator]
+        out = self._solver[1](rhs, guess)  # type: ignore[operator]
         self._stats.solves += int(rhs.shape[1])
         self._stats.solve_seconds += time.process_time() - start
         return np.asarray(out)
@@ -186,7 +187,7 @@ class ScipyEngine:
                 self._ordering = nested_dissection(a, self.points)
             fac = factorize(a, self.method, rtol=rtol, ordering=self._ordering)
 
-            def direct(b: FloatArray) -> FloatArray:
+            def direct(b: FloatArray, guess: FloatArray | None) -> FloatArray:
                 x = fac.solve(b, check=False)
                 for j in range(b.shape[1]):
                     check_residual(a, x[:, j], b[:, j], rtol, self.method)
@@ -212,14 +213,18 @@ class ScipyEngine:
     def _grid_columns(self, mg: MultigridSolver, index: npt.NDArray[np.intp], nodes: int, shift: float,
                       rtol: float) -> object:
         """``b ↦ A⁻¹ b`` by ``mg`` column by column (scipy's sparse × (n, 3) block is slower), the unknowns embedded
-        at ``index`` of the grid's ``nodes`` (zeros elsewhere: absent or fixed nodes); iteration counts recorded."""
+        at ``index`` of the grid's ``nodes`` (zeros elsewhere: absent or fixed nodes), from the columns of ``guess``
+        if given; iteration counts recorded."""
 
-        def iterative(b: FloatArray) -> FloatArray:
+        def embed(column: FloatArray) -> FloatArray:
+            full = np.zeros(nodes)
+            full[index] = column
+            return full
+
+        def iterative(b: FloatArray, guess: FloatArray | None) -> FloatArray:
             x = np.zeros_like(b)
             for j in range(b.shape[1]):
-                full = np.zeros(nodes)
-                full[index] = b[:, j]
-                x[:, j] = mg.solve(full)[index]
+                x[:, j] = mg.solve(embed(b[:, j]), None if guess is None else embed(guess[:, j]))[index]
             self._stats.iterations.extend(mg.iterations[-b.shape[1]:])
             if mg.at_floor:
                 log.info("multigrid: %d of %d solves at s = %.3g met rtol %.0e only within the float64 rounding floor",

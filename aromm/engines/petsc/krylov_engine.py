@@ -7,7 +7,7 @@ one dense matrix, never gathered.  Small results (Gram matrices, reduced operato
 over the ranks, so every rank holds the same small arrays and takes the same decisions.
 
 * Shifted solves ``(K(μ) + s C(μ)) X = B`` by PETSc KSP only (no SLEPc): conjugate gradients, column by column
-  from a zero guess, stopped on the *unpreconditioned* residual ``‖b − A x‖ ≤ rtol ‖b‖`` and checked
+  from the reductor's guess (else zero), stopped on the *unpreconditioned* residual ``‖b − A x‖ ≤ rtol ‖b‖`` and checked
   (:mod:`aromm.engines.petsc.linear`); one KSP (one multigrid hierarchy) per (μ, s), kept while the reductor
   asks for the same (μ, s).  Preconditioner (``solver``): ``"mg"``, geometric multigrid on the DMDA of a voxel
   grid (PCMG: the DMDA's trilinear interpolation, Galerkin coarse operators ``PᵀAP``, Chebyshev–Jacobi
@@ -217,15 +217,20 @@ class PetscKrylovEngine:
                 options.delValue(k)
         return ksp
 
-    def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float) -> FloatArray:
+    def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float,
+                      guess: FloatArray | None = None) -> FloatArray:
         ksp = self._setup(values, shift, rtol)
+        ksp.setInitialGuessNonzero(guess is not None and self.solver != "mumps")
         start = time.process_time()
         mat = ksp.getOperators()[0]
         b, x = mat.createVecLeft(), mat.createVecRight()
         out = self._block(rhs.shape[1])
         for j in range(rhs.shape[1]):
             b.getArray()[:] = rhs[:, j]
-            x.set(0.0)
+            if guess is None:
+                x.set(0.0)
+            else:
+                x.getArray()[:] = guess[:, j]
             its = linear.solve(ksp, b, x, f"krylov shifted solve, s = {shift:.3g} 1/s", rtol)
             out[:, j] = x.getArray(readonly=True)
             if self.solver != "mumps":
