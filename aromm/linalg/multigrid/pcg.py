@@ -172,6 +172,9 @@ class MultigridSolver:
         a: _Operator = self.operator if self._matrix is None else self._matrix  # type: ignore[assignment]
         x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float)
         r = b - a @ x if x0 is not None else b.copy()
+        if x0 is not None and float(np.linalg.norm(r)) <= self.rtol * nb:  # the guess already solves it
+            self.iterations.append(0)
+            return x
         total = 0
         while True:
             x, r, its = _pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total,
