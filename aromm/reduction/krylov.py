@@ -31,8 +31,9 @@ points μ_i are chosen greedily over the identification box ``bounds`` (a log-sp
    compression is measured on 𝒫 and recorded.
 
 The result is the ordinary :class:`~aromm.reduction.rom.ReducedModel` (exact modal time integration).  Every solve is
-``engine.shifted_solve`` to the relative residual ``rtol`` (default 1e-10): CHOLMOD or multigrid-PCG in the
-scipy engine (:mod:`aromm.reduction.scipy_engine`).  Only :mod:`aromm.reduction.engine_protocol` is imported here.
+``engine.shifted_solve`` to the relative residual ``rtol`` (default 1e-10), an iterative one from the Galerkin
+solution in the basis built so far (:func:`galerkin_guess`): CHOLMOD or multigrid-PCG in the scipy engine
+(:mod:`aromm.reduction.scipy_engine`).  Only :mod:`aromm.reduction.engine_protocol` is imported here.
 """
 
 from __future__ import annotations
