@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 from test_krylov import two_phase
 
-from aromm.reduction.column_buffer import FIRST, ColumnBuffer
+from aromm.reduction.column_buffer import FIRST, ColumnBuffer, GrowingProjection
 from aromm.reduction.krylov import galerkin_guess, independent_columns
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import ScipyEngine
@@ -126,3 +126,18 @@ def test_the_galerkin_guess_is_exact_on_the_span_and_saves_cg_iterations() -> No
     for x in (cold, warm):
         assert np.linalg.norm(a @ x[:, 0] - b[:, 0]) <= rtol * np.linalg.norm(b) * 1.01
     np.testing.assert_array_equal(exact, cold)
+
+
+def test_a_basis_written_over_in_place_is_projected_afresh() -> None:
+    """GrowingProjection reuses VᵀAV only for a basis that extends the last one: after the buffer's columns are
+    written over (the compression Ψ = V Q, same width) the projection is that of the new columns, not the stale one."""
+    rng = np.random.default_rng(6)
+    m = rng.standard_normal((6, 6))
+    a = m + m.T
+    columns = ColumnBuffer(rows=6)
+    grown = GrowingProjection([a], lambda op, x: op @ x, lambda x, y: x.T @ y)
+    v = columns.append(None, rng.standard_normal((6, 3)))
+    grown.memo(columns, v)
+    q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    w = columns.combine_in_place(v, q)
+    np.testing.assert_allclose(grown.memo(columns, w)[id(a)], w.T @ a @ w, rtol=1e-12, atol=1e-12)

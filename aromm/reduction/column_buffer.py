@@ -17,6 +17,9 @@ grows by :data:`GROWTH` when full (one copy per growth).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import Any
+
 import numpy as np
 
 from aromm.core.system import FloatArray
@@ -35,6 +38,7 @@ class ColumnBuffer:
         self.rows = rows
         self._buffer: FloatArray | None = None
         self._width = 0  # columns of the latest view handed out
+        self.version = 0  # counts the times the leading columns were written over (combine_in_place)
 
     def is_latest(self, basis: FloatArray | None) -> bool:
         """Whether ``basis`` is the latest view of the buffer's leading columns (so columns can be written after
@@ -71,4 +75,43 @@ class ColumnBuffer:
             rows = slice(start, min(start + chunk, self.rows))
             out[rows] = basis[rows] @ coefficients  # the right side is a new array: then written over the rows
         self._width = out.shape[1]
+        self.version += 1
         return out
+
+
+class GrowingProjection:
+    """``VᵀA_tV`` of symmetric square terms A_t for the latest basis V of a :class:`ColumnBuffer`, grown as columns
+    come in: for V = [V₀, X], ``[[V₀ᵀAV₀, V₀ᵀAX], [XᵀAV₀, XᵀAX]]`` needs the products ``A X`` only.  ``apply(A, X)``
+    and ``dot(X, Y) = XᵀY`` are the engine's (a distributed engine sums ``dot`` over its ranks).
+
+    >>> import numpy as np
+    >>> a = np.diag([1.0, 2.0, 3.0])
+    >>> columns = ColumnBuffer(rows=3)
+    >>> grown = GrowingProjection([a], lambda op, x: op @ x, lambda x, y: x.T @ y)
+    >>> v = columns.append(None, np.eye(3)[:, :1])
+    >>> _ = grown.memo(columns, v)
+    >>> grown.memo(columns, columns.append(v, np.eye(3)[:, 1:]))[id(a)].diagonal().tolist()
+    [1.0, 2.0, 3.0]
+    """
+
+    def __init__(self, operators: Sequence[Any], apply: Callable[[Any, FloatArray], FloatArray],
+                 dot: Callable[[FloatArray, FloatArray], FloatArray]) -> None:
+        self.operators, self.apply, self.dot = list(operators), apply, dot
+        self._state = (-1, 0)  # (version of the buffer, width) of the last projected basis
+        self._blocks: dict[int, FloatArray] = {}
+
+    def memo(self, columns: ColumnBuffer, basis: FloatArray) -> dict[int, FloatArray]:
+        """The memo of :func:`aromm.reduction.rom.project` (id of an operator → its projection) for ``basis``."""
+        version, width = self._state
+        extends = columns.is_latest(basis) and version == columns.version and basis.shape[1] >= width
+        start = width if extends else 0
+        new = basis[:, start:]
+        blocks = {}
+        for a in self.operators:
+            ax = self.apply(a, new)
+            top = self.dot(basis[:, :start], ax)
+            corner = self.dot(new, ax)
+            old = self._blocks[id(a)] if start else np.zeros((0, 0))
+            blocks[id(a)] = np.block([[old, top], [top.T, (corner + corner.T) / 2]])
+        self._blocks, self._state = blocks, (columns.version, basis.shape[1])
+        return dict(blocks)

@@ -34,7 +34,7 @@ from aromm.fem.voxel_terms import as_voxel_terms, is_voxel_family, shifted_opera
 from aromm.linalg.direct import check_residual, factorize, resolve_method
 from aromm.linalg.multigrid.pcg import MultigridSolver
 from aromm.linalg.orderings import nested_dissection
-from aromm.reduction.column_buffer import ColumnBuffer
+from aromm.reduction.column_buffer import ColumnBuffer, GrowingProjection
 from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.residual_gram import ResidualGram
 from aromm.reduction.rom import ReducedModel
@@ -108,7 +108,7 @@ class ScipyEngine:
         self.initial = initial
         self._terms = self._input_vectors()
         self._columns = ColumnBuffer(system.n)
-        self._projections = _Projections(operators)
+        self._projections = GrowingProjection(operators, _product, lambda x, y: x.T @ y)
 
     # ----------------------------------------------------------------- inputs and outputs
     @property
@@ -279,7 +279,8 @@ class ScipyEngine:
 
     def project(self, basis: FloatArray) -> ReducedModel:
         """Galerkin projection; the square terms' ``VᵀAV`` grown from the last projection when ``basis`` extends
-        its basis in the engine's buffer (only the new columns' products: :class:`_Projections`)."""
+        its basis in the engine's buffer (only the new columns' products:
+        :class:`~aromm.reduction.column_buffer.GrowingProjection`)."""
         return ReducedModel.from_system(self.system, basis, self._projections.memo(self._columns, basis))
 
     def residual_norms(self, basis: FloatArray, values: Mapping[str, float], shifts: FloatArray,
@@ -302,29 +303,10 @@ class ScipyEngine:
         return block
 
 
-class _Projections:
-    """``VᵀAV`` of the square terms for the latest basis of a :class:`ColumnBuffer`, grown as columns come in:
-    for V = [V₀, X] and a symmetric A, ``[[V₀ᵀAV₀, V₀ᵀAX], [XᵀAV₀, XᵀAX]]`` needs the products ``A X`` only."""
-
-    def __init__(self, operators: list[Any]) -> None:
-        self.operators = operators
-        self._width = 0
-        self._blocks: dict[int, FloatArray] = {}
-
-    def memo(self, columns: ColumnBuffer, basis: FloatArray) -> dict[int, FloatArray]:
-        """The memo of :func:`aromm.reduction.rom.project` (id of an operator → its projection) for ``basis``."""
-        start = self._width if columns.is_latest(basis) and basis.shape[1] >= self._width else 0
-        new = basis[:, start:]
-        blocks = {}
-        for a in self.operators:
-            if not is_matrix_free(a):
-                ax = np.asarray(sp.csr_array(a) @ new)
-            else:  # column by column: no second (n × k) temporary of the matrix-free product
-                ax = np.column_stack([np.asarray(a @ new[:, j]) for j in range(new.shape[1])]) if new.shape[1] else \
-                    np.zeros((basis.shape[0], 0))
-            top = basis[:, :start].T @ ax
-            corner = new.T @ ax
-            old = self._blocks[id(a)] if start else np.zeros((0, 0))
-            blocks[id(a)] = np.block([[old, top], [top.T, (corner + corner.T) / 2]])
-        self._blocks, self._width = blocks, basis.shape[1]
-        return dict(blocks)
+def _product(a: Any, block: FloatArray) -> FloatArray:
+    """``A X``; a matrix-free operator column by column (no second n × k temporary of its product)."""
+    if not is_matrix_free(a):
+        return np.asarray(sp.csr_array(a) @ block)
+    if not block.shape[1]:
+        return np.zeros((block.shape[0], 0))
+    return np.column_stack([np.asarray(a @ block[:, j]) for j in range(block.shape[1])])

@@ -43,7 +43,7 @@ from aromm.core.system import PENALTY_INSTEAD, FloatArray, require_free_transien
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm
 from aromm.engines.petsc.projection import project
-from aromm.reduction.column_buffer import ColumnBuffer
+from aromm.reduction.column_buffer import ColumnBuffer, GrowingProjection
 from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import GRAM_DROP, input_coefficients, input_weights
@@ -115,6 +115,7 @@ class PetscKrylovEngine:
         self._ksp: tuple[tuple[Any, ...], Any] | None = None
         self._capacities: dict[tuple[tuple[str, float], ...], Any] = {}
         self._columns = ColumnBuffer(self.rows.local)
+        self._projections = GrowingProjection([t.operator for t in self._matrix_terms()], self._apply, self.dot)
         self._gram: tuple[tuple[int, int, int], FloatArray] | None = None  # (basis id, address, width), WᵀW
 
     # ----------------------------------------------------------------- inputs and outputs
@@ -284,26 +285,24 @@ class PetscKrylovEngine:
         return (*self.system.conductance, *self.system.capacity)
 
     def project(self, basis: FloatArray) -> ReducedModel:
-        """The Galerkin model on V (:func:`aromm.engines.petsc.projection.project`), its operators ``Vᵀ P_t`` taken
-        from the products of :meth:`_products`, which also give the residual Gram matrix ``WᵀW``."""
-        memo: dict[int, FloatArray] = {}
-        products = []
-        for t in self._matrix_terms():
-            p = self._apply(t.operator, basis)
-            memo[id(t.operator)] = self.dot(basis, p)
-            products.append(p)
-        pieces = [self._terms, *products]
-        gram = np.block([[a.T @ b for b in pieces] for a in pieces])
-        del products, pieces
-        self._gram = (_identity(basis), runtime.allsum(gram, self.comm))
-        return project(self.system, basis, memo)
+        """The Galerkin model on V (:func:`aromm.engines.petsc.projection.project`); ``VᵀA_tV`` grown with the new
+        columns when V extends the last projected basis in the engine's buffer
+        (:class:`~aromm.reduction.column_buffer.GrowingProjection`): the reductor projects before every shift."""
+        return project(self.system, basis, self._projections.memo(self._columns, basis))
+
+    def _residual_gram(self, basis: FloatArray) -> FloatArray:
+        """``WᵀW`` for ``W = [U, P_1, …, P_T]``, ``P_t = A_t V`` (module docstring), summed over the ranks."""
+        if self._gram is None or self._gram[0] != _identity(basis):
+            self._gram = None
+            pieces = [self._terms, *(self._apply(t.operator, basis) for t in self._matrix_terms())]
+            gram = np.block([[a.T @ b for b in pieces] for a in pieces])
+            del pieces
+            self._gram = (_identity(basis), runtime.allsum(gram, self.comm))
+        return self._gram[1]
 
     def residual_norms(self, basis: FloatArray, values: Mapping[str, float], shifts: FloatArray,
                        solutions: FloatArray) -> FloatArray:
-        if self._gram is None or self._gram[0] != _identity(basis):
-            self.project(basis)
-        assert self._gram is not None
-        gram = self._gram[1]
+        gram = self._residual_gram(basis)
         v = self.system.values(values)
         k = np.array([float(t.coefficient(v)) for t in self.system.conductance])
         c = np.array([float(t.coefficient(v)) for t in self.system.capacity])
