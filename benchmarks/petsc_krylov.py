@@ -59,6 +59,9 @@ def worker(n: int, engine: str, order: int, solver: str) -> dict[str, object]:
 
     load_before = os.getloadavg()[0]
     if engine == "petsc":
+        from aromm.engines import find_debian_petsc
+
+        find_debian_petsc()  # Debian's petsc4py is on sys.path only once its PETSC_DIR is found
         from petsc4py import PETSc
 
         PETSc.Log.begin()  # counts of the events (calls, flops, messages, bytes, reductions) per rank
