@@ -25,7 +25,7 @@ from aromm.reduction.offline import METHODS as REDUCTIONS
 @click.option("--method", type=click.Choice(REDUCTIONS), default=None,
               help="aromm: amalgam of Dirichlet–Steklov modes; pod: POD–Galerkin baseline on the same snapshots; "
                    "greedy: POD-greedy; krylov: eigen-free rational Krylov over the scene's [reduction] bounds. "
-                   "auto: krylov above 60,000 unknowns, else aromm (or when modal options are given). "
+                   "auto: krylov above 30,000 unknowns, else aromm (or when modal options are given). "
                    "Default: the scene's [reduction] method, else auto.")
 @click.option("--tolerance", type=FiniteFloat(min=0.0, min_open=True), default=None,
               help="Krylov reduction: the greedy over the box stops when its estimated output error is below this "

@@ -25,10 +25,11 @@ from aromm.scene.toml import TableReader
 #: aromm.reduction.offline's REDUCTORS (amalgam, POD, POD-greedy) and ``"krylov"`` (aromm.reduction.krylov).
 REDUCTION_METHODS = ("auto", "aromm", "pod", "greedy", "krylov")
 #: ``method="auto"`` builds the eigen-free Krylov model for systems with more free unknowns than this, the amalgam of
-#: modes [Chavez2020, § 3] below.  Measured crossover (docs/method/krylov.md, "Choice by size"): the amalgam's build
-#: costs 2.5–10× less CPU up to 32³ voxels (3.6e4 unknowns, benchmarks/method_crossover.py), the Krylov build 2.7×
-#: less at 46³ (1.0e5 unknowns, the README's main job): the switch sits between, at about 39³.
-KRYLOV_ABOVE = 60_000
+#: modes [Chavez2020, § 3] below.  Measured crossover (docs/method/krylov.md, "Choice by size";
+#: benchmarks/method_crossover.py, 2026-12-02): the amalgam's build costs 2.0× less CPU at 24³ voxels (1.6e4
+#: unknowns), the Krylov build 0.80× the amalgam's at 32³ (3.6e4) and 0.60× at 40³ (6.9e4): the switch sits between
+#: 24³ and 32³, at about 31³.
+KRYLOV_ABOVE = 30_000
 #: Keyword names ``aromm.reduce`` has always accepted for two fields.
 ALIASES = {"basis_values": "basis", "reference_values": "reference"}
 #: Options that only the modal methods use (the Krylov reduction refuses them; ``"auto"`` then picks the amalgam).
