@@ -31,8 +31,8 @@ from aromm.core.system import FloatArray, Geometry
 def field_mesh(geometry: Geometry, field: FloatArray, name: str = "T") -> meshio.Mesh:
     """The system's mesh with the nodal ``field`` (one value per unknown) as point data ``name``."""
     values = np.asarray(field, dtype=float)
-    if values.shape != (geometry.points.shape[0],):
-        raise InputError(f"a field has {values.size} values for {geometry.points.shape[0]} nodes")
+    if values.shape != (geometry.nodes,):
+        raise InputError(f"a field has {values.size} values for {geometry.nodes} nodes")
     return meshio.Mesh(geometry.points, [(geometry.cell_type, geometry.cells)], point_data={name: values},
                        cell_data={k: [np.asarray(v)] for k, v in geometry.cell_data.items()})
 

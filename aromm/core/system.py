@@ -221,6 +221,11 @@ class Geometry:
     cell_type: str
     cell_data: Mapping[str, np.ndarray] = field(default_factory=dict)
 
+    @property
+    def nodes(self) -> int:
+        """Number of points, without forming them where they are formed when read."""
+        return int(self.points.shape[0])
+
 
 @dataclass(frozen=True)
 class TimeGrid:

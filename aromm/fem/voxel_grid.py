@@ -205,8 +205,8 @@ class GridGeometry(Geometry):
     export a field.
 
     >>> g = GridGeometry((2, 1, 1), (1e-3, 1e-3, 1e-3), np.array([0, 1]))
-    >>> g.points.shape, g.cells.shape, g.cell_type
-    ((12, 3), (2, 8), 'hexahedron')
+    >>> g.points.shape, g.cells.shape, g.cell_type, g.nodes
+    ((12, 3), (2, 8), 'hexahedron', 12)
     """
 
     shape: tuple[int, int, int]
@@ -218,6 +218,10 @@ class GridGeometry(Geometry):
         object.__setattr__(self, "voxel_size", voxel_size)
         object.__setattr__(self, "cell_type", "hexahedron")
         object.__setattr__(self, "cell_data", {"label": labels})
+
+    @property
+    def nodes(self) -> int:
+        return int(np.prod(np.asarray(self.shape) + 1))
 
     @property  # type: ignore[override]
     def points(self) -> FloatArray:

@@ -88,7 +88,7 @@ def _partition(system: ThermalSystem, values: ParamValues) -> _Partition:
 
 def _points(system: ThermalSystem, part: _Partition) -> FloatArray | None:
     """Coordinates of the free unknowns (for the nested-dissection ordering), when the system has them."""
-    if system.geometry is None or system.geometry.points.shape[0] != system.n:
+    if system.geometry is None or system.geometry.nodes != system.n:
         return None
     return system.geometry.points[part.free]
 
@@ -156,7 +156,7 @@ def steady_field(system: ThermalSystem, values: ParamValues | None = None, metho
 def steady_method(system: ThermalSystem, method: str, unknowns: int) -> str:
     """``method``, or for ``"auto"`` on a voxel system of at least :data:`STEADY_MG_FROM` free unknowns ``"mg"``."""
     g = system.geometry
-    voxels = g is not None and g.cell_type == "hexahedron" and g.points.shape[0] == system.n
+    voxels = g is not None and g.cell_type == "hexahedron" and g.nodes == system.n
     return "mg" if method == "auto" and voxels and unknowns >= STEADY_MG_FROM else method
 
 
