@@ -20,6 +20,7 @@ from aromm.fem.voxel_terms import VoxelTerm, as_voxel_terms, harmonic_extension,
 from aromm.full.solve import transient
 from aromm.linalg.multigrid.assembled import galerkin
 from aromm.linalg.multigrid.hierarchy import ElementLevel, assembled_matrix
+from aromm.linalg.multigrid.operator import VoxelOperator
 from aromm.linalg.multigrid.pcg import MultigridSolver
 from aromm.reduction.krylov import KrylovReductor
 from aromm.reduction.lifting import lift, liftings
@@ -93,6 +94,9 @@ def test_shifted_operator_and_its_coarse_level_are_the_weighted_sum_and_its_gale
     x = np.random.default_rng(1).standard_normal(op.n)
     close(op @ x, grid @ x)
     close(op.diagonal(), grid.diagonal())
+    block = np.random.default_rng(5).standard_normal((op.n, 3))  # columns sharing each slab's gathered weights
+    close(op.matvec(block), grid @ block)
+    close(op.matvec(block.astype(np.float32)), grid @ block, 1e-5)  # float32: relative rounding ≈ 6e-8 × terms
     held = np.ones(op.n, dtype=bool)
     held[free] = False
     coarse, _, _ = galerkin(sp.csr_array(grid), op.node_shape, held)
@@ -202,3 +206,11 @@ def test_krylov_reduction_of_a_large_voxel_scene_assembles_matrix_free_terms() -
         scene = loading(small_wood(n), "z")
         assert ((n + 1) ** 3 > MATRIX_FREE_ABOVE) == (n == 28)
         assert matrix_free_krylov(scene, ReductionSettings(method=method), references=False) is expected
+
+
+def test_a_periodic_block_product_is_the_assembled_periodic_matrix_column_by_column() -> None:
+    """Columns of a block share each slab's weights; ghosts of the periodic grid fold onto their twins per column."""
+    phase = (np.random.default_rng(6).random((5, 4, 6)) < 0.4).astype(np.int8)
+    op = VoxelOperator(phase, np.array([[0.03] * 3, [0.3, 0.5, 0.2]]), (1e-4, 1.2e-4, 0.9e-4), periodic=True)
+    block = np.random.default_rng(7).standard_normal((op.n, 5))
+    close(op.matvec(block), assembled_matrix(op) @ block)

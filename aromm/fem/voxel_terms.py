@@ -34,6 +34,9 @@ from aromm.linalg.multigrid.pcg import MultigridSolver
 
 KINDS = ("conduction", "capacity", "exchange")
 FACES = ("x0", "x1", "y0", "y1", "z0", "z1")
+#: Columns of a block applied in one pass of a matrix-free product (they share the gathered weights of each
+#: slab; the pass holds two grid arrays of this many columns: 0.5 GB each at 256³).
+GROUP = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,19 +81,14 @@ class VoxelTerm:
     def __matmul__(self, x: FloatArray) -> FloatArray:
         """``A x`` for a vector (n,) or a block (n, m) on the unknowns."""
         x = np.asarray(x, dtype=float)
-        if x.ndim == 2:
-            out = np.empty((self.free.size, x.shape[1]))
-            for j in range(x.shape[1]):
-                out[:, j] = self @ x[:, j]
-            return out
         if self.kind == "exchange":
             return np.asarray(self.grid.face_mass(self.face) @ self._embed(x))[self.free]
-        return self.operator.matvec(self._embed(x), constrained=False)[self.free]
+        return grouped_product(self.operator, self.free, self.grid.n, x)
 
     def _embed(self, x: FloatArray) -> FloatArray:
         if not self.fixed:
             return x
-        full = np.zeros(self.grid.n)
+        full = np.zeros((self.grid.n, *x.shape[1:]))
         full[self.free] = x
         return full
 
@@ -149,8 +147,7 @@ class VoxelTerm:
         op = self.operator
         local = VoxelOperator(op.phase[e0:e1], op.conductivity, op.voxel_size, capacity=op.capacity,
                               keep_weights=False)
-        out = np.column_stack([local.matvec(sub[:, j], constrained=False) for j in range(sub.shape[1])])
-        return out[nodes - lo]
+        return np.asarray(local.matvec(sub, constrained=False))[nodes - lo]
 
     def content_parts(self) -> tuple[object, ...]:
         """What identifies the term, for content hashes (aromm.core.cache)."""
@@ -251,13 +248,21 @@ def harmonic_extension(terms: Sequence[VoxelTerm], weights: Sequence[float], bou
 
 def weighted_product(terms: Sequence[VoxelTerm], weights: Sequence[float], block: FloatArray) -> FloatArray:
     """``Σ_i w_i A_i X`` for voxel terms of one family in one matrix-free pass per column (no summed matrix)."""
-    op = shifted_operator(terms, weights)
-    free, n = terms[0].free, terms[0].grid.n
-    x = np.asarray(block, dtype=float)
-    columns = x[:, None] if x.ndim == 1 else x
-    out = np.empty_like(columns)
-    full = np.zeros(n)
-    for j in range(columns.shape[1]):
-        full[free] = columns[:, j]
-        out[:, j] = op.matvec(full, constrained=False)[free]
-    return out[:, 0] if x.ndim == 1 else out
+    return grouped_product(shifted_operator(terms, weights), terms[0].free, terms[0].grid.n,
+                           np.asarray(block, dtype=float))
+
+
+def grouped_product(op: VoxelOperator, free: npt.NDArray[np.integer], n: int, x: FloatArray) -> FloatArray:
+    """``A x`` on the unknowns ``free`` of a grid of ``n`` nodes, for a vector or a block: :data:`GROUP` columns
+    a pass (they share each slab's gathered weights; a pass holds two (n, GROUP) node arrays)."""
+    if x.ndim == 1:
+        full = np.zeros(n)
+        full[free] = x
+        return np.asarray(op.matvec(full, constrained=False))[free]
+    out = np.empty((free.size, x.shape[1]))
+    for j in range(0, x.shape[1], GROUP):
+        cols = slice(j, min(j + GROUP, x.shape[1]))
+        full = np.zeros((n, cols.stop - cols.start))
+        full[free] = x[:, cols]
+        out[:, cols] = np.asarray(op.matvec(full, constrained=False))[free]
+    return out

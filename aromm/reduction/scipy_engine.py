@@ -304,9 +304,5 @@ class ScipyEngine:
 
 
 def _product(a: Any, block: FloatArray) -> FloatArray:
-    """``A X``; a matrix-free operator column by column (no second n × k temporary of its product)."""
-    if not is_matrix_free(a):
-        return np.asarray(sp.csr_array(a) @ block)
-    if not block.shape[1]:
-        return np.zeros((block.shape[0], 0))
-    return np.column_stack([np.asarray(a @ block[:, j]) for j in range(block.shape[1])])
+    """``A X``; a matrix-free operator a few columns a pass (:func:`aromm.fem.voxel_terms.grouped_product`)."""
+    return np.asarray((a if is_matrix_free(a) else sp.csr_array(a)) @ block)

@@ -30,6 +30,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import cast
 
 import numpy as np
 import numpy.typing as npt
@@ -39,7 +40,10 @@ from aromm.core.system import FloatArray
 
 COMBOS = ("DSS", "SDS", "SSD", "DDS", "DSD", "SDD", "DDD")  # letters: x, y, z
 MASS_COMBOS = (*COMBOS, "SSS")  # with a capacity term
-WEIGHT_CACHE_VOXELS = 1 << 21  # up to 128³ the gathered weights are kept: 28 (float32) + 56 (float64) B/voxel
+#: Gathered per-voxel weights are kept while a table (combinations × voxels) fits in this many bytes: float32
+#: (32 B/voxel) up to 256³, float64 (64 B/voxel) up to ≈ 200³.  Above, each product gathers them again: at 256³
+#: that was 56 % of a float32 and 29 % of a float64 product (0.48 → 0.21 s, 0.84 → 0.60 s, 2026-12-02).
+WEIGHT_CACHE_BYTES = 1 << 30
 SLAB_NODES = 1 << 16  # nodes per slab of the matrix-free product (0.5 MB per float64 array: cache-sized)
 # 1-D reference matrices in the class basis {[0,0], [0,1], [1,1]} (lengths scaled out): stiffness, mass
 STIFF_1D = np.array([1.0, -1.0, 1.0])
@@ -64,7 +68,7 @@ class VoxelOperator:
     fixed: tuple[str, ...] = ()
     capacity: FloatArray | None = None
     exchange: tuple[tuple[str, float], ...] = ()
-    keep_weights: bool = True  # keep the gathered per-voxel weights of grids up to WEIGHT_CACHE_VOXELS
+    keep_weights: bool = True  # keep the gathered per-voxel weights while they fit WEIGHT_CACHE_BYTES
     _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -156,20 +160,34 @@ class VoxelOperator:
         return self._cache[key]
 
     def matvec(self, x: FloatArray, constrained: bool = True) -> FloatArray:
-        """K x for a flat node vector; ``constrained=False`` ignores ``fixed`` (the free box operator).
+        """K x for a flat node vector (n,) or a block of columns (n, k); ``constrained=False`` ignores ``fixed``
+        (the free box operator).  The columns of a block share each slab's gathered weights.
 
         Computed in the vector's precision: float32 for a preconditioner, float64 otherwise.
         """
-        dtype = np.dtype(np.float32) if np.asarray(x).dtype == np.float32 else np.dtype(np.float64)
-        u = np.asarray(x, dtype=dtype).reshape(self.node_shape)
-        y = np.zeros(self.node_shape, dtype=dtype)
+        x = np.asarray(x)
+        dtype = np.dtype(np.float32) if x.dtype == np.float32 else np.dtype(np.float64)
+        u = cast(FloatArray, (np.ascontiguousarray(x.T, dtype=dtype) if x.ndim == 2 else np.asarray(x, dtype=dtype)
+                 ).reshape(-1, *self.node_shape))
+        y = np.zeros(u.shape, dtype=dtype)
         table = self._weight_table(dtype)
         mask = constrained and bool(self.fixed)
         for k0, k1 in self._slabs():
-            ext = self._gather(u, k0, k1, copy=mask)
-            if mask:
-                self._zero_fixed(ext, k0, k1)
-            self._scatter(y, self._apply(ext, table, k0, k1), k0, k1)
+            weights = None
+            for column, out in zip(u, y, strict=True):
+                ext = self._gather(column, k0, k1, copy=mask)
+                if mask:
+                    self._zero_fixed(ext, k0, k1)
+                if weights is None:
+                    weights = self._slab_weights(table, k0, k1, _pass_size(ext.shape))
+                self._scatter(out, self._apply(ext, weights), k0, k1)
+        for column, out in zip(u, y, strict=True):
+            self._faces(column, out, mask)
+        return y.reshape(u.shape[0], -1).T if x.ndim == 2 else y.ravel()
+
+    def _faces(self, u: FloatArray, y: FloatArray, mask: bool) -> None:
+        """The face terms of one column (node arrays): convection on exchange faces, identity on fixed ones."""
+        dtype = y.dtype
         for face, h in self.exchange:
             axis, index = self._face_plane(face)
             plane = np.array(u[_plane(axis, index)], dtype=float)
@@ -182,7 +200,6 @@ class VoxelOperator:
             for axis, index in self.fixed_planes():
                 sl = _plane(axis, index)
                 y[sl] = u[sl]
-        return y.ravel()
 
     def __matmul__(self, x: FloatArray) -> FloatArray:
         return self.matvec(x)
@@ -263,7 +280,7 @@ class VoxelOperator:
             else:
                 ext[_plane(axis, index)] = 0.0
 
-    def _apply(self, ext: FloatArray, table: FloatArray, k0: int, k1: int) -> FloatArray:
+    def _apply(self, ext: FloatArray, weights: FloatArray) -> FloatArray:
         """Σ_c T_cᵀ w_c T_c on one slab (node planes k0..k1 → contributions to the same planes).
 
         Every pass is one contiguous operation on the flattened slab: a pair along y or z is a shift by a
@@ -276,7 +293,7 @@ class VoxelOperator:
         row, plane = cols, rows * cols
         n = u.size
         m1, m2 = n - 1, n - 1 - row
-        m = m2 - plane
+        m = _pass_size(ext.shape)
         combos = len(self.combos)
         work = self._workspace(ext.dtype, n)
         sx, dx, ss, sd, ds, dd = (work[i, :m1 if i < 2 else m2] for i in range(6))
@@ -290,7 +307,7 @@ class VoxelOperator:
         _pair(ds, plane, terms[0], terms[4])  # DSS, DSD
         _pair(sd, plane, terms[1], terms[5])  # SDS, SDD
         _pair(dd, plane, terms[3], terms[6])  # DDS, DDD
-        terms *= self._slab_weights(table, k0, k1, m)
+        terms *= weights
         scratch = work[14, :m1]
         g_ss, g_ds, g_sd, g_dd = ss, sd, ds, dd  # the pair rows are free again (length m + plane)
         _adjoint(terms[7] if self.capacity is not None else None, terms[2], plane, g_ss, scratch)
@@ -318,7 +335,7 @@ class VoxelOperator:
         if key in self._cache:
             return self._cache[key]
         weights = np.take(table, self._padded_phase[k0:k1].reshape(-1)[:size], axis=1)
-        if self.keep_weights and self.phase.size <= WEIGHT_CACHE_VOXELS:
+        if self.keep_weights and table.shape[0] * self._padded_phase.size * table.itemsize <= WEIGHT_CACHE_BYTES:
             self._cache[key] = weights
         return weights
 
@@ -343,6 +360,12 @@ class VoxelOperator:
         z, y, x = np.meshgrid(*(np.arange(s) * h for s, h in zip(self.node_shape, self.voxel_size[::-1],
                                                                   strict=True)), indexing="ij")
         return np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+
+
+def _pass_size(shape: tuple[int, ...]) -> int:
+    """Entries of the element-wise arrays of a slab of node planes ``shape``: its flat length less a row and a plane."""
+    planes, rows, cols = shape
+    return planes * rows * cols - 1 - cols - rows * cols
 
 
 def fold_ghosts(a: FloatArray, axes: tuple[int, ...]) -> None:
