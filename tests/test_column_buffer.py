@@ -114,6 +114,9 @@ def test_the_galerkin_guess_is_exact_on_the_span_and_saves_cg_iterations() -> No
     inside = basis @ rng.standard_normal((basis.shape[1], 2))
     np.testing.assert_allclose(galerkin_guess(engine, basis, mu, shift)(a @ inside), inside, rtol=0,
                                atol=1e-9 * np.abs(inside).max())
+    pencil = engine.reduced_operator(basis, mu, shift)  # from the growing projection, not from a (K + sC) matrix
+    np.testing.assert_allclose(pencil, basis.T @ (a @ basis), rtol=0, atol=1e-12 * np.abs(pencil).max())
+    assert galerkin_guess(ScipyEngine(system, solver="splu"), basis, mu, shift)(a @ inside) is None
 
     b = engine.inputs(mu)[:, :1]
     cold = engine.shifted_solve(mu, shift, b, rtol)

@@ -93,6 +93,11 @@ class ReductionEngine(Protocol):
         ``guess``: initial iterates of an iterative solver (a direct one ignores it)."""
         ...
 
+    @property
+    def uses_guess(self) -> bool:
+        """Whether :meth:`shifted_solve` starts from ``guess`` (an iterative solver): else none is formed."""
+        ...
+
     def capacity(self, values: Mapping[str, float], block: Block) -> Block:
         """C(μ) X."""
         ...
@@ -118,6 +123,11 @@ class ReductionEngine(Protocol):
 
     def project(self, basis: Block) -> ReducedModel:
         """The Galerkin reduced model on the columns of ``basis`` (every affine term projected)."""
+        ...
+
+    def reduced_operator(self, basis: Block, values: Mapping[str, float], shift: float) -> FloatArray:
+        """``Vᵀ (K(μ) + s C(μ)) V`` (r × r) on the columns of ``basis``: the pencil only, none of the inputs,
+        outputs and initial terms of :meth:`project`."""
         ...
 
     def residual_norms(self, basis: Block, values: Mapping[str, float], shifts: FloatArray,

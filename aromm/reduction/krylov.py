@@ -234,18 +234,19 @@ class _Moments:
 
 
 def galerkin_guess(engine: ReductionEngine, basis: Block, mu: Mapping[str, float],
-                   shift: float) -> Callable[[Block], Block]:
+                   shift: float) -> Callable[[Block], Block | None]:
     """``b ↦ V (Vᵀ A V)⁻¹ Vᵀ b``, A = K(μ) + s C(μ): the Galerkin solution in the span V built so far, the initial
     guess of the iterative shifted solves.  It is the best approximation of A⁻¹ b in V in the energy norm, so CG
     starts below the zero guess's error; the solve's tolerance stays ``rtol ‖b‖``, so the guess changes the
     iteration count, not the accuracy.  Once V holds the moments of the earlier shifts and points, most of A⁻¹ b is
-    in V (that is what the greedy's estimate measures) and CG has fewer decades to go."""
-    projected = engine.project(basis).projected
-    values, m = projected.batch_values(batch([mu]))
-    reduced = projected.conductance.stack(values, m)[0] + shift * projected.capacity.stack(values, m)[0]
+    in V (that is what the greedy's estimate measures) and CG has fewer decades to go.  None for a solver that
+    ignores guesses (a direct one): then nothing is formed."""
+    if not engine.uses_guess:
+        return lambda rhs: None
+    reduced = engine.reduced_operator(basis, mu, shift)
 
     def guess(rhs: Block) -> Block:
-        return engine.combine(basis, np.linalg.solve(reduced, engine.dot(basis, rhs)))
+        return engine.combine(basis, np.asarray(np.linalg.solve(reduced, engine.dot(basis, rhs)), dtype=float))
 
     return guess
 

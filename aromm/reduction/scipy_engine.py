@@ -283,6 +283,14 @@ class ScipyEngine:
         :class:`~aromm.reduction.column_buffer.GrowingProjection`)."""
         return ReducedModel.from_system(self.system, basis, self._projections.memo(self._columns, basis))
 
+    def reduced_operator(self, basis: FloatArray, values: Mapping[str, float], shift: float) -> FloatArray:
+        return pencil(self._projections.memo(self._columns, basis), self.system.conductance.terms,
+                      self.system.capacity.terms, self.system.values(values), shift)
+
+    @property
+    def uses_guess(self) -> bool:
+        return self.method == "mg"
+
     def residual_norms(self, basis: FloatArray, values: Mapping[str, float], shifts: FloatArray,
                        solutions: FloatArray) -> FloatArray:
         """From one Gram matrix per basis (:mod:`aromm.reduction.residual_gram`), kept until the basis changes."""
@@ -301,6 +309,14 @@ class ScipyEngine:
 
     def to_numpy(self, block: FloatArray) -> FloatArray:
         return block
+
+
+def pencil(memo: Mapping[int, FloatArray], conduction: Sequence[Any], capacity: Sequence[Any],
+           values: Mapping[str, Any], shift: float) -> FloatArray:
+    """``Σ_t k_t(μ) VᵀK_tV + s Σ_t c_t(μ) VᵀC_tV`` from a projection memo (id of a term's operator → VᵀA_tV)."""
+    parts = [float(t.coefficient(values)) * memo[id(t.operator)] for t in conduction]
+    parts += [shift * float(t.coefficient(values)) * memo[id(t.operator)] for t in capacity]
+    return np.asarray(np.sum(parts, axis=0), dtype=float)
 
 
 def _product(a: Any, block: FloatArray) -> FloatArray:

@@ -46,7 +46,7 @@ from aromm.engines.petsc.projection import project
 from aromm.reduction.column_buffer import ColumnBuffer, GrowingProjection
 from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.rom import ReducedModel
-from aromm.reduction.scipy_engine import GRAM_DROP, input_coefficients, input_weights
+from aromm.reduction.scipy_engine import GRAM_DROP, input_coefficients, input_weights, pencil
 
 #: Capacity matrices C(μ) kept for reuse, least recently used dropped first: the reference point's (the capacity
 #: product of the basis) and the current moment point's.
@@ -289,6 +289,14 @@ class PetscKrylovEngine:
         columns when V extends the last projected basis in the engine's buffer
         (:class:`~aromm.reduction.column_buffer.GrowingProjection`): the reductor projects before every shift."""
         return project(self.system, basis, self._projections.memo(self._columns, basis))
+
+    def reduced_operator(self, basis: FloatArray, values: Mapping[str, float], shift: float) -> FloatArray:
+        return pencil(self._projections.memo(self._columns, basis), self.system.conductance, self.system.capacity,
+                      self.system.values(values), shift)
+
+    @property
+    def uses_guess(self) -> bool:
+        return self.solver != "mumps"
 
     def _residual_gram(self, basis: FloatArray) -> FloatArray:
         """``WᵀW`` for ``W = [U, P_1, …, P_T]``, ``P_t = A_t V`` (module docstring), summed over the ranks."""
