@@ -12,7 +12,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import replace
 
 from aromm.core.cache import NpzCache, content_key
-from aromm.core.heap import kept_heap
 from aromm.core.system import FloatArray, ThermalSystem
 from aromm.reduction import krylov
 from aromm.reduction.lifting import lift
@@ -44,8 +43,7 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     start = time.perf_counter()
     lifted = lift(system, basis_values, solver)
     engine = ScipyEngine(lifted, linear)
-    # small dense algebra dominates: threaded BLAS only fights for the shared cores; large temporaries are reused
-    with one_blas_thread(), kept_heap():
+    with one_blas_thread():  # small dense algebra dominates: threaded BLAS only fights for the shared cores
         rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress)
     info.update({"offline_seconds": time.perf_counter() - start, "cached": 0, "key": key,
                  "lifted_faces": len(system.dirichlet)})
