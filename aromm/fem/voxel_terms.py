@@ -247,22 +247,29 @@ def harmonic_extension(terms: Sequence[VoxelTerm], weights: Sequence[float], bou
 
 
 def weighted_product(terms: Sequence[VoxelTerm], weights: Sequence[float], block: FloatArray) -> FloatArray:
-    """``Σ_i w_i A_i X`` for voxel terms of one family in one matrix-free pass per column (no summed matrix)."""
+    """``Σ_i w_i A_i X`` for voxel terms of one family in one matrix-free pass per :data:`GROUP` columns (no summed
+    matrix)."""
     return grouped_product(shifted_operator(terms, weights), terms[0].free, terms[0].grid.n,
                            np.asarray(block, dtype=float))
 
 
 def grouped_product(op: VoxelOperator, free: npt.NDArray[np.integer], n: int, x: FloatArray) -> FloatArray:
     """``A x`` on the unknowns ``free`` of a grid of ``n`` nodes, for a vector or a block: :data:`GROUP` columns
-    a pass (they share each slab's gathered weights; a pass holds two (n, GROUP) node arrays)."""
+    a pass (they share each slab's gathered weights; a pass holds two (n, GROUP) node arrays).  Without fixed faces
+    the unknowns are all the nodes in order and no embedding copy is made."""
+    whole = free.size == n
+
+    def apply(columns: FloatArray) -> FloatArray:  # (k, m) rows of unknowns → (m, k)
+        full = columns if whole else np.zeros((columns.shape[0], n))
+        if not whole:
+            full[:, free] = columns
+        product = np.asarray(op.matvec(full.T, constrained=False))  # a transposed view: matvec's columns as they are
+        return product if whole else product[free]
+
     if x.ndim == 1:
-        full = np.zeros(n)
-        full[free] = x
-        return np.asarray(op.matvec(full, constrained=False))[free]
+        return apply(x[None, :])[:, 0]
     out = np.empty((free.size, x.shape[1]))
     for j in range(0, x.shape[1], GROUP):
         cols = slice(j, min(j + GROUP, x.shape[1]))
-        full = np.zeros((n, cols.stop - cols.start))
-        full[free] = x[:, cols]
-        out[:, cols] = np.asarray(op.matvec(full, constrained=False))[free]
+        out[:, cols] = apply(x[:, cols].T)
     return out
