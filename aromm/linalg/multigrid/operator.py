@@ -42,7 +42,8 @@ COMBOS = ("DSS", "SDS", "SSD", "DDS", "DSD", "SDD", "DDD")  # letters: x, y, z
 MASS_COMBOS = (*COMBOS, "SSS")  # with a capacity term
 #: Gathered per-voxel weights are kept while a table (combinations × voxels) fits in this many bytes: float32
 #: (32 B/voxel) up to 256³, float64 (64 B/voxel) up to ≈ 200³.  Above, each product gathers them again: at 256³
-#: that was 56 % of a float32 and 29 % of a float64 product (0.48 → 0.21 s, 0.84 → 0.60 s, 2026-12-02).
+#: that was 56 % of a float32 and 29 % of a float64 product (0.48 → 0.21 s, 0.84 → 0.60 s, 2026-12-02, a one-off
+#: timing of the wood VER's shifted operator, one run each).
 WEIGHT_CACHE_BYTES = 1 << 30
 SLAB_NODES = 1 << 16  # nodes per slab of the matrix-free product (0.5 MB per float64 array: cache-sized)
 # 1-D reference matrices in the class basis {[0,0], [0,1], [1,1]} (lengths scaled out): stiffness, mass
