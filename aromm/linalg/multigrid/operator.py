@@ -160,30 +160,41 @@ class VoxelOperator:
             self._cache[key] = table
         return self._cache[key]
 
-    def matvec(self, x: FloatArray, constrained: bool = True) -> FloatArray:
+    def matvec(self, x: FloatArray, constrained: bool = True, out: FloatArray | None = None) -> FloatArray:
         """K x for a flat node vector (n,) or a block of columns (n, k); ``constrained=False`` ignores ``fixed``
         (the free box operator).  The columns of a block share each slab's gathered weights.
 
-        Computed in the vector's precision: float32 for a preconditioner, float64 otherwise.
+        Computed in the vector's precision: float32 for a preconditioner, float64 otherwise.  ``out`` (a flat
+        contiguous vector of that precision, not ``x``) receives K x of a flat vector: the multigrid's hot loop
+        reuses its vectors, since a fresh array above 32 MB is a fresh mapping that the kernel faults in page by
+        page (at 256³ that was ≈ 40 % of a shifted solve, docs/one_machine.md).
         """
         x = np.asarray(x)
         dtype = np.dtype(np.float32) if x.dtype == np.float32 else np.dtype(np.float64)
         u = cast(FloatArray, (np.ascontiguousarray(x.T, dtype=dtype) if x.ndim == 2 else np.asarray(x, dtype=dtype)
                  ).reshape(-1, *self.node_shape))
-        y = np.zeros(u.shape, dtype=dtype)
+        if out is not None and (x.ndim != 1 or out.shape != (self.n,) or out.dtype != dtype
+                                or not out.flags.c_contiguous or np.shares_memory(out, x)):
+            raise InputError(f"voxel operator: out must be a separate contiguous ({self.n},) {dtype} vector "
+                             f"for a flat input, got {out.shape} {out.dtype}")
+        if out is None:
+            y = np.zeros(u.shape, dtype=dtype)
+        else:
+            y = out.reshape(u.shape)
+            y.fill(0.0)
         table = self._weight_table(dtype)
         mask = constrained and bool(self.fixed)
         for k0, k1 in self._slabs():
             weights = None
-            for column, out in zip(u, y, strict=True):
+            for column, target in zip(u, y, strict=True):
                 ext = self._gather(column, k0, k1, copy=mask)
                 if mask:
                     self._zero_fixed(ext, k0, k1)
                 if weights is None:
                     weights = self._slab_weights(table, k0, k1, _pass_size(ext.shape))
-                self._scatter(out, self._apply(ext, weights), k0, k1)
-        for column, out in zip(u, y, strict=True):
-            self._faces(column, out, mask)
+                self._scatter(target, self._apply(ext, weights), k0, k1)
+        for column, target in zip(u, y, strict=True):
+            self._faces(column, target, mask)
         return y.reshape(u.shape[0], -1).T if x.ndim == 2 else y.ravel()
 
     def _faces(self, u: FloatArray, y: FloatArray, mask: bool) -> None:

@@ -26,8 +26,9 @@ from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
 from aromm.linalg.factorizations import DEFAULT_RTOL, factorize_direct, resolve_method
 from aromm.linalg.multigrid.assembled import GridMatrix, galerkin
-from aromm.linalg.multigrid.hierarchy import CoarseLevel, fixed_mask, galerkin_levels, prolongation_1d
+from aromm.linalg.multigrid.hierarchy import CoarseLevel, fixed_mask, galerkin_levels
 from aromm.linalg.multigrid.operator import VoxelOperator
+from aromm.linalg.multigrid.transfer import transfer
 
 COARSEST_NODES = 4_000  # a 10³–16³ coarsest grid: its factorisation and solves were half of a 40³ solve at 20 000
 DEGREE = 2
@@ -57,8 +58,18 @@ class _Level:
     inverse_diagonal: FloatArray
     lam: float
     shape: tuple[int, int, int]
-    prolongations: tuple[sp.csr_array, sp.csr_array, sp.csr_array]
+    elements: tuple[int, int, int]  # (z, y, x) elements: the transfer to the next coarser level
+    periodic: bool
     fixed: npt.NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    work: dict[str, FloatArray] = field(default_factory=dict)  # the V-cycle's vectors on this level, reused
+
+    def vector(self, name: str, shape: tuple[int, ...], dtype: npt.DTypeLike) -> FloatArray:
+        """The level's vector ``name`` (uninitialised), allocated once: a fresh fine-grid vector per use is a fresh
+        mapping of up to 136 MB at 256³, which the kernel faults in page by page (operator.VoxelOperator.matvec)."""
+        v = self.work.get(name)
+        if v is None or v.shape != shape or v.dtype != dtype:
+            v = self.work[name] = np.empty(shape, dtype=dtype)
+        return v
 
 
 @dataclass(eq=False)
@@ -89,17 +100,18 @@ class MultigridSolver:
             self._assembled(op, dtype)
             return
         self.levels = [_Level(op, (1.0 / op.diagonal()).astype(dtype), _element_bound(op), op.node_shape,
-                              _prolongations(op.elements, op.periodic, dtype))]
+                              op.elements, op.periodic)]
         coarse = self._coarse_levels(op, dtype)
         for index, level in enumerate(coarse):
             matrix = level.matrix
             fixed = np.flatnonzero(fixed_mask(level.node_shape, level.fixed))
             if index == len(coarse) - 1:
                 self.coarse_solve = _direct(matrix, op.periodic)
-                self.levels.append(_Level(matrix, np.zeros(0), 0.0, level.node_shape, (), fixed))  # type: ignore[arg-type]
+                self.levels.append(_Level(matrix, np.zeros(0), 0.0, level.node_shape, level.elements, op.periodic,
+                                          fixed))
                 return
             self.levels.append(_Level(matrix, (1.0 / matrix.diagonal()).astype(dtype), _row_bound(matrix),
-                                      level.node_shape, _prolongations(level.elements, op.periodic, dtype), fixed))
+                                      level.node_shape, level.elements, op.periodic, fixed))
         self.coarse_solve = None  # single level: Chebyshev-preconditioned CG only
 
     def _coarse_levels(self, op: VoxelOperator, dtype: type) -> list[CoarseLevel]:
@@ -121,33 +133,44 @@ class MultigridSolver:
             elements = (shape[0] - 1, shape[1] - 1, shape[2] - 1)
             last = bool(self.levels) and not coarsenable(elements, a.shape[0], self.coarsest)
             if last or min(elements) < 4:  # coarsest (the fine grid itself if too small: then a direct solve)
-                self.levels.append(_Level(a, np.zeros(0), 0.0, shape, (), np.flatnonzero(fixed)))  # type: ignore[arg-type]
+                self.levels.append(_Level(a, np.zeros(0), 0.0, shape, elements, False, np.flatnonzero(fixed)))
                 self.coarse_solve = _direct(a, periodic=False)
                 return
             self.levels.append(_Level(a.astype(dtype), (1.0 / a.diagonal()).astype(dtype), _row_bound(a), shape,
-                                      _prolongations(elements, False, dtype), np.flatnonzero(fixed)))
+                                      elements, False, np.flatnonzero(fixed)))
             a, shape, fixed = next(coarse) if coarse is not None else galerkin(a, shape, fixed)
 
-    def precondition(self, r: FloatArray) -> FloatArray:
-        """One V-cycle from a zero guess, in the solver's precision; the result in float64."""
-        z = self._vcycle(0, r.astype(PRECISIONS[self.precision])).astype(float)
+    def precondition(self, r: FloatArray, out: FloatArray | None = None) -> FloatArray:
+        """One V-cycle from a zero guess, in the solver's precision; the result in float64 (into ``out``)."""
+        low = np.dtype(PRECISIONS[self.precision])
+        b = r
+        if r.dtype != low:
+            b = self.levels[0].vector("rhs", r.shape, low)
+            np.copyto(b, r, casting="same_kind")
+        z = self._vcycle(0, b)
+        if out is None:
+            out = np.empty(r.shape)
+        np.copyto(out, z)
         if self.operator.periodic:
-            z -= z.mean()
-        return z
+            out -= out.mean()
+        return out
 
     def _vcycle(self, index: int, b: FloatArray) -> FloatArray:
         level = self.levels[index]
         if index == len(self.levels) - 1 and self.coarse_solve is not None:
             return self.coarse_solve(b.astype(float)).astype(b.dtype)  # type: ignore[operator]
-        x = np.zeros_like(b)
-        r = _smooth(level, x, b.copy(), want_residual=index + 1 < len(self.levels))
+        x = level.vector("x", b.shape, b.dtype)  # returned: the caller uses it before the next V-cycle
+        x.fill(0.0)
+        r = level.vector("r", b.shape, b.dtype)
+        np.copyto(r, b)
+        r = _smooth(level, x, r, want_residual=index + 1 < len(self.levels))
         if index + 1 == len(self.levels):
             return x
         coarse = self.levels[index + 1]
-        rc = _transfer(r, level.shape, coarse.shape, level.prolongations, transpose=True)
+        rc = transfer(r, level.elements, level.periodic, True, level.vector)
         rc[coarse.fixed] = 0.0
-        x += _transfer(self._vcycle(index + 1, rc), coarse.shape, level.shape, level.prolongations)
-        residual = level.matrix @ x
+        x += transfer(self._vcycle(index + 1, rc), level.elements, level.periodic, False, level.vector)
+        residual = _product(level.matrix, x, r)  # r is free again once restricted
         np.subtract(b, residual, out=residual)
         _smooth(level, x, residual, want_residual=False)
         return x
@@ -211,14 +234,17 @@ class MultigridSolver:
         return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
 
 
-def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float, budget: int,
-         energy: float | None = None) -> tuple[FloatArray, FloatArray, int]:
-    z = m(r)  # type: ignore[operator]
+def _pcg(a: _Operator, m: Callable[[FloatArray, FloatArray], FloatArray], x: FloatArray, r: FloatArray, *,
+         target: float, budget: int, energy: float | None = None) -> tuple[FloatArray, FloatArray, int]:
+    """CG on A x = b from x with r = b − A x, preconditioned by ``m(r, out=z)``; x and r updated in place.
+    Four work vectors (z, p, q, step), allocated once per call."""
+    z = m(r, np.empty_like(r))
     p = z.copy()
+    q = np.empty_like(x)
     step = np.empty_like(x)
     rz = float(r @ z)
     for it in range(1, budget + 1):
-        q = a @ p
+        _product(a, p, q)
         pq = float(p @ q)
         if not pq > 0:
             raise NumericalError(f"multigrid-preconditioned CG: pᵀAp = {pq:.3g} ≤ 0 at iteration {it} "
@@ -232,7 +258,7 @@ def _pcg(a: _Operator, m: object, x: FloatArray, r: FloatArray, *, target: float
             return x, r, it
         if energy is None and float(np.linalg.norm(r)) <= target:
             return x, r, it
-        z = m(r)  # type: ignore[operator]
+        m(r, z)
         rz_new = float(r @ z)
         p *= rz_new / rz
         p += z
@@ -247,13 +273,15 @@ def _smooth(level: _Level, x: FloatArray, r: FloatArray, want_residual: bool) ->
     theta, delta = (upper + lower) / 2, (upper - lower) / 2
     sigma = theta / delta
     rho = 1.0 / sigma
-    d = level.inverse_diagonal * r
+    d = level.vector("d", r.shape, r.dtype)
+    np.multiply(level.inverse_diagonal, r, out=d)
     d *= 1.0 / theta
-    for k in range(DEGREE):  # in place on x, r (the caller's own copy) and d: few temporaries on the fine grid
+    product = level.vector("product", r.shape, r.dtype)
+    for k in range(DEGREE):  # in place on x, r (the caller's own copy) and the level's d and product
         x += d
         if k == DEGREE - 1 and not want_residual:
             break
-        product = level.matrix @ d
+        _product(level.matrix, d, product)
         r -= product
         if k == DEGREE - 1:
             break
@@ -266,23 +294,12 @@ def _smooth(level: _Level, x: FloatArray, r: FloatArray, want_residual: bool) ->
     return r
 
 
-def _transfer(v: FloatArray, shape: tuple[int, ...], target: tuple[int, ...],
-              mats: tuple[sp.csr_array, ...], transpose: bool = False) -> FloatArray:
-    """Apply ⊗ of the 1-D interpolations (or their transposes) along z, y, x."""
-    a = v.reshape(shape)
-    for axis, mat in enumerate(mats):
-        m = mat.T if transpose else mat
-        moved = np.moveaxis(a, axis, 0)
-        out = m @ moved.reshape(moved.shape[0], -1)
-        a = np.moveaxis(out.reshape((m.shape[0], *moved.shape[1:])), 0, axis)
-    return np.ascontiguousarray(a).reshape(-1)
-
-
-def _prolongations(elements: tuple[int, int, int], periodic: bool, dtype: type
-                   ) -> tuple[sp.csr_array, sp.csr_array, sp.csr_array]:
-    nz, ny, nx = elements
-    return (prolongation_1d(nz, periodic).astype(dtype), prolongation_1d(ny, periodic).astype(dtype),
-            prolongation_1d(nx, periodic).astype(dtype))
+def _product(matrix: _Operator, v: FloatArray, out: FloatArray) -> FloatArray:
+    """``out`` ← A v: the matrix-free operator writes into ``out``; an assembled (coarse) matrix's product is copied."""
+    if isinstance(matrix, VoxelOperator):
+        return matrix.matvec(v, out=out)
+    out[...] = matrix @ v
+    return out
 
 
 def coarsenable(elements: tuple[int, int, int], nodes: int, coarsest: int) -> bool:
