@@ -88,18 +88,11 @@ def transfer(v: FloatArray, elements: Shape, periodic: bool, restrict: bool,
     """
     fine = tuple(e if periodic else e + 1 for e in elements)
     coarse = tuple(coarse_nodes(e, periodic) for e in elements)
-    if restrict:
-        a = v.reshape(fine)
-        for axis in range(3):
-            shape = coarse[:axis + 1] + fine[axis + 1:]
-            out = vector(f"restrict{axis}", shape, v.dtype)  # type: ignore[arg-type]
-            restrict_axis(a, out, axis, elements[axis], periodic)
-            a = out
-    else:
-        a = v.reshape(coarse)
-        for axis in range(3):
-            shape = fine[:axis + 1] + coarse[axis + 1:]
-            out = vector(f"interpolate{axis}", shape, v.dtype)  # type: ignore[arg-type]
-            interpolate_axis(a, out, axis, elements[axis], periodic)
-            a = out
+    source, target = (fine, coarse) if restrict else (coarse, fine)
+    name, apply = ("restrict", restrict_axis) if restrict else ("interpolate", interpolate_axis)
+    a = v.reshape(source)
+    for axis in range(3):
+        out = vector(f"{name}{axis}", target[:axis + 1] + source[axis + 1:], v.dtype)  # type: ignore[arg-type]
+        apply(a, out, axis, elements[axis], periodic)
+        a = out
     return a.reshape(-1)
