@@ -13,6 +13,7 @@ import pytest
 import scipy.sparse as sp
 from test_reduced import exact_outputs, random_labels
 
+from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem, TimeGrid, is_matrix_free, sparse
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
@@ -214,3 +215,21 @@ def test_a_periodic_block_product_is_the_assembled_periodic_matrix_column_by_col
     op = VoxelOperator(phase, np.array([[0.03] * 3, [0.3, 0.5, 0.2]]), (1e-4, 1.2e-4, 0.9e-4), periodic=True)
     block = np.random.default_rng(7).standard_normal((op.n, 5))
     close(op.matvec(block), assembled_matrix(op) @ block)
+
+
+def test_a_product_into_a_kept_vector_overwrites_it_and_bad_targets_are_refused() -> None:
+    """``matvec(x, out=y)`` writes K x over whatever y held (the multigrid reuses its vectors); a block, a wrong
+    precision or the input itself as target is an InputError naming the expected vector."""
+    phase = (np.random.default_rng(8).random((4, 5, 3)) < 0.5).astype(np.int8)
+    op = VoxelOperator(phase, np.array([[0.02] * 3, [0.4, 0.3, 0.6]]), (1e-4, 1e-4, 1.1e-4), fixed=("z0",),
+                       capacity=np.array([1e5, 2e6]), exchange=(("z1", 12.0),))
+    x = np.random.default_rng(9).standard_normal(op.n)
+    out = np.full(op.n, np.nan)
+    assert op.matvec(x, out=out) is not None
+    close(out, assembled_matrix(op) @ x)
+    out32 = np.full(op.n, 7.0, dtype=np.float32)
+    op.matvec(x.astype(np.float32), out=out32)
+    close(out32.astype(float), assembled_matrix(op) @ x.astype(np.float32).astype(float), tol=1e-5)
+    for bad_x, bad_out in ((x, out32), (x, x), (np.column_stack([x, x]), out)):
+        with pytest.raises(InputError, match="out must be"):
+            op.matvec(bad_x, out=bad_out)

@@ -160,7 +160,8 @@ class VoxelOperator:
             self._cache[key] = table
         return self._cache[key]
 
-    def matvec(self, x: FloatArray, constrained: bool = True, out: FloatArray | None = None) -> FloatArray:
+    def matvec(self, x: FloatArray, constrained: bool = True, out: npt.NDArray[np.floating] | None = None
+               ) -> FloatArray:
         """K x for a flat node vector (n,) or a block of columns (n, k); ``constrained=False`` ignores ``fixed``
         (the free box operator).  The columns of a block share each slab's gathered weights.
 

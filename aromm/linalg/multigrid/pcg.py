@@ -6,8 +6,9 @@ coarse operators assembled as 27-point rows (:mod:`aromm.linalg.multigrid.hierar
 ``DEGREE`` in D⁻¹A on [λ/``SPREAD``, λ] with λ a Gershgorin bound of D⁻¹A, the same before and after the
 coarse correction, so the V-cycle is a symmetric positive-definite preconditioner [Adams2003, § 3]
 [Trottenberg2001, ch. 2]; trilinear transfers (:mod:`aromm.linalg.multigrid.transfer`).  Each level keeps its
-V-cycle vectors and CG its own, so a solve maps no fresh fine-grid array per operation.  CG stops when the true relative residual ‖b − A x‖ / ‖b‖ ≤ ``rtol`` and raises
-:class:`~aromm.core.errors.NumericalError` (naming the solver, the residual and the iteration count) otherwise.
+V-cycle vectors and CG its own, so a solve maps no fresh fine-grid array per operation.  CG stops when the true
+relative residual ‖b − A x‖ / ‖b‖ ≤ ``rtol`` and raises :class:`~aromm.core.errors.NumericalError` (naming the
+solver, the residual and the iteration count) otherwise.
 
 A periodic operator is singular (constants): the right-hand side must sum to zero, the coarsest solve pins
 one node and the preconditioned residual is kept mean-free, so CG runs in the range of A.
