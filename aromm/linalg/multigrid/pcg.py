@@ -195,20 +195,25 @@ class MultigridSolver:
             raise InputError(f"multigrid: an energy tolerance needs a zero initial guess and a positive value, "
                              f"got {energy_tol!r}")
         a: _Operator = self.operator if self._matrix is None else self._matrix  # type: ignore[assignment]
-        x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float)
-        r = b - a @ x if x0 is not None else b.copy()
+        if x0 is None:
+            x, r = np.zeros_like(b), b.copy()
+        else:
+            x = np.array(x0, dtype=float)
+            r = _product(a, x, np.empty_like(b))
+            np.subtract(b, r, out=r)
         if x0 is not None and float(np.linalg.norm(r)) <= self.rtol * nb:  # the guess already solves it
             self.iterations.append(0)
             return x
         total = 0
+        work = [self.levels[0].vector(f"cg{i}", b.shape, float) for i in range(4)]
         while True:
             x, r, its = _pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total,
-                             energy=energy_tol)
+                             work=work, energy=energy_tol)
             total += its
             if energy_tol is not None and total < MAX_ITERATIONS:  # stopped by the energy estimate
                 self.iterations.append(total)
                 return x
-            r = b - a @ x  # the recursive residual drifts: restart from the true one until it is converged
+            np.subtract(b, _product(a, x, r), out=r)  # the recursive residual drifts: restart from the true one
             res = float(np.linalg.norm(r)) / nb
             if not np.isfinite(res):
                 raise NumericalError(f"multigrid-preconditioned CG: non-finite residual after {total} iterations")
@@ -237,13 +242,13 @@ class MultigridSolver:
 
 
 def _pcg(a: _Operator, m: Callable[[FloatArray, FloatArray], FloatArray], x: FloatArray, r: FloatArray, *,
-         target: float, budget: int, energy: float | None = None) -> tuple[FloatArray, FloatArray, int]:
+         target: float, budget: int, work: list[FloatArray], energy: float | None = None
+         ) -> tuple[FloatArray, FloatArray, int]:
     """CG on A x = b from x with r = b − A x, preconditioned by ``m(r, out=z)``; x and r updated in place.
-    Four work vectors (z, p, q, step), allocated once per call."""
-    z = m(r, np.empty_like(r))
-    p = z.copy()
-    q = np.empty_like(x)
-    step = np.empty_like(x)
+    ``work``: the four vectors z, p, q and step (the solver's kept ones)."""
+    z, p, q, step = work
+    m(r, z)
+    np.copyto(p, z)
     rz = float(r @ z)
     for it in range(1, budget + 1):
         _product(a, p, q)
