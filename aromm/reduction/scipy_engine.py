@@ -258,7 +258,10 @@ class ScipyEngine:
         cx = c(x)
         norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, cx), 0.0))
         keep = norms > 0
-        x, cx = x[:, keep] / norms[keep], cx[:, keep] / norms[keep]
+        if not keep.all():
+            x, cx, norms = x[:, keep], cx[:, keep], norms[keep]
+        x /= norms  # in place: x is this call's copy, cx a fresh product
+        cx /= norms
         for _ in range(2):
             x, cx = remove(x, cx)
         remaining = np.sqrt(np.maximum(np.einsum("ij,ij->j", x, cx), 0.0))
