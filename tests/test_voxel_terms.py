@@ -19,8 +19,9 @@ from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
 from aromm.fem.voxel_terms import VoxelTerm, as_voxel_terms, harmonic_extension, shifted_operator, weighted_product
 from aromm.full.solve import transient
+from aromm.linalg.multigrid.affine_voxel import AffineLevels
 from aromm.linalg.multigrid.assembled import galerkin
-from aromm.linalg.multigrid.hierarchy import ElementLevel, assembled_matrix
+from aromm.linalg.multigrid.hierarchy import ElementLevel, assembled_matrix, galerkin_levels
 from aromm.linalg.multigrid.operator import VoxelOperator
 from aromm.linalg.multigrid.pcg import MultigridSolver
 from aromm.reduction.krylov import KrylovReductor
@@ -233,3 +234,36 @@ def test_a_product_into_a_kept_vector_overwrites_it_and_bad_targets_are_refused(
     for bad_x, bad_out in ((x, out32), (x, x), (np.column_stack([x, x]), out)):
         with pytest.raises(InputError, match="out must be"):
             op.matvec(bad_x, out=bad_out)
+
+
+def test_affine_coarse_levels_are_the_galerkin_levels_of_the_weighted_sum() -> None:
+    """Levels stored per term and summed with the weights (fixed faces applied after) equal the Galerkin levels of
+    K(μ) + s C(μ) + h H: the first against scipy's Pᵀ A P of the assembled sum (independent truth), every level
+    against the solver's own coarsening; float32 storage within its rounding; the solver converges alike."""
+    system = lift(body(0, FIXED, True, (17, 16, 18)))
+    terms = as_voxel_terms([t.operator for t in (*system.conductance.terms, *system.capacity.terms)])
+    weights = [0.7, 0.03, 25.0, 3e4, 2e5]
+    op = shifted_operator(terms, weights)
+    single = [shifted_operator([t], [1.0]) for t in terms]
+    exact = AffineLevels.build(single, coarsest=100, dtype=np.float64).levels(weights, op.fixed)
+    direct = galerkin_levels(op, 100, np.float64)
+    assert len(exact) == len(direct) >= 2
+    for a, b in zip(exact, direct, strict=True):
+        assert a.node_shape == b.node_shape and a.fixed == b.fixed
+        assert abs(a.matrix - b.matrix).max() <= ROUND * abs(b.matrix).max()
+    grid = assembled_matrix(op)
+    held = np.ones(op.n, dtype=bool)
+    held[terms[0].free] = False
+    coarse, _, _ = galerkin(sp.csr_array(grid), op.node_shape, held)
+    assert abs(coarse - exact[0].matrix).max() <= ROUND * abs(coarse).max()
+    stored = AffineLevels.build(single, coarsest=100)
+    assert stored.nbytes > 0
+    rounded = stored.levels(weights, op.fixed)
+    assert abs(rounded[0].matrix.astype(float) - exact[0].matrix).max() <= 1e-6 * abs(coarse).max()
+    b = np.where(held, 0.0, np.random.default_rng(2).standard_normal(op.n))
+    plain, summed = MultigridSolver(op, rtol=1e-10, coarsest=100), MultigridSolver(op, rtol=1e-10, coarsest=100,
+                                                                                    coarse=rounded)
+    x = summed.solve(b)
+    plain.solve(b)
+    assert np.linalg.norm(grid @ x - b) <= 1e-10 * np.linalg.norm(b)
+    assert abs(summed.iterations[-1] - plain.iterations[-1]) <= 1

@@ -32,6 +32,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import FloatArray, ThermalSystem, dense, is_matrix_free, sparse
 from aromm.fem.voxel_terms import as_voxel_terms, is_voxel_family, shifted_operator, weighted_product
 from aromm.linalg.direct import check_residual, factorize, resolve_method
+from aromm.linalg.multigrid.affine_voxel import AffineLevels
 from aromm.linalg.multigrid.pcg import MultigridSolver
 from aromm.linalg.orderings import nested_dissection
 from aromm.reduction.column_buffer import ColumnBuffer, GrowingProjection
@@ -105,6 +106,7 @@ class ScipyEngine:
         self._ordering: npt.NDArray[np.int64] | None = None  # one nested dissection for every shifted operator
         self._gram: ResidualGram | None = None
         self._affine: object | None = None  # the multigrid levels of every term of K and C (built at the first solve)
+        self._voxel_levels: AffineLevels | None = None  # the same for matrix-free voxel terms
         self.initial = initial
         self._terms = self._input_vectors()
         self._columns = ColumnBuffer(system.n)
@@ -202,7 +204,10 @@ class ScipyEngine:
             shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
         if self.voxel:
             voxel_terms = as_voxel_terms([t.operator for t in terms])
-            mg = MultigridSolver(shifted_operator(voxel_terms, weights), rtol=rtol, coarsest=COARSEST)
+            if self._voxel_levels is None:
+                self._voxel_levels = AffineLevels.build([shifted_operator([t], [1.0]) for t in voxel_terms], COARSEST)
+            coarse = self._voxel_levels.levels(weights, voxel_terms[0].fixed)
+            mg = MultigridSolver(shifted_operator(voxel_terms, weights), rtol=rtol, coarsest=COARSEST, coarse=coarse)
             return self._grid_columns(mg, voxel_terms[0].free, voxel_terms[0].grid.n, shift, rtol)
         if self._affine is None:
             self._affine = AffineGrid.build([sparse(t.operator) for t in terms], self.points, coarsest=COARSEST)

@@ -90,6 +90,9 @@ class MultigridSolver:
     #: Galerkin levels shared by operators that differ only in their fixed faces (the fixed-temperature problems
     #: of the three axes): pass the same dict to each solver (CoarseLevel.with_fixed).
     shared: dict[str, list[CoarseLevel]] | None = None
+    #: The coarse levels of ``operator`` (its fixed faces applied) when the caller has them, e.g. as a weighted sum
+    #: of stored levels of an affine family (aromm.linalg.multigrid.affine_voxel); otherwise built here.
+    coarse: list[CoarseLevel] | None = None
 
     def __post_init__(self) -> None:
         if not 0 < self.rtol < 1:
@@ -103,7 +106,7 @@ class MultigridSolver:
             return
         self.levels = [_Level(op, (1.0 / op.diagonal()).astype(dtype), _element_bound(op), op.node_shape,
                               op.elements, op.periodic)]
-        coarse = self._coarse_levels(op, dtype)
+        coarse = self.coarse if self.coarse is not None else self._coarse_levels(op, dtype)
         for index, level in enumerate(coarse):
             matrix = level.matrix
             fixed = np.flatnonzero(fixed_mask(level.node_shape, level.fixed))
