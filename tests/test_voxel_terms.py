@@ -110,8 +110,9 @@ def test_shifted_operator_and_its_coarse_level_are_the_weighted_sum_and_its_gale
     assert np.linalg.norm(grid @ solution - b) <= 1e-10 * np.linalg.norm(b) and mg.iterations[-1] < 30
 
 
-def test_weighted_products_the_projection_and_the_residual_gram_match() -> None:
-    assembled, free = lift(body(6, FIXED, False)), lift(body(6, FIXED, True))
+@pytest.mark.parametrize("faces", [FIXED, SCENARIO], ids=["fixed faces", "every node unknown"])
+def test_weighted_products_the_projection_and_the_residual_gram_match(faces: list[FaceSpec]) -> None:
+    assembled, free = lift(body(6, faces, False)), lift(body(6, faces, True))
     basis = np.random.default_rng(4).standard_normal((assembled.n, 5))
     values = {"fibre.k": 0.2, "fibre.c": 7e6}
     ea, eb = ScipyEngine(assembled), ScipyEngine(free)

@@ -138,16 +138,21 @@ class VoxelTerm:
         p0, p1 = int(nodes[0]) // plane, int(nodes[-1]) // plane + 1  # node planes of the rows
         e0, e1 = max(p0 - 1, 0), min(p1, nz)  # element layers touching them
         lo, hi = e0 * plane, (e1 + 1) * plane  # node range of those elements
-        first, last = np.searchsorted(self.free, [lo, hi])
-        sub = np.zeros((hi - lo, block.shape[1]))
-        sub[self.free[first:last] - lo] = block[first:last]
+        whole = self.free.size == self.grid.n  # every node unknown: the slab's rows are a slice of the block
+        if whole:
+            sub = block[lo:hi]
+        else:
+            first, last = np.searchsorted(self.free, [lo, hi])
+            sub = np.zeros((hi - lo, block.shape[1]))
+            sub[self.free[first:last] - lo] = block[first:last]
         if self.kind == "exchange":
             rows = sp.csr_array(self.grid.face_mass(self.face)[nodes])
             return np.asarray(rows[:, lo:hi] @ sub)
         op = self.operator
         local = VoxelOperator(op.phase[e0:e1], op.conductivity, op.voxel_size, capacity=op.capacity,
                               keep_weights=False)
-        return np.asarray(local.matvec(sub, constrained=False))[nodes - lo]
+        product = np.asarray(local.matvec(sub, constrained=False))
+        return product[start - lo:stop - lo] if whole else product[nodes - lo]
 
     def content_parts(self) -> tuple[object, ...]:
         """What identifies the term, for content hashes (aromm.core.cache)."""

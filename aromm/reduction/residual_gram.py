@@ -47,9 +47,13 @@ class ResidualGram:
         if chunk is None:
             chunk = max(CHUNK, *(PLANES * int(getattr(a, "plane_nodes", 0)) for a in operators))
         gram = np.zeros((p + m * r, p + m * r))
+        rows_m = np.empty((min(chunk, basis.shape[0]), p + m * r))  # one chunk of M, filled in place chunk by chunk
         for start in range(0, basis.shape[0], chunk):
             rows = slice(start, min(start + chunk, basis.shape[0]))
-            block = np.hstack([u[rows], *(_rows_product(a, rows, basis) for a in operators)])
+            block = rows_m[:rows.stop - rows.start]
+            block[:, :p] = u[rows]
+            for i, a in enumerate(operators):
+                block[:, p + i * r:p + (i + 1) * r] = _rows_product(a, rows, basis)
             gram += block.T @ block  # one symmetric rank-k update (BLAS syrk): half the flops of block by block
         return cls(key, gram, p, m, r)
 
