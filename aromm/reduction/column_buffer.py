@@ -17,12 +17,15 @@ grows by :data:`GROWTH` when full (one copy per growth).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
 from aromm.core.system import FloatArray
+
+log = logging.getLogger(__name__)
 
 #: Room made when the buffer is full: this factor times the columns needed.
 GROWTH = 1.5
@@ -58,6 +61,9 @@ class ColumnBuffer:
         if buf is None or not self.is_latest(basis) or buf.shape[1] < need:
             grown = np.empty((self.rows, max(int(GROWTH * need), need, FIRST)), order="F")
             if basis is not None:
+                # while it is copied the old basis is alive too: at 256³ a 64-column basis is 8.7 GB
+                log.info("basis buffer: %d columns copied into a new buffer of %d (%.2f GB held during the copy)",
+                         r, grown.shape[1], (buf.nbytes if buf is not None else 0) / 1e9 + 8e-9 * self.rows * need)
                 grown[:, :r] = basis
             self._buffer = buf = grown
         buf[:, r:need] = x
