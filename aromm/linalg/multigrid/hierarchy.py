@@ -19,7 +19,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
@@ -111,13 +110,6 @@ class ElementLevel:
             return self.values[:, :, :, k0:k1]
 
         return ElementLevel(coarsen(self.elements, source, self.fixed), self.periodic, self.fixed)
-
-    @cached_property
-    def prolongations(self) -> tuple[sp.csr_array, sp.csr_array, sp.csr_array]:
-        """1-D interpolations (z, y, x) from the next coarser level to this one."""
-        nz, ny, nx = self.elements
-        return (prolongation_1d(nz, self.periodic), prolongation_1d(ny, self.periodic),
-                prolongation_1d(nx, self.periodic))
 
     def to_csr(self) -> sp.csr_array:
         """Assembled operator: 27 entries per row (zeros where a neighbour is missing), identity on fixed rows."""
