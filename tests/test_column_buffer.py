@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 from test_krylov import two_phase
 
-from aromm.reduction.column_buffer import FIRST, ColumnBuffer, GrowingProjection
+from aromm.reduction.column_buffer import FIRST, MOST_RESERVED, ColumnBuffer, GrowingProjection, reservable_columns
 from aromm.reduction.krylov import galerkin_guess, independent_columns
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import ScipyEngine
@@ -16,7 +16,7 @@ from aromm.reduction.scipy_engine import ScipyEngine
 
 def test_columns_are_appended_in_place_and_survive_growth() -> None:
     rng = np.random.default_rng(0)
-    columns = ColumnBuffer(rows=50)
+    columns = ColumnBuffer(rows=50, reserve=FIRST)
     blocks = [rng.standard_normal((50, k)) for k in (1, 5, FIRST, 3)]
     basis = None
     for block in blocks:
@@ -26,6 +26,31 @@ def test_columns_are_appended_in_place_and_survive_growth() -> None:
             assert np.shares_memory(before, basis)  # written after the previous view, no copy
     np.testing.assert_array_equal(basis, np.hstack(blocks))  # the growth past FIRST columns copied every column
     assert basis.flags.f_contiguous
+
+
+def test_a_basis_within_the_reservation_never_moves() -> None:
+    """Appending up to the reserved width writes after the previous view every time: no growth, so no moment where
+    an old and a new buffer are both held (what ran a 256³ build out of memory at its 65th column)."""
+    rng = np.random.default_rng(4)
+    columns = ColumnBuffer(rows=30, reserve=3 * FIRST)
+    first = basis = columns.append(None, rng.standard_normal((30, 4)))
+    blocks = [np.asarray(first).copy()]
+    while basis.shape[1] + 4 <= 3 * FIRST:
+        block = rng.standard_normal((30, 4))
+        blocks.append(block)
+        basis = columns.append(basis, block)
+        assert basis.ctypes.data == first.ctypes.data  # same memory: never copied
+    np.testing.assert_array_equal(basis, np.hstack(blocks))
+
+
+def test_the_reservation_spans_a_share_of_the_memory_within_bounds() -> None:
+    rows_256 = 257**3
+    spanned = reservable_columns(rows_256, 24 * 2**30) * 8 * rows_256
+    assert 0.7 * 24 * 2**30 < spanned <= 0.75 * 24 * 2**30  # the share of the memory, in whole columns
+    assert reservable_columns(rows_256, 24 * 2**30) > 64 + 8  # a 256³ span (≈ 60 columns) fits with a point's room
+    assert reservable_columns(10, 24 * 2**30) == MOST_RESERVED
+    assert reservable_columns(10**12, 24 * 2**30) == FIRST
+    assert reservable_columns(100, None) == FIRST
 
 
 def test_an_older_view_is_copied_not_written_over() -> None:

@@ -4,8 +4,12 @@ The offline reductions append a few columns at a time to a basis of n-vectors (n
 ``np.column_stack([basis, x])`` copies the whole basis for every block: twice its memory at the peak and
 O(r² n) bytes moved over a build (measured at 64³: 16.5 of 121 CPU s of a Krylov reduction).  Here the
 columns live in a column-major (Fortran) buffer with spare room; a basis handed out is the view
-``buffer[:, :r]`` (contiguous, BLAS-ready), and appending to the latest view writes after it.  The buffer
-grows by :data:`GROWTH` when full (one copy per growth).
+``buffer[:, :r]`` (contiguous, BLAS-ready), and appending to the latest view writes after it.
+
+The first buffer reserves address space for :func:`reservable_columns` columns: pages never written are never
+resident, so the reservation costs nothing until columns are written, and a basis within it never moves.  Growing
+past it (by :data:`GROWTH`, one copy) holds the old and the new buffer at once — at 256³ a 64-column basis is
+8.7 GB, and such a copy is what ran a 256³ build out of 24 GB.
 
 >>> import numpy as np
 >>> columns = ColumnBuffer(rows=4)
@@ -18,6 +22,7 @@ grows by :data:`GROWTH` when full (one copy per growth).
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -29,16 +34,43 @@ log = logging.getLogger(__name__)
 
 #: Room made when the buffer is full: this factor times the columns needed.
 GROWTH = 1.5
-#: Columns of a new buffer at least: the Krylov spans of the wood VERs hold 59–63 columns (24³–128³), so their
-#: buffer never grows; pages never written are never resident (only the address space is reserved).
+#: Columns of a new buffer at least: the Krylov spans of the wood VERs hold 59–63 columns (24³–128³).
 FIRST = 64
+#: Columns reserved at most (the Krylov greedy stops at 4 × the order; the amalgam's bases hold ≈ 320 columns).
+MOST_RESERVED = 512
+#: Share of the physical memory a reservation may span: Linux's default (heuristic) overcommit refuses one mapping
+#: larger than the memory and swap, and a reservation that large would leave no room for the rest anyway.
+RESERVED_SHARE = 0.75
+
+
+def physical_memory() -> int | None:
+    """Bytes of physical memory, or None where the platform does not tell (``os.sysconf``)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def reservable_columns(rows: int, memory: int | None) -> int:
+    """Columns of float64 ``rows``-vectors that the first buffer reserves: as many as :data:`RESERVED_SHARE` of
+    ``memory`` bytes spans, within [:data:`FIRST`, :data:`MOST_RESERVED`] (:data:`FIRST` when memory is unknown).
+
+    >>> reservable_columns(257**3, 24 * 10**9)  # 256³ elements on 24 GB: 132 columns of 136 MB
+    132
+    >>> reservable_columns(25**3, 24 * 10**9)
+    512
+    """
+    if memory is None:
+        return FIRST
+    return int(min(MOST_RESERVED, max(FIRST, RESERVED_SHARE * memory // (8 * max(rows, 1)))))
 
 
 class ColumnBuffer:
     """The column-major storage of one growing basis of ``rows`` rows (module docstring)."""
 
-    def __init__(self, rows: int) -> None:
+    def __init__(self, rows: int, reserve: int | None = None) -> None:
         self.rows = rows
+        self.reserve = reservable_columns(rows, physical_memory()) if reserve is None else reserve
         self._buffer: FloatArray | None = None
         self._width = 0  # columns of the latest view handed out
         self.version = 0  # counts the times the leading columns were written over (combine_in_place)
@@ -59,7 +91,7 @@ class ColumnBuffer:
         need = r + x.shape[1]
         buf = self._buffer
         if buf is None or not self.is_latest(basis) or buf.shape[1] < need:
-            grown = np.empty((self.rows, max(int(GROWTH * need), need, FIRST)), order="F")
+            grown = self._allocate(need, first=buf is None)
             if basis is not None:
                 # while it is copied the old basis is alive too: at 256³ a 64-column basis is 8.7 GB
                 log.info("basis buffer: %d columns copied into a new buffer of %d (%.2f GB held during the copy)",
@@ -69,6 +101,17 @@ class ColumnBuffer:
         buf[:, r:need] = x
         self._width = need
         return buf[:, :need]
+
+    def _allocate(self, need: int, first: bool) -> FloatArray:
+        """A new buffer for ``need`` columns: the reservation the first time (fewer columns if the system refuses
+        that much address space), else :data:`GROWTH` × ``need``."""
+        width = max(int(GROWTH * need), need, FIRST)
+        if first and self.reserve > width:
+            try:
+                return np.empty((self.rows, self.reserve), order="F")
+            except MemoryError:
+                log.info("basis buffer: %d columns of address space refused; reserving %d", self.reserve, width)
+        return np.empty((self.rows, width), order="F")
 
     def combine_in_place(self, basis: FloatArray, coefficients: FloatArray, chunk: int = 65_536) -> FloatArray:
         """``basis @ coefficients`` written over the buffer's leading columns, by row chunks (no second n × r
