@@ -73,8 +73,12 @@ def test_terms_equal_the_assembled_matrices_on_the_whole_grid_and_on_the_free_un
                 assert abs(a - sparse(tb.operator)).max() <= ROUND * abs(a).max()
                 close(a @ x, tb.operator @ x)
                 close(a.diagonal(), tb.operator.diagonal())
-                for start, stop in ((0, 7), (11, 40), (assembled.n - 9, assembled.n)):
+                for start, stop in ((0, 7), (11, 40), (assembled.n - 9, assembled.n), (3, 3 + 2 * 7 * 6)):
                     close((a @ x)[start:stop], tb.operator.row_block(start, stop, x), ROUND * 10)
+                    work = np.full(tb.operator.slab_size(stop - start) * 3, np.nan)  # large enough: used
+                    rows = tb.operator.row_block(start, stop, np.asfortranarray(x), work)
+                    close((a @ x)[start:stop], rows, ROUND * 10)
+                    assert np.isfinite(work).any() or tb.operator.kind == "exchange"  # the slab went there
         for ta, tb in zip(assembled.load.terms, free.load.terms, strict=True):  # lifting loads, face loads
             close(np.asarray(ta.operator), np.asarray(tb.operator))
         for ta, tb in zip(assembled.initial.terms, free.initial.terms, strict=True):
@@ -220,8 +224,9 @@ def test_a_periodic_block_product_is_the_assembled_periodic_matrix_column_by_col
 
 
 def test_a_product_into_a_kept_vector_overwrites_it_and_bad_targets_are_refused() -> None:
-    """``matvec(x, out=y)`` writes K x over whatever y held (the multigrid reuses its vectors); a block, a wrong
-    precision or the input itself as target is an InputError naming the expected vector."""
+    """``matvec(x, out=y)`` writes K x over whatever y held (the multigrid and the residual Gram reuse their arrays),
+    for a vector and for a block with contiguous columns; a target of another shape, precision or layout, or one
+    sharing memory with the input, is an InputError naming the expected array."""
     phase = (np.random.default_rng(8).random((4, 5, 3)) < 0.5).astype(np.int8)
     op = VoxelOperator(phase, np.array([[0.02] * 3, [0.4, 0.3, 0.6]]), (1e-4, 1e-4, 1.1e-4), fixed=("z0",),
                        capacity=np.array([1e5, 2e6]), exchange=(("z1", 12.0),))
@@ -232,7 +237,13 @@ def test_a_product_into_a_kept_vector_overwrites_it_and_bad_targets_are_refused(
     out32 = np.full(op.n, 7.0, dtype=np.float32)
     op.matvec(x.astype(np.float32), out=out32)
     close(out32.astype(float), assembled_matrix(op) @ x.astype(np.float32).astype(float), tol=1e-5)
-    for bad_x, bad_out in ((x, out32), (x, x), (np.column_stack([x, x]), out)):
+    basis = np.asfortranarray(np.random.default_rng(10).standard_normal((op.n + 7, 3)))
+    rows = basis[2:op.n + 2]  # a row slice of a Fortran basis: contiguous columns, read in place
+    block_out = np.full((op.n, 3), np.nan, order="F")
+    assert op.matvec(rows, out=block_out) is block_out
+    close(block_out, assembled_matrix(op) @ rows)
+    for bad_x, bad_out in ((x, out32), (x, x), (np.column_stack([x, x]), out), (rows, np.zeros((op.n, 3))),
+                           (rows, np.zeros((op.n, 2), order="F")), (rows, basis[:op.n])):
         with pytest.raises(InputError, match="out must be"):
             op.matvec(bad_x, out=bad_out)
 

@@ -129,9 +129,11 @@ class VoxelTerm:
         nx, ny, _ = self.grid.shape
         return (nx + 1) * (ny + 1)
 
-    def row_block(self, start: int, stop: int, block: FloatArray) -> FloatArray:
+    def row_block(self, start: int, stop: int, block: FloatArray, work: FloatArray | None = None) -> FloatArray:
         """Rows ``start:stop`` of ``A @ block`` (block (n, m) on the unknowns), from the z-slab of elements that
-        touch those rows' nodes: memory of the slab, not of the grid."""
+        touch those rows' nodes: memory of the slab, not of the grid.  ``work`` (float64, at least
+        :meth:`slab_size` × m entries) holds the slab's product, reused from call to call (a fresh 150 MB array per
+        slab at 256³ is a fresh mapping faulted in page by page); the rows returned are then a view of it."""
         nx, ny, nz = self.grid.shape
         plane = (nx + 1) * (ny + 1)
         nodes = self.free[start:stop]
@@ -151,8 +153,18 @@ class VoxelTerm:
         op = self.operator
         local = VoxelOperator(op.phase[e0:e1], op.conductivity, op.voxel_size, capacity=op.capacity,
                               keep_weights=False)
-        product = np.asarray(local.matvec(sub, constrained=False))
+        m = block.shape[1]
+        out = None if work is None or work.size < (hi - lo) * m else work[:(hi - lo) * m].reshape(m, hi - lo).T
+        product = np.asarray(local.matvec(sub, constrained=False, out=out))
         return product[start - lo:stop - lo] if whole else product[nodes - lo]
+
+    def slab_size(self, rows: int) -> int:
+        """Nodes of the slab :meth:`row_block` multiplies for ``rows`` consecutive unknowns at most: the node planes
+        they span (each plane holds at least the unknowns of a plane not on a fixed z-face), and two more."""
+        nx, ny, _ = self.grid.shape
+        per_plane = (nx + 1 - sum(f in self.fixed for f in ("x0", "x1"))) * (
+            ny + 1 - sum(f in self.fixed for f in ("y0", "y1")))
+        return (-(-rows // per_plane) + 3) * self.plane_nodes
 
     def content_parts(self) -> tuple[object, ...]:
         """What identifies the term, for content hashes (aromm.core.cache)."""

@@ -48,12 +48,14 @@ class ResidualGram:
             chunk = max(CHUNK, *(PLANES * int(getattr(a, "plane_nodes", 0)) for a in operators))
         gram = np.zeros((p + m * r, p + m * r))
         rows_m = np.empty((min(chunk, basis.shape[0]), p + m * r))  # one chunk of M, filled in place chunk by chunk
+        slab = max((int(a.slab_size(rows_m.shape[0])) for a in operators if hasattr(a, "slab_size")), default=0)
+        work = np.empty(slab * r)  # a matrix-free operator's slab product, reused (row_block)
         for start in range(0, basis.shape[0], chunk):
             rows = slice(start, min(start + chunk, basis.shape[0]))
             block = rows_m[:rows.stop - rows.start]
             block[:, :p] = u[rows]
             for i, a in enumerate(operators):
-                block[:, p + i * r:p + (i + 1) * r] = _rows_product(a, rows, basis)
+                block[:, p + i * r:p + (i + 1) * r] = _rows_product(a, rows, basis, work)
             gram += block.T @ block  # one symmetric rank-k update (BLAS syrk): half the flops of block by block
         return cls(key, gram, p, m, r)
 
@@ -67,8 +69,9 @@ class ResidualGram:
         return np.sqrt(np.maximum(squared, 0.0))
 
 
-def _rows_product(a: sp.csr_array, rows: slice, basis: FloatArray) -> FloatArray:
-    """Rows ``rows`` of ``a @ basis``; a matrix-free operator computes them from its own slab (``row_block``)."""
+def _rows_product(a: sp.csr_array, rows: slice, basis: FloatArray, work: FloatArray) -> FloatArray:
+    """Rows ``rows`` of ``a @ basis``; a matrix-free operator computes them from its own slab (``row_block``,
+    into ``work``)."""
     if hasattr(a, "row_block"):
-        return np.asarray(a.row_block(rows.start, rows.stop, basis))
+        return np.asarray(a.row_block(rows.start, rows.stop, basis, work))
     return np.asarray(a[rows] @ basis)

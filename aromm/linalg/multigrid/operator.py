@@ -165,23 +165,25 @@ class VoxelOperator:
         """K x for a flat node vector (n,) or a block of columns (n, k); ``constrained=False`` ignores ``fixed``
         (the free box operator).  The columns of a block share each slab's gathered weights.
 
-        Computed in the vector's precision: float32 for a preconditioner, float64 otherwise.  ``out`` (a flat
-        contiguous vector of that precision, not ``x``) receives K x of a flat vector: the multigrid's hot loop
-        reuses its vectors, since a fresh array above 32 MB is a fresh mapping that the kernel faults in page by
-        page (at 256³ that was ≈ 40 % of a shifted solve, docs/one_machine.md).
+        Computed in the vector's precision: float32 for a preconditioner, float64 otherwise.  ``out`` (of x's
+        shape and that precision, contiguous by columns, not sharing memory with ``x``) receives K x: the multigrid's
+        hot loop and the residual Gram's slabs reuse their arrays, since a fresh array above 32 MB is a fresh
+        mapping that the kernel faults in page by page (at 256³ that was ≈ 40 % of a shifted solve,
+        docs/one_machine.md).  A block whose columns are contiguous (a row slice of a Fortran-ordered basis) is
+        read in place.
         """
         x = np.asarray(x)
         dtype = np.dtype(np.float32) if x.dtype == np.float32 else np.dtype(np.float64)
-        u = cast(FloatArray, (np.ascontiguousarray(x.T, dtype=dtype) if x.ndim == 2 else np.asarray(x, dtype=dtype)
-                 ).reshape(-1, *self.node_shape))
-        if out is not None and (x.ndim != 1 or out.shape != (self.n,) or out.dtype != dtype
-                                or not out.flags.c_contiguous or np.shares_memory(out, x)):
-            raise InputError(f"voxel operator: out must be a separate contiguous ({self.n},) {dtype} vector "
-                             f"for a flat input, got {out.shape} {out.dtype}")
-        if out is None:
+        u = _columns(x, dtype).reshape(-1, *self.node_shape)
+        columns = out.T if out is not None and out.ndim == 2 else out
+        if out is not None and (out.shape != (self.n, *x.shape[1:]) or out.dtype != dtype or columns is None
+                                or not columns.flags.c_contiguous or np.shares_memory(out, x)):
+            raise InputError(f"voxel operator: out must be a separate {(self.n, *x.shape[1:])} {dtype} array "
+                             f"with contiguous columns, got {out.shape} {out.dtype}")
+        if columns is None:
             y = np.zeros(u.shape, dtype=dtype)
         else:
-            y = out.reshape(u.shape)
+            y = columns.reshape(u.shape)
             y.fill(0.0)
         table = self._weight_table(dtype)
         mask = constrained and bool(self.fixed)
@@ -196,6 +198,8 @@ class VoxelOperator:
                 self._scatter(target, self._apply(ext, weights), k0, k1)
         for column, target in zip(u, y, strict=True):
             self._faces(column, target, mask)
+        if out is not None:
+            return cast(FloatArray, out)
         return y.reshape(u.shape[0], -1).T if x.ndim == 2 else y.ravel()
 
     def _faces(self, u: FloatArray, y: FloatArray, mask: bool) -> None:
@@ -373,6 +377,15 @@ class VoxelOperator:
         z, y, x = np.meshgrid(*(np.arange(s) * h for s, h in zip(self.node_shape, self.voxel_size[::-1],
                                                                   strict=True)), indexing="ij")
         return np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+
+
+def _columns(x: np.ndarray, dtype: np.dtype) -> FloatArray:
+    """The columns of ``x`` (n,) or (n, k) as rows of a (k, n) array in ``dtype``: a view when each column is
+    contiguous (a row slice of a Fortran-ordered basis), else one C-ordered copy."""
+    t = x.T
+    if t.dtype == dtype and t.strides[-1] == t.itemsize:
+        return cast(FloatArray, t)
+    return cast(FloatArray, np.ascontiguousarray(t, dtype=dtype))
 
 
 def _pass_size(shape: tuple[int, ...]) -> int:
