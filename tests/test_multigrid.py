@@ -12,6 +12,9 @@ from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
 from aromm.full.solve import _partition, _points, _split, steady_field
 from aromm.linalg.direct import factorize
+from aromm.linalg.multigrid.hierarchy import assembled_matrix
+from aromm.linalg.multigrid.operator import VoxelOperator
+from aromm.linalg.multigrid.pcg import FLOOR_FACTOR, MultigridSolver
 
 RTOL = 1e-10
 
@@ -72,3 +75,25 @@ def test_fixed_faces_commute_with_galerkin_coarsening() -> None:
     galerkin[mask, mask] = 1.0
     scale = np.abs(galerkin).max()
     assert np.abs(level.matrix.toarray() - galerkin).max() <= 1e-13 * scale
+
+
+def test_the_matrix_free_rounding_floor_estimates_the_true_one() -> None:
+    """rtol = 1e-17 on the matrix-free operator: the solve stops at the floor, whose estimate λ D |x| (no abs(A)
+    at hand) is within a factor 1.5 of the true FLOOR_FACTOR ε ‖|A||x|‖ / ‖b‖ of the assembled matrix; a second solve
+    (kept vectors reused) gives the same x."""
+    phase = (np.random.default_rng(11).random((7, 6, 8)) < 0.4).astype(np.int8)
+    op = VoxelOperator(phase, np.array([[0.02] * 3, [20.0] * 3]), (1e-4, 1e-4, 1e-4), fixed=("z0",),
+                       capacity=np.array([1e3, 2e6]))
+    mg = MultigridSolver(op, rtol=1e-17)
+    b = np.random.default_rng(12).standard_normal(op.n)
+    b[op.n - op.node_shape[1] * op.node_shape[2]:] += 1.0
+    b[: op.node_shape[1] * op.node_shape[2]] = 0.0  # the fixed face z0
+    x = mg.solve(b)
+    a = sp.csr_array(assembled_matrix(op))
+    nb = float(np.linalg.norm(b))
+    truth = FLOOR_FACTOR * np.finfo(float).eps * float(np.linalg.norm(abs(a) @ np.abs(x))) / nb
+    estimate = mg.floor(x, nb)
+    assert truth / 1.5 <= estimate <= 1.5 * truth  # 1.05 here; without its Gershgorin factor λ ≈ 2: 0.52
+    assert np.linalg.norm(b - a @ x) / nb <= 1e-17 + estimate
+    assert mg.at_floor == 1
+    np.testing.assert_array_equal(mg.solve(b), x)

@@ -198,12 +198,13 @@ class MultigridSolver:
             raise InputError(f"multigrid: an energy tolerance needs a zero initial guess and a positive value, "
                              f"got {energy_tol!r}")
         a: _Operator = self.operator if self._matrix is None else self._matrix  # type: ignore[assignment]
+        r = self.levels[0].vector("cg_r", b.shape, float)
         if x0 is None:
-            x, r = np.zeros_like(b), b.copy()
+            x = np.zeros_like(b)
+            np.copyto(r, b)
         else:
             x = np.array(x0, dtype=float)
-            r = _product(a, x, np.empty_like(b))
-            np.subtract(b, r, out=r)
+            np.subtract(b, _product(a, x, r), out=r)
         if x0 is not None and float(np.linalg.norm(r)) <= self.rtol * nb:  # the guess already solves it
             self.iterations.append(0)
             return x
@@ -237,7 +238,9 @@ class MultigridSolver:
             return 0.0
         if self._matrix is None:
             fine = self.levels[0]
-            magnitude = fine.lam * np.abs(x) / fine.inverse_diagonal.astype(float)
+            magnitude = np.abs(x, out=fine.vector("floor", x.shape, float))
+            magnitude /= fine.inverse_diagonal
+            magnitude *= fine.lam
             return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
         m = self._matrix
         magnitude = sp.csr_array((np.abs(m.data), m.indices, m.indptr), shape=m.shape) @ np.abs(x)
