@@ -12,8 +12,8 @@ Prints, for a wood VER (coarse n³ by default; the shipped 46³ VER with AROMM_F
 4. joint identification from the three scenarios at once, with k_F, c_F and then also k_G unknown;
 5. accuracy against cost: swarm budget (with / without refinement), reduced order, full model.
 
-Usage: python benchmarks/identify.py [--size 12] [--order 40] [--reps 20] [--noise 0.02] [--no-full]
-       [--farm serial|processes|mpi] [--workers W]
+Usage: python benchmarks/identify.py [--size 12] [--order 40] [--method aromm|krylov] [--reps 20] [--noise 0.02]
+       [--no-full] [--farm serial|processes|mpi] [--workers W]
        AROMM_FULL=1 python benchmarks/identify.py --no-full --data-refine 5 --twin-data twin_x.csv [--full-refine]
 """
 
@@ -102,6 +102,8 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=12, help="voxels per side of the coarse VER")
     parser.add_argument("--dt", type=float, default=0.5, help="time step of the coarse VER's scenes (s)")
     parser.add_argument("--order", type=int, default=None, help="reduced order (40 coarse, 200 shipped)")
+    parser.add_argument("--method", choices=("aromm", "krylov"), default="aromm",
+                        help="reduction method: aromm (the amalgam, the papers' method) or krylov (eigen-free)")
     parser.add_argument("--reps", type=int, default=20, help="noisy repetitions of the twin test")
     parser.add_argument("--noise", type=float, default=0.02, help="noise standard deviation (°C)")
     parser.add_argument("--no-full", action="store_true", help="skip identifications with the full model")
@@ -136,7 +138,7 @@ def main() -> None:
     assert isinstance(geo, VoxelGeometry) and material.time is not None
     print(f"VER {'shipped' if shipped else 'coarse'} {geo.shape}, voxel {geo.voxel_size[0]:.3g} m, "
           f"fibre fraction {material.volume_fractions()['fibre']:.4f}, {len(material.time.times)} times, "
-          f"order {order}, python {sys.version.split()[0]}")
+          f"{args.method} order {order}, python {sys.version.split()[0]}")
 
     hom = homogeneous_properties(scenes, method="amg" if shipped else "auto")
     cases = twin_cases(scenes, hom)
@@ -144,7 +146,7 @@ def main() -> None:
     print(f"eq. 13 under each scenario: {k_bar} W/(m K), c̄ = {hom.c:.5g} J/(m³ K) ({hom.seconds:.1f} s)")
     roms = {}
     for axis in AXES:
-        roms[axis] = reduced(cases[axis], order, progress=sys.stderr.isatty())
+        roms[axis] = reduced(cases[axis], order, method=args.method, progress=sys.stderr.isatty())
         print(f"reduced model {axis}: order {roms[axis].order}, offline {roms[axis].info['offline_seconds']:.1f} s "
               f"(cached {roms[axis].info['cached']})", flush=True)
 
@@ -206,7 +208,7 @@ def main() -> None:
     rows = [{**r.row(), "offline s": 0.0} for r in runs]
     for o in sorted({max(order // 4, 5), max(order // 2, 5)}):
         start = time.perf_counter()
-        other = reduced(x, o)
+        other = reduced(x, o, method=args.method)
         offline = float(other.info["offline_seconds"]) if not other.info["cached"] else time.perf_counter() - start
         rows.append({**run(f"order {o}", other, x.measurements, truth).row(), "offline s": offline})
     reduced_run = run(f"order {order}", rom, x.measurements, truth)

@@ -192,6 +192,7 @@ class Run:
     label: str
     result: Identification
     errors: Mapping[str, float]
+    cpu: float = 0.0  # CPU seconds of the identification call (process_time)
 
     def row(self) -> dict[str, object]:
         unc = self.result.uncertainty
@@ -204,6 +205,7 @@ class Run:
         out["J"] = self.result.criterion
         out["evaluations"] = self.result.evaluations
         out["seconds"] = self.result.seconds
+        out["CPU s"] = self.cpu
         return out
 
 
@@ -213,9 +215,10 @@ def run(label: str, model: ForwardModel | Sequence[tuple[ForwardModel, Measureme
         particles: int = DEFAULT_PARTICLES, iterations: int = DEFAULT_ITERATIONS, refine: bool = True,
         description: Mapping[str, object] | None = None) -> Run:
     """:func:`inverse.identify()` with the study's bounds, and the errors of its estimates."""
+    cpu = time.process_time()
     result = identify(model, measurements, unknowns, seed=seed, particles=particles, iterations=iterations,
                       refine=refine, description=description)
-    return Run(label, result, relative_errors(result.estimates, truth))
+    return Run(label, result, relative_errors(result.estimates, truth), time.process_time() - cpu)
 
 
 @dataclass(frozen=True)
