@@ -69,6 +69,20 @@ points, 216 solves (CG 8–16 iterations at rtol 1e-10), 120.8 CPU s (1,092 s wa
 auto at ñ = 30 / 40 (32 kept) / 50: 1.3e-6 / 1.2e-6 / 5.3e-7 °C; gramian 3.6e-5 / 9.0e-6 / 9.9e-7, greedy
 9.0e-6 / 6.3e-6 / 7.5e-7, pod 1.3e-6 / 1.5e-6 / 5.3e-7; peak 1.00 GB.  Truth: own error 1.2e-10 °C, 511 CPU s.
 
+Every method on the shipped 46³ VER in one run, 2026-12-02 (commit 9374f13, ``nice python benchmarks/mor_peers.py
+--shipped --orders 20 50 100 --truth truth46.npz --methods aromm greedy+shifts krylov bt gramian-pod
+--krylov-compressions auto --json …``, one BLAS thread, a 256³ build on the other core: load 1.3–2.1; record
+``benchmarks/records/mor_peers_46_9374f13.json``).  Worst error °C over the 3×3 grid, offline CPU s in brackets:
+
+    ñ    aromm         greedy+shifts  krylov (auto)   bt (pyMOR)                    gramian-pod (pyMOR)
+    20   4.7e-3 (57)   1.8e-5 (139)   7.3e-6 (34)     7.1e-2; 3.5e-7 at ref (551)   2.7e-2 (1,429)
+    50   2.3e-3 (78)   1.4e-5 (165)   4.0e-7 (34)     refused (a)                   3.3e-4 (1,430)
+    100  2.4e-3 (118)  1.4e-5 (208)   1.1e-7 (span)   refused (a)                   2.3e-5 (1,430)
+
+krylov: one span of 83 columns at 6 points (144 solves, multigrid CG 2–15 iterations), 33.2 CPU s, worst 1.1e-7 °C
+(the ñ = 100 row: the whole span, 83 < 100); compressed (auto) at ñ = 20 / 50 from the same span.  irka not run
+(at 24³ it did not converge in 20 iterations).  Peak 2.40 GB (pyMOR's Gramians).
+
 The amalgam, POD and the greedy all stop at the error of the detailed basis Φ (1e-3 °C at the slow corner
 of the grid); the greedy gets there at ñ = 10 instead of 50.  Shifted-solve corrections at the corners of
 the training box lower that floor 250× (greedy+shifts, 3.8e-6 at ñ = 200).  The 16³ run (same day) gave the
