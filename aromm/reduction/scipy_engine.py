@@ -46,7 +46,12 @@ from aromm.reduction.rom import ReducedModel
 #: multigrid (9–10 CG iterations): 16³ (4,913 unknowns) 0.052 / 0.0017 vs 0.020 / 0.0088; 24³ (15,625) 0.136 /
 #: 0.0070 vs 0.049 / 0.0246; 32³ (35,937) 0.541 / 0.0227 vs 0.130 / 0.0759; 40³ (68,921) 1.850 / 0.0536 vs 0.317 /
 #: 0.1317: break-even at 4.4, 5.0, 7.7 and 19.6 right-hand sides per set-up; the Krylov reduction solves 6 per
-#: set-up (the load and the two outputs, two steps each).
+#: set-up (the load and the two outputs, two steps each).  Re-measured 2026-12-02 (commit 77fcd32, load 1.3–1.5, a
+#: 256³ build on the other core): 16³ 0.028 / 0.0010 vs 0.010 / 0.0048, 24³ 0.157 / 0.0084 vs 0.033 / 0.0241, 32³
+#: 0.570 / 0.0237 vs 0.079 / 0.0511, 40³ 1.511 / 0.0482 vs 0.141 / 0.0853 (9–11 CG iterations): break-even at 4.7,
+#: 7.9, 17.9 and 37.0.  The reduction now solves 4 per set-up on the wood VERs (the inputs excited over the box, two
+#: steps), so multigrid would win from 16³ on, by < 2 CPU s per reduction at 24³ (30 set-ups); the threshold stays:
+#: below it a direct solve costs at most that and needs no rounding-floor acceptance.
 DIRECT_BELOW = 20_000
 #: Eigenvalues of a new block's Gram matrix below this fraction of the largest are dependent directions.
 GRAM_DROP = 1e-14
