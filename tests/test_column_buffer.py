@@ -4,11 +4,23 @@ in the capacity product), against plain NumPy and against the column-by-column a
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import textwrap
+
 import numpy as np
+import pytest
 import scipy.sparse as sp
 from test_krylov import two_phase
 
-from aromm.reduction.column_buffer import FIRST, MOST_RESERVED, ColumnBuffer, GrowingProjection, reservable_columns
+from aromm.reduction.column_buffer import (
+    FIRST,
+    MOST_RESERVED,
+    ColumnBuffer,
+    GrowingProjection,
+    reservable_columns,
+    reservation_budget,
+)
 from aromm.reduction.krylov import galerkin_guess, independent_columns
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import ScipyEngine
@@ -44,13 +56,36 @@ def test_a_basis_within_the_reservation_never_moves() -> None:
 
 
 def test_the_reservation_spans_a_share_of_the_memory_within_bounds() -> None:
-    rows_256 = 257**3
-    spanned = reservable_columns(rows_256, 24 * 2**30) * 8 * rows_256
-    assert 0.7 * 24 * 2**30 < spanned <= 0.75 * 24 * 2**30  # the share of the memory, in whole columns
-    assert reservable_columns(rows_256, 24 * 2**30) > 64 + 8  # a 256³ span (≈ 60 columns) fits with a point's room
-    assert reservable_columns(10, 24 * 2**30) == MOST_RESERVED
-    assert reservable_columns(10**12, 24 * 2**30) == FIRST
+    rows_256, memory = 257**3, 24 * 2**30
+    spanned = reservable_columns(rows_256, reservation_budget(memory, None)) * 8 * rows_256
+    assert 0.7 * memory < spanned <= 0.75 * memory  # the share of the memory, in whole columns
+    assert spanned // (8 * rows_256) > 64 + 8  # a 256³ span (≈ 60 columns) fits with a point's room
+    assert reservable_columns(10, memory) == MOST_RESERVED
+    assert reservable_columns(10**12, memory) == FIRST
     assert reservable_columns(100, None) == FIRST
+    # under an address-space limit, half of what is left: 10 GB left at 128³ → 5 GB, 296 → capped
+    assert reservation_budget(memory, 10 * 10**9) == 5 * 10**9
+    assert reservation_budget(None, None) is None
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS and /proc/self/statm are Linux's")
+def test_under_an_address_space_limit_the_reservation_leaves_room() -> None:
+    """With ``ulimit -v`` 3 GB above what the process uses, a basis of 1e6 rows reserves at most half of those
+    3 GB, and a 1 GB array can still be allocated beside it (a 128³ series ran out of addresses when the
+    reservation took 8.6 GB under a 10 GB limit)."""
+    code = textwrap.dedent("""
+        import os, resource
+        import numpy as np
+        from aromm.reduction.column_buffer import ColumnBuffer
+        used = int(open("/proc/self/statm").read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        resource.setrlimit(resource.RLIMIT_AS, (used + 3 * 2**30, resource.RLIM_INFINITY))
+        columns = ColumnBuffer(rows=10**6)
+        columns.append(None, np.ones((10**6, 1)))
+        other = np.ones(2**27)  # 1 GiB
+        print(columns.reserve, int(other.sum()))
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert FIRST <= int(out[0]) <= 1.5 * 2**30 / 8e6 and int(out[1]) == 2**27
 
 
 def test_an_older_view_is_copied_not_written_over() -> None:

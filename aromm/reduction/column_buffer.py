@@ -6,8 +6,9 @@ O(r² n) bytes moved over a build (measured at 64³: 16.5 of 121 CPU s of a Kryl
 columns live in a column-major (Fortran) buffer with spare room; a basis handed out is the view
 ``buffer[:, :r]`` (contiguous, BLAS-ready), and appending to the latest view writes after it.
 
-The first buffer reserves address space for :func:`reservable_columns` columns: pages never written are never
-resident, so the reservation costs nothing until columns are written, and a basis within it never moves.  Growing
+The first buffer reserves address space for :func:`reservable_columns` columns (:func:`reservation_budget`): pages
+never written are never resident, so the reservation costs nothing until columns are written (except under an
+address-space limit, which it leaves room under), and a basis within it never moves.  Growing
 past it (by :data:`GROWTH`, one copy) holds the old and the new buffer at once — at 256³ a 64-column basis is
 8.7 GB, and such a copy is what ran a 256³ build out of 24 GB.
 
@@ -36,11 +37,14 @@ log = logging.getLogger(__name__)
 GROWTH = 1.5
 #: Columns of a new buffer at least: the Krylov spans of the wood VERs hold 59–63 columns (24³–128³).
 FIRST = 64
-#: Columns reserved at most (the Krylov greedy stops at 4 × the order; the amalgam's bases hold ≈ 320 columns).
-MOST_RESERVED = 512
+#: Columns reserved at most (the Krylov greedy stops at 4 × the order, 200 columns at its default order 50).
+MOST_RESERVED = 256
 #: Share of the physical memory a reservation may span: Linux's default (heuristic) overcommit refuses one mapping
 #: larger than the memory and swap, and a reservation that large would leave no room for the rest anyway.
 RESERVED_SHARE = 0.75
+#: Share of the address space left under a limit (``ulimit -v``, RLIMIT_AS) that a reservation may take: under such
+#: a limit reserved addresses count in full, written or not.
+LIMITED_SHARE = 0.5
 
 
 def physical_memory() -> int | None:
@@ -51,18 +55,47 @@ def physical_memory() -> int | None:
         return None
 
 
-def reservable_columns(rows: int, memory: int | None) -> int:
-    """Columns of float64 ``rows``-vectors that the first buffer reserves: as many as :data:`RESERVED_SHARE` of
-    ``memory`` bytes spans, within [:data:`FIRST`, :data:`MOST_RESERVED`] (:data:`FIRST` when memory is unknown).
+def address_headroom() -> int | None:
+    """Bytes of address space left under the process's RLIMIT_AS soft limit, or None without a limit (or where the
+    platform does not tell: ``resource``, ``/proc/self/statm``)."""
+    try:
+        import resource
 
-    >>> reservable_columns(257**3, 24 * 10**9)  # 256³ elements on 24 GB: 132 columns of 136 MB
-    132
-    >>> reservable_columns(25**3, 24 * 10**9)
-    512
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft == resource.RLIM_INFINITY:
+            return None
+        with open("/proc/self/statm") as statm:
+            used = int(statm.read().split()[0]) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (ImportError, OSError, ValueError, AttributeError):
+        return None
+    return max(int(soft) - used, 0)
+
+
+def reservation_budget(physical: int | None, headroom: int | None) -> int | None:
+    """Bytes a first buffer may reserve: :data:`RESERVED_SHARE` of the physical memory and :data:`LIMITED_SHARE` of
+    the address space left under a limit, whichever is smaller (None when neither is known).
+
+    >>> reservation_budget(24 * 10**9, None), reservation_budget(24 * 10**9, 8 * 10**9)
+    (18000000000, 4000000000)
     """
-    if memory is None:
+    budgets = [int(RESERVED_SHARE * physical) if physical is not None else None,
+               int(LIMITED_SHARE * headroom) if headroom is not None else None]
+    known = [b for b in budgets if b is not None]
+    return min(known) if known else None
+
+
+def reservable_columns(rows: int, budget: int | None) -> int:
+    """Columns of float64 ``rows``-vectors that ``budget`` bytes hold, within [:data:`FIRST`,
+    :data:`MOST_RESERVED`] (:data:`FIRST` when the budget is unknown).
+
+    >>> reservable_columns(257**3, 18 * 10**9)  # 256³ elements, 3/4 of 24 GB: 132 columns of 136 MB
+    132
+    >>> reservable_columns(25**3, 18 * 10**9)
+    256
+    """
+    if budget is None:
         return FIRST
-    return int(min(MOST_RESERVED, max(FIRST, RESERVED_SHARE * memory // (8 * max(rows, 1)))))
+    return int(min(MOST_RESERVED, max(FIRST, budget // (8 * max(rows, 1)))))
 
 
 class ColumnBuffer:
@@ -70,7 +103,9 @@ class ColumnBuffer:
 
     def __init__(self, rows: int, reserve: int | None = None) -> None:
         self.rows = rows
-        self.reserve = reservable_columns(rows, physical_memory()) if reserve is None else reserve
+        if reserve is None:
+            reserve = reservable_columns(rows, reservation_budget(physical_memory(), address_headroom()))
+        self.reserve = reserve
         self._buffer: FloatArray | None = None
         self._width = 0  # columns of the latest view handed out
         self.version = 0  # counts the times the leading columns were written over (combine_in_place)
