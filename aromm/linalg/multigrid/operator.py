@@ -175,14 +175,14 @@ class VoxelOperator:
         x = np.asarray(x)
         dtype = np.dtype(np.float32) if x.dtype == np.float32 else np.dtype(np.float64)
         u = _columns(x, dtype).reshape(-1, *self.node_shape)
-        columns = out.T if out is not None and out.ndim == 2 else out
-        if out is not None and (out.shape != (self.n, *x.shape[1:]) or out.dtype != dtype or columns is None
-                                or not columns.flags.c_contiguous or np.shares_memory(out, x)):
-            raise InputError(f"voxel operator: out must be a separate {(self.n, *x.shape[1:])} {dtype} array "
-                             f"with contiguous columns, got {out.shape} {out.dtype}")
-        if columns is None:
+        if out is None:
             y = np.zeros(u.shape, dtype=dtype)
         else:
+            columns = out.T if out.ndim == 2 else out
+            if (out.shape != (self.n, *x.shape[1:]) or out.dtype != dtype or not columns.flags.c_contiguous
+                    or np.shares_memory(out, x)):
+                raise InputError(f"voxel operator: out must be a separate {(self.n, *x.shape[1:])} {dtype} array "
+                                 f"with contiguous columns, got {out.shape} {out.dtype}")
             y = columns.reshape(u.shape)
             y.fill(0.0)
         table = self._weight_table(dtype)
