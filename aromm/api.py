@@ -109,7 +109,7 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
 
             found = runtime.mpi(runtime.world()).bcast(found, root=0)
         if found is not None:
-            rom = from_arrays(found)
+            rom = from_arrays(found).with_parameters(system.parameters)
             return replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
         rom = _build(system, settings, engine, run)
         rom = replace(rom, info={**rom.info, "engine": engine, "model_key": key})
@@ -123,16 +123,19 @@ def _model_key(system: Any, settings: ReductionSettings, engine: str, run: dict[
     system (the engine's own key then), no cache, or ``fields`` (the scipy engine's cache keeps Ψ's recipe)."""
     if run.get("fields") or run.get("cache", True) in (False, None):
         return None
-    keys = [_physics(source, engine) for source in (system, *run.get("references", ()))]
+    krylov = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance) is not None
+    box = frozenset(settings.bounds) if krylov else frozenset()  # the values one model serves (model_key)
+    keys = [_physics(source, engine, box) for source in (system, *run.get("references", ()))]
     if any(k is None for k in keys):
         return None
-    options = {f.name: getattr(settings, f.name) for f in fields(settings) if f.name != "order"}
+    options = {f.name: getattr(settings, f.name) for f in fields(settings)
+               if f.name != "order" and (krylov or f.name != "bounds")}  # the modal methods have no box
     return model_key(str(keys[0]), settings.order, options, [str(k) for k in keys[1:]])
 
 
-def _physics(source: Any, engine: str) -> str | None:
+def _physics(source: Any, engine: str, box: frozenset[str]) -> str | None:
     if isinstance(source, Scene):
-        return scene_physics_key(source)
+        return scene_physics_key(source, box)
     if engine == "petsc":
         from aromm.engines.petsc.problem import VoxelProblem
 
@@ -140,7 +143,7 @@ def _physics(source: Any, engine: str) -> str | None:
             from aromm.engines.petsc import runtime
             from aromm.engines.petsc.assembly import physics_key
 
-            return physics_key(source, runtime.world())
+            return physics_key(source, runtime.world(), box)
     return None
 
 

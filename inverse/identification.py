@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from aromm.core.domain import range_values
 from aromm.core.errors import InputError
 from aromm.core.labchecks import OVERFLOW
 from aromm.core.system import FloatArray
@@ -246,6 +247,10 @@ def identify(
             raise InputError(f"measurements {sc.measurements.source or sc.name}: {sc.measurements.faces[j]} at t = "
                              f"{sc.measurements.t[i]:g} s is {sc.measurements.as_array()[i, j]:g}, a logger's "
                              "overflow code, not a reading")
+    for sc in scenarios:  # a reduced model says when the search (which reaches the ends of every range) leaves it
+        check = getattr(sc.model, "check_domain", None)
+        if check is not None:
+            check({**range_values(unknowns), **(fixed or {})}, "identify")
     box = opt.Box.from_bounds(unknowns)
     for name, low, high in zip(box.names, box.lower, box.upper, strict=True):
         refused = bounds_problem(name, float(low), float(high))

@@ -121,7 +121,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
     system = assemble(sc) if engine == "scipy" else None
     progress = sys.stderr.isatty() and is_root(engine)
     if model == "reduced":
-        rom = reduce(system if system is not None else sc, settings=sc.reduction.updated(order=order, solver=solver),
+        rom = reduce(sc, settings=sc.reduction.updated(order=order, solver=solver),  # the scene: identify's key
                      progress=progress, engine=engine, fields=times is not None)
         obs = rom.simulate()
     else:

@@ -7,6 +7,7 @@ import math
 import sys
 import time
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,7 @@ from aromm.api import is_root
 from aromm.cli import checks
 from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
+from aromm.core.domain import training_box
 from aromm.core.errors import InputError
 from aromm.core.files import check_output, distinct
 from aromm.core.forward_model import ForwardModel
@@ -40,14 +42,17 @@ from inverse.repetitions import Problem, repeated, summary
 from inverse.uncertainty import UncertaintyWarning
 
 
-def _model(scene: Path, source: Any, kind: str, order: int, *, tty: bool,
-           engine: str) -> tuple[ForwardModel, dict[str, object]]:
+def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[str, tuple[float, float]], *,
+           tty: bool, engine: str) -> tuple[ForwardModel, dict[str, object]]:
+    """The forward model; a reduced one is trained over the scene's box joined with the unknowns' ranges
+    (:func:`aromm.core.domain.training_box`): never asked outside its box."""
     if kind == "full":
         system = assemble(source)
         return FullModel(system), {"kind": "full", "dofs": system.n, "scene": str(scene)}
     from aromm.api import reduce
 
-    rom = reduce(source, settings=source.reduction.updated(order=order), progress=tty, engine=engine)
+    box = training_box(source.reduction.bounds, unknowns)
+    rom = reduce(source, settings=source.reduction.updated(order=order, bounds=box), progress=tty, engine=engine)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene), "engine": str(rom.info.get("engine", engine))}
     info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
     return rom, info
@@ -216,7 +221,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     if kind == "reduced":
         checks.cache_folder(None)
     tty = sys.stderr.isatty()
-    model, info = _model(scene, source, kind, order, tty=tty and is_root(engine), engine=engine)
+    model, info = _model(scene, source, kind, order, bounds, tty=tty and is_root(engine), engine=engine)
     if not is_root(engine):
         return
     if repeat is not None:

@@ -21,3 +21,8 @@ class NumericalError(RuntimeError):
 
 class InputWarning(UserWarning):
     """An input could not be used as given and was replaced: the message says by what (never a silent clamp)."""
+
+
+class ModelWarning(UserWarning):
+    """A reduced model used where nothing bounds its error: outside its training box, at another value of a parameter
+    it pinned, or short of its tolerance (the message says which and by how much)."""

@@ -43,7 +43,7 @@ import logging
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -382,7 +382,7 @@ def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: Krylo
         chosen = reductor.compression
         coefficients = compress(span.model, chosen, order, training=training, times=times, kept=kept,
                                 moments=span.moments, tolerance=tol)
-    rom = span.model.transform(coefficients)
+    rom = replace(span.model.transform(coefficients), box=box)
     stats = engine.stats
     its = stats.iterations
     info: Info = {

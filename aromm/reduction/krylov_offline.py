@@ -2,7 +2,8 @@
 
 The reduction itself (:mod:`aromm.reduction.krylov`) sees only the engine protocol; this module picks the engine
 (:class:`~aromm.reduction.scipy_engine.ScipyEngine`), lifts fixed temperatures at the basis values
-(:mod:`aromm.reduction.lifting`), keys the cache by the system's content and every option, and keeps Ψ for fields.
+(:mod:`aromm.reduction.lifting`), keys the cache by :func:`aromm.reduction.model_key.system_key` (operators, values
+outside the training box, time grid, every option), and keeps Ψ for fields.
 """
 
 from __future__ import annotations
@@ -11,14 +12,14 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 
-from aromm.core.cache import NpzCache, content_key
+from aromm.core.cache import NpzCache
 from aromm.core.system import FloatArray, ThermalSystem
 from aromm.reduction import krylov
 from aromm.reduction.lifting import lift
+from aromm.reduction.model_key import system_key
 from aromm.reduction.rom import ReducedModel, from_arrays, one_blas_thread, to_arrays
 from aromm.reduction.scipy_engine import SOLVERS, ScipyEngine
 
-_VERSION = 1
 WithFields = Callable[[ReducedModel, ThermalSystem, FloatArray, Mapping[str, float], str], ReducedModel]
 
 
@@ -32,12 +33,14 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     lifting to the model (``aromm.reduction.offline``)."""
     reductor.check()
     linear = reductor.solver if reductor.solver != "auto" or solver not in SOLVERS else solver
-    key = content_key(_VERSION, system.fingerprint(), order, reductor.cache_key, dict(basis_values), solver, linear)
+    box = krylov.material_box(system, reductor.bounds)
+    key = system_key(system, [name for name, _, _ in box], order, reductor.cache_key, box, dict(basis_values),
+                     solver, linear)
     if store is not None:
         stored = store.load("rom", key)
         kept = store.load("krylov-basis", key) if fields and stored is not None else None
         if stored is not None and (not fields or kept is not None):
-            rom = from_arrays(stored)
+            rom = from_arrays(stored).with_parameters(system.parameters)
             rom = replace(rom, info={**rom.info, "cached": 1, "offline_seconds": 0.0})
             return with_fields(rom, system, kept["psi"], basis_values, solver) if kept is not None else rom
     start = time.perf_counter()

@@ -32,7 +32,8 @@ from aromm.scene.reduction_section import ReductionSettings
 
 log = logging.getLogger(__name__)
 
-ROM_VERSION = 5  # 5: one pipeline for every engine (histories, feedthrough and lifted fixed temperatures since 4)
+ROM_VERSION = 6  # 6: the output time grid in the key; 5: one pipeline for every engine (histories, feedthrough and
+#                  lifted fixed temperatures since 4)
 #: Relaxation reference case [Chavez2020, § 3.2]: initially at 30 °C, cooled on all faces (h in W/(m² K)).
 RELAXATION_T0 = 30.0
 RELAXATION_H = 20.0
@@ -133,7 +134,9 @@ def plan(engine: ModalEngine, settings: ReductionSettings, reductor: Reductor, *
     default = correction_samples(engine.template, settings.basis) if settings.corrections is True else ()
     samples = settings.samples(default)
     name = getattr(reductor, "cache_key", reductor.name)
-    key = content_key(ROM_VERSION, engine.fingerprints(), n_d, n_s, samples, name, settings.key(), *extra)
+    grid = engine.template.time  # the model's output grid (its reference cases may run on their own)
+    key = content_key(ROM_VERSION, engine.fingerprints(), None if grid is None else (grid.end, grid.dt), n_d, n_s,
+                      samples, name, settings.key(), *extra)
     return ModalPlan(n_d, n_s, samples, key)
 
 

@@ -39,6 +39,7 @@ import scipy.sparse as sp
 from threadpoolctl import ThreadpoolController
 
 from aromm.core import resources
+from aromm.core.domain import warn_outside
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.forward_model import one_set
 from aromm.core.observables import Observables
@@ -119,6 +120,9 @@ class ReducedModel:
     the lifting of the fixed temperatures (terms ``τ_d g_d(t) ℓ_d``, vectors of length n), for fields; both are
     empty by default (evaluations of outputs never need them).  :meth:`transform` carries ``basis`` along
     (Ψ A), so a model given the identity as its basis records the coefficients of its reductions.
+    ``box`` is the training box, (name, lower, upper) per parameter (SI), over which the model was built: every
+    other parameter is pinned at its value in ``projected.parameters`` (:mod:`aromm.core.domain` says where
+    the model is valid); empty for a model built at the scene's values only (the modal methods).
     """
 
     projected: ThermalSystem
@@ -126,6 +130,7 @@ class ReducedModel:
     info: Mapping[str, float | int | str] = field(default_factory=dict)
     basis: FloatArray | None = field(default=None, repr=False, compare=False)
     field_lifting: Affine = field(default=Affine(), repr=False, compare=False)
+    box: tuple[tuple[str, float, float], ...] = ()
 
     @classmethod
     def from_system(cls, system: ThermalSystem, basis: FloatArray,
@@ -165,6 +170,21 @@ class ReducedModel:
                             dict(info) if info is not None else dict(self.info),
                             self.basis @ a if self.basis is not None else None, self.field_lifting)
 
+    def with_parameters(self, values: Mapping[str, float]) -> ReducedModel:
+        """The model with a scene's values of the parameters of its training box (a model of the cache serves every
+        scene whose values differ only inside its box, :mod:`aromm.reduction.model_key`; the values it pinned
+        stay)."""
+        names = {name for name, _, _ in self.box}
+        own = {**self.projected.parameters, **{k: float(v) for k, v in values.items() if k in names}}
+        return replace(self, projected=replace(self.projected, parameters=own))
+
+    def check_domain(self, values: Mapping[str, npt.ArrayLike], use: str) -> None:
+        """Warn (:class:`~aromm.core.errors.ModelWarning`, once) when ``values`` leave the model's domain: its box,
+        or another value of a parameter it pinned that enters its operators (:mod:`aromm.core.domain`; the
+        parameters of its loads and initial state only scale inputs)."""
+        operators = self.projected.capacity.parameters | self.projected.conductance.parameters
+        warn_outside(self.box, self.parameters, values, use, scaling=self.parameter_names - operators)
+
     # ----------------------------------------------------------------- protocol
     @property
     def order(self) -> int:
@@ -195,6 +215,7 @@ class ReducedModel:
         """One parameter set (overrides of the scene's values) → outputs at ``times`` (exact in time); with
         ``fields`` also the reconstructed temperature fields (len(times), n) (:meth:`iter_fields`)."""
         t = self._times(times)
+        self.check_domain({**self.parameters, **(params or {})}, "simulate")
         obs = one_set(self, params, t)
         return replace(obs, fields=np.stack([f for _, f in self.iter_fields(params, t)])) if fields else obs
 
@@ -326,6 +347,8 @@ def to_arrays(model: ReducedModel) -> dict[str, np.ndarray]:
     out["parameters.names"] = np.array(list(model.parameters), dtype=str)
     out["parameters.values"] = np.array(list(model.parameters.values()), dtype=float)
     out["time"] = np.array([model.time.end, model.time.dt] if model.time is not None else [], dtype=float)
+    out["box.names"] = np.array([name for name, _, _ in model.box], dtype=str)
+    out["box.bounds"] = np.array([[lo, hi] for _, lo, hi in model.box], dtype=float).reshape(-1, 2)
     out["info.names"] = np.array(list(model.info), dtype=str)
     out["info.values"] = np.array([str(v) for v in model.info.values()], dtype=str)
     return out
@@ -366,4 +389,6 @@ def from_arrays(data: Mapping[str, np.ndarray]) -> ReducedModel:
         feedthrough=groups["feedthrough"],
     )
     info = {str(k): _info_value(str(v)) for k, v in zip(data["info.names"], data["info.values"], strict=True)}
-    return ReducedModel(projected, groups["initial"], info)
+    box = tuple((str(n), float(lo), float(hi)) for n, (lo, hi) in zip(data.get("box.names", ()),
+                                                                       data.get("box.bounds", ()), strict=True))
+    return ReducedModel(projected, groups["initial"], info, box=box)

@@ -258,14 +258,15 @@ def problem_key(problem: VoxelProblem, labels: np.ndarray, layout: BoxLayout, co
                        image_digest(labels, layout, comm))
 
 
-def physics_key(problem: VoxelProblem, comm: Any) -> str:
+def physics_key(problem: VoxelProblem, comm: Any, box: frozenset[str] = frozenset()) -> str:
     """:func:`aromm.reduction.model_key.physics_key` of a box-read problem (collective): each rank reads its box,
-    the digest is summed over the ranks, so the key equals that of the scene read whole on one process."""
+    the digest is summed over the ranks, so the key equals that of the scene read whole on one process; the values
+    of the parameters in ``box`` left out."""
     layout = problem.layout(comm)
     digest = image_digest(problem.image.read(layout.box), layout, comm)
     return model_key.physics_key(digest, shape=problem.shape, voxel_size=problem.voxel_size, phases=problem.phases,
                                  boundary=problem.boundary, initial_T=problem.initial_T, time=problem.time,
-                                 outputs=problem.outputs)
+                                 outputs=problem.outputs, box=box)
 
 
 def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:

@@ -18,17 +18,16 @@ from typing import Any
 
 import numpy as np
 
-from aromm.core.cache import NpzCache, content_key
+from aromm.core.cache import NpzCache
 from aromm.core.errors import InputError
 from aromm.engines.petsc import runtime
 from aromm.engines.petsc.krylov_engine import SOLVERS, PetscKrylovEngine
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.reduction import Source, cached, distributed
-from aromm.reduction.krylov import KrylovReductor, krylov_model
+from aromm.reduction.krylov import KrylovReductor, krylov_model, material_box
+from aromm.reduction.model_key import system_key
 from aromm.reduction.offline import resolve_cache
 from aromm.reduction.rom import ReducedModel, one_blas_thread, to_arrays
-
-_VERSION = 1
 
 
 def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solver: str = "auto",
@@ -52,11 +51,13 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
     memory.start("assembly")
     system = distributed(source, comm)
     assembly = time.perf_counter() - start
-    key = content_key("petsc-krylov", _VERSION, system.fingerprint, int(order), reductor.cache_key, linear_solver)
+    box = material_box(system.template, reductor.bounds)
+    key = system_key(system.template, [name for name, _, _ in box], "petsc-krylov", int(order), reductor.cache_key,
+                     box, linear_solver, fingerprint=system.fingerprint)
     store = resolve_cache(cache)
     found = cached(store, key, comm)
     if found is not None:
-        return found
+        return found.with_parameters(system.template.parameters)
     memory.start("krylov")
     engine = PetscKrylovEngine(system, linear_solver)
     try:

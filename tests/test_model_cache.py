@@ -1,0 +1,132 @@
+"""A cached reduced model never answers for another scene (issue 35, item 1), and knows its domain (item 2).
+
+Independent truth: a model taken from the cache must give the outputs of the same model built without a cache for
+that scene (the build is deterministic, so they agree to the solves' round-off, far below the greedy's tolerance).
+Each variant of the matrix changes one field of the scene (the flux, h, T_ext, the initial temperature, a pinned
+phase value, the end or step of the time grid, the outputs); before the fix the second scene got the first one's
+model, 0.4–16.7 °C off.  Each variant is also checked to change the outputs by far more than the tolerance, so a
+stale model cannot pass.  Values inside the training box share one model (item 1), which then takes the scene's
+values; outside it the model says so (item 2).
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scene_text import scenario_1
+
+import aromm
+from aromm.core.domain import outside, training_box
+from aromm.core.errors import ModelWarning
+from aromm.reduction.model_key import masked
+from aromm.scene.scene_file import Scene
+
+BOX = {"fibre.k": (0.1, 1.0), "fibre.c": (1.0e6, 1.0e7)}
+TOLERANCE = 1e-4  # °C, the greedy's (the stale models were 0.39-16.7 °C off)
+KRYLOV = {"method": "krylov", "bounds": BOX, "tolerance": TOLERANCE}
+MODAL = {"method": "aromm", "modes": 24}
+#: One field of the scene changed each (old text, new text), all outside the box.
+VARIANTS = {
+    "flux": ("flux = 500.0", "flux = 800.0"),
+    "h": ("h = 20.0", "h = 35.0"),
+    "T_ext": ("T_ext = 0.0", "T_ext = 5.0"),
+    "initial T": ("[initial]\nT = 0.0", "[initial]\nT = 10.0"),
+    "gas.k": ("k = 0.025", "k = 0.05"),
+    "gas.c": ("c = 1.2e3", "c = 1.2e5"),
+    "end": ("end = 2.0", "end = 3.0"),
+    "dt": ("dt = 0.2", "dt = 0.1"),
+    "outputs": ('mean_T = ["z0", "z1"]', 'mean_T = ["z0", "z1", "x0"]'),
+}
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("scenes")
+    np.save(path / "img.npy", (np.random.default_rng(5).random((5, 4, 6)) < 0.45).astype(np.int32))
+    return path
+
+
+def scene(folder: Path, name: str, change: tuple[str, str] | None = None) -> Scene:
+    text = scenario_1("img.npy", "1e-4", "2.0", "0.2")
+    if change is not None:
+        assert change[0] in text, change
+        text = text.replace(change[0], change[1], 1)
+    path = folder / f"{name.replace(' ', '_')}.toml"
+    path.write_text(text, encoding="utf-8")
+    return aromm.load_scene(path)
+
+
+def outputs(rom: aromm.ReducedModel) -> np.ndarray:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ModelWarning)
+        return rom.simulate().as_array()
+
+
+@pytest.mark.parametrize("assembled", [False, True], ids=["scene", "assembled system"])
+@pytest.mark.parametrize("options", [KRYLOV, MODAL], ids=["krylov", "amalgam"])
+def test_every_variant_builds_its_own_model(folder: Path, tmp_path: Path, options: dict[str, object],
+                                            assembled: bool) -> None:
+    """The scene's key (aromm.api) and the system's key (the Krylov and modal builds below it) alike."""
+    def source(sc: Scene) -> object:
+        return aromm.assemble(sc) if assembled else sc
+
+    cache = tmp_path / "cache"
+    base = aromm.reduce(source(scene(folder, "base")), 10, cache=cache, **options)
+    assert base.info["cached"] == 0
+    assert aromm.reduce(source(scene(folder, "base")), 10, cache=cache, **options).info["cached"] == 1
+    for name, change in VARIANTS.items():
+        variant = scene(folder, name, change)
+        found = aromm.reduce(source(variant), 10, cache=cache, **options)
+        fresh = aromm.reduce(source(variant), 10, cache=False, **options)
+        assert found.info["cached"] == 0, f"{name}: the first scene's model answered"
+        y, y_fresh = outputs(found), outputs(fresh)
+        np.testing.assert_allclose(y, y_fresh, rtol=0, atol=TOLERANCE, err_msg=name)
+        stale = outputs(base)
+        assert y.shape != stale.shape or np.abs(y - stale).max() > 10 * TOLERANCE, f"{name} changes nothing"
+
+
+def test_values_inside_the_box_share_one_model(folder: Path, tmp_path: Path) -> None:
+    """fibre.k 0.3 → 0.5 and fibre.c 4e6 → 2e6, both in the box: the model is loaded, takes the scene's values, and
+    answers as the model built for that scene (both are trained over the same box)."""
+    cache = tmp_path / "cache"
+    aromm.reduce(scene(folder, "base"), 10, cache=cache, **KRYLOV)
+    inside = scene(folder, "inside", ("k = 0.3\nc = 4.0e6", "k = 0.5\nc = 2.0e6"))
+    found = aromm.reduce(inside, 10, cache=cache, **KRYLOV)
+    assert found.info["cached"] == 1
+    assert found.parameters["fibre.k"] == 0.5 and found.parameters["fibre.c"] == 2.0e6
+    fresh = aromm.reduce(inside, 10, cache=False, **KRYLOV)
+    np.testing.assert_allclose(outputs(found), outputs(fresh), rtol=0, atol=TOLERANCE)
+    assert found.box == (("fibre.c", 1.0e6, 1.0e7), ("fibre.k", 0.1, 1.0))
+
+
+def test_a_model_outside_its_box_says_so(folder: Path, tmp_path: Path) -> None:
+    rom = aromm.reduce(scene(folder, "base"), 10, cache=tmp_path / "cache", **KRYLOV)
+    with pytest.warns(ModelWarning, match=r"fibre.k = 0.001 outside the training box \[0.1, 1\]"):
+        rom.simulate({"fibre.k": 0.001})
+    with pytest.warns(ModelWarning, match=r"gas.k = 0.05, pinned at 0.025"):
+        rom.simulate({"gas.k": 0.05})
+    with warnings.catch_warnings():  # a load's scale is not an extrapolation: the model is linear in it
+        warnings.simplefilter("error", ModelWarning)
+        rom.simulate({"z0.flux": 800.0, "fibre.k": 1.0})
+
+
+def test_the_domain_rules() -> None:
+    box = (("fibre.k", 0.1, 1.0),)
+    assert outside(box, {"z1.T_ext": 0.0}, {"z1.T_ext": 3.0}, scaling={"z1.T_ext"}) == [
+        "z1.T_ext = 3, pinned at 0 in the model"]  # an input never excited in the build
+    assert outside(box, {"z0.flux": 500.0}, {"z0.flux": 800.0}, scaling={"z0.flux"}) == []
+    assert outside(box, {}, {"fibre.k": np.array([0.1, 1.0])}) == []
+    assert outside((), {"gas.k": 1.0}, {"gas.k": 2.0}) == []  # no box recorded: no domain
+    assert training_box({"fibre.k": (3.0, 30.0)}, {"fibre.k": (1.0, 60.0), "fibre.c": (1e5, 1e6)}) == {
+        "fibre.k": (1.0, 60.0), "fibre.c": (1e5, 1e6)}
+
+
+def test_masking_leaves_every_other_value(folder: Path) -> None:
+    sc = scene(folder, "base")
+    plain_phases = masked(sc.phases, set())
+    hidden = masked(sc.phases, {"fibre.k"})
+    assert plain_phases != hidden and masked(sc.phases, {"fibre.c"}) != hidden
+    assert masked(sc.boundary, {"z1.h"}) != masked(sc.boundary, set())
