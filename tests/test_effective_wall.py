@@ -188,12 +188,15 @@ def test_wall_inf_b_profile_conserves_the_flux_and_is_regular_at_the_tip() -> No
 @pytest.mark.parametrize(("b", "d"), [(0.798, 1.0), pytest.param(0.001, 2.0, marks=pytest.mark.slow),
                                       pytest.param(0.1, 100.0, marks=pytest.mark.slow)])
 def test_wall_inf_b_where_the_solver_stalls_at_small_contact(b: float, d: float) -> None:
-    """solve_bvp stalls at C = 1e-10 for these (B, D) (found by the derandomized profile: B = 0.798,
-    C = 2e-311, D = 1); E then comes from the next floor, continuous with a direct solve at C = 1e-9.
-    The interpolation from 1e-9 to 1e-10 moves E by (E(1e-9) − E(0))·(1 − √0.1) at most."""
+    """solve_bvp stalled at C = 1e-10 for these (B, D) on some scipy releases (found by the derandomized profile:
+    B = 0.798, C = 2e-311, D = 1); E then comes from the next floor, continuous with a direct solve at C = 1e-9.
+    Whichever path a release takes, E is monotone in the contact C, so E(1e-10) lies between E(0) and E(1e-9) up to
+    the solver's tolerance BVP_TOL (the interpolation and a converged solve both do; a stalled, unchecked solve
+    would not); the interpolation moves E by (E(1e-9) − E(0))·(1 − √0.1) at most."""
     e0, e9 = float(wall_inf_b(b, 0.0, d)), float(wall_inf_b(b, 1e-9, d))
     e10 = float(wall_inf_b(b, 1e-10, d))
-    assert e10 == pytest.approx(e0 + (e9 - e0) * np.sqrt(0.1), rel=1e-12)
+    assert min(e0, e9) - BVP_TOL * abs(e0) <= e10 <= max(e0, e9) + BVP_TOL * abs(e0)
+    assert abs(e10 - (e0 + (e9 - e0) * np.sqrt(0.1))) <= abs(e9 - e0) * (1 - np.sqrt(0.1)) + BVP_TOL * abs(e0)
     assert float(wall_inf_b(b, 2.2e-311, d)) == pytest.approx(e0, rel=BVP_TOL)
 
 
