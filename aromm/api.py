@@ -18,13 +18,14 @@ default) or to the petsc engine (collective: every rank calls it and gets the sa
 from __future__ import annotations
 
 import contextlib
+import warnings
 from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from aromm.core.errors import InputError
+from aromm.core.errors import InputError, ModelWarning
 from aromm.core.observables import Observables
 from aromm.core.system import FloatArray, ParamValues, ThermalSystem
 from aromm.engines import check_engine
@@ -32,7 +33,7 @@ from aromm.full import solve
 from aromm.homogenization import properties
 from aromm.homogenization.properties import PROBE_BOUNDARIES, Fluxmetric, conductivity
 from aromm.reduction import offline
-from aromm.reduction.krylov import KrylovReductor
+from aromm.reduction.krylov import KrylovReductor, tolerance_note
 from aromm.reduction.model_key import model_key, scene_physics_key
 from aromm.reduction.offline import resolve_cache
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
@@ -91,11 +92,24 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
 
     A voxel scene (a Scene, or the petsc engine's box-read VoxelProblem) is cached under the key of its model
     (:func:`aromm.reduction.model_key.model_key`), which names neither the engine nor the solvers: a model built
-    on one engine is loaded by the other."""
+    on one engine is loaded by the other.
+
+    A Krylov model that did not meet its tolerance by its own estimates (``info["converged"]`` 0: the greedy stopped
+    on ``max_points``, or the order asked cost more than half the tolerance) is returned with a
+    :class:`~aromm.core.errors.ModelWarning` that says the estimated error and why, whether built or cached."""
     engine = check_engine(engine)
     run = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
     settings = (settings or ReductionSettings()).updated(order=order, **options)
     settings = replace(settings, method=settings.method_for(_unknowns(system), references=bool(run.get("references"))))
+    rom = _cached_or_built(system, settings, engine, run)
+    note = tolerance_note(rom.info)
+    if note is not None and is_root(engine):
+        warnings.warn(note, ModelWarning, stacklevel=2)
+    return rom
+
+
+def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> ReducedModel:
+    """The model from the cache under its key (:func:`_model_key`), else built and stored."""
     key = _model_key(system, settings, engine, run)
     if key is None:
         return _build(system, settings, engine, run)

@@ -54,7 +54,8 @@ def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[st
     box = training_box(source.reduction.bounds, unknowns)
     rom = reduce(source, settings=source.reduction.updated(order=order, bounds=box), progress=tty, engine=engine)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene), "engine": str(rom.info.get("engine", engine))}
-    info.update({k: rom.info[k] for k in ("reference_error", "offline_seconds", "cached") if k in rom.info})
+    info.update({k: rom.info[k] for k in ("reference_error", "tolerance", "converged", "offline_seconds", "cached")
+                 if k in rom.info})
     return rom, info
 
 
