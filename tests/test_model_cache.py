@@ -150,3 +150,34 @@ def test_a_model_short_of_its_tolerance_says_so(folder: Path, tmp_path: Path) ->
     with pytest.warns(ModelWarning, match="did not meet its tolerance"):
         assert aromm.reduce(scene(folder, "base"), 2, **low).info["cached"] == 1
     assert reference.info["converged"] == 1
+
+
+def test_simulate_finds_the_model_identify_built_and_identify_never_extrapolates(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """identify with ranges inside the scene's box builds the scene's model, which simulate --model reduced then
+    loads (no new entry); ranges beyond the box build a model over their union, and nothing extrapolates."""
+    from inverse_cases import twin_case
+
+    from aromm.cli import main
+
+    scene_path, csv = twin_case(tmp_path)
+    with scene_path.open("a", encoding="utf-8") as fh:
+        fh.write('\n[reduction]\nmethod = "krylov"\nbounds = { "fibre.k" = [0.05, 1.0], "fibre.c" = [1e5, 1e7] }\n')
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(cache))
+
+    def identify(k_range: str) -> str:
+        code = main(["identify", str(scene_path), "--measurements", str(csv), "--unknown", f"fibre.k={k_range}",
+                     "--unknown", "fibre.c=1e6:1e7", "--order", "12", "--particles", "6", "--iterations", "3",
+                     "--json"])
+        out = capsys.readouterr()
+        assert code == 0, out.err
+        return out.err
+
+    assert "extrapolates" not in identify("0.1:0.5")
+    models = sorted(cache.glob("rom-*.npz"))
+    assert main(["simulate", str(scene_path), "--model", "reduced", "--order", "12", "--json"]) == 0
+    assert "extrapolates" not in capsys.readouterr().err
+    assert sorted(cache.glob("rom-*.npz")) == models  # loaded, not rebuilt
+    assert "extrapolates" not in identify("0.01:2")
+    assert len(list(cache.glob("rom-*.npz"))) > len(models)  # a model over the union [0.01, 2]
