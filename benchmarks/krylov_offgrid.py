@@ -24,13 +24,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from mor_truth import krylov_outputs  # noqa: E402
+from mor_truth import krylov_outputs
 
-from aromm.core.errors import ModelWarning  # noqa: E402
-from aromm.reduction.offline import reduce  # noqa: E402
-from aromm.reduction.rom import one_blas_thread  # noqa: E402
-from aromm.scene.scene_file import assemble  # noqa: E402
-from aromm.studies.chavez2020 import loading, small_wood  # noqa: E402
+from aromm.core.errors import ModelWarning
+from aromm.reduction.offline import reduce
+from aromm.reduction.rom import one_blas_thread
+from aromm.scene.scene_file import assemble
+from aromm.studies.chavez2020 import loading, small_wood
 
 BOX = {"fibre.k": (0.1, 1.0), "fibre.c": (1.0e6, 1.0e7)}
 TRUTH_SHIFTS = (0.0, 1.0, 10.0, 100.0)  # 1/s, as benchmarks/mor_peers.py
