@@ -83,3 +83,31 @@ def test_reduce_rebuilds_over_a_wrong_entry_and_two_concurrent_builds_build_once
     captured = capsys.readouterr()
     assert "is a basis entry, not a rom entry: rebuilt" in captured.err
     assert json.loads(captured.out)["cached"] == 0
+
+
+def test_a_damaged_or_non_finite_entry_is_rebuilt_with_one_warning(tmp_path: Path) -> None:
+    cache = NpzCache(tmp_path)
+    cache.path("rom", "k").write_bytes(b"PK\x03\x04 not a zip archive")
+    with pytest.warns(CacheWarning, match="is damaged .*: rebuilt"):
+        assert cache.load("rom", "k") is None
+    cache.save("rom", "k", {"capacity.names": ["c"], "conductance.names": ["k"], "capacity.op0": np.full((2, 2), np.nan)})
+    with pytest.warns(CacheWarning, match="non-finite values in capacity.op0"):
+        assert cache.load("rom", "k") is None
+
+
+def test_sigterm_unwinds_a_build_like_ctrl_c(tmp_path: Path) -> None:
+    """What a batch scheduler sends: one line, exit 143, the build's lock removed and no entry written."""
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path), "AROMM_CACHE_DIR": str(tmp_path)}
+    code = "import sys; from aromm.cli import main; sys.exit(main(sys.argv[1:]))"
+    build = subprocess.Popen([sys.executable, "-c", code, "reduce", str(root / "data" / "scenes" / "wood_s1.toml"),
+                              "--order", "40"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.glob("*.lock")) and build.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert build.poll() is None, build.communicate()
+    build.terminate()
+    _, err = build.communicate(timeout=120)
+    assert build.returncode == 143, err.decode()
+    assert err.decode().strip().splitlines()[-1] == "aromm: terminated (SIGTERM); nothing half-written was kept"
+    assert not list(tmp_path.glob("*.lock")) and not list(tmp_path.glob("rom-*.npz"))

@@ -1,8 +1,9 @@
 """The ``aromm`` command line: JSON on stdout with ``--json``, tables otherwise, progress on stderr.
 
 Exit codes (docs/design.md, :mod:`aromm.cli.common`): 0 success, 1 numerical failure, 2 bad input (message on
-stderr), 3 result printed but an optional extra (plot, field) not written, 130 interrupted.  Outputs are checked
-before the work and never replace an input or a file aromm did not write without ``--force`` (:mod:`aromm.core.files`).
+stderr), 3 result printed but an optional extra (plot, field) not written, 130 interrupted, 143 terminated
+(SIGTERM).  Outputs are checked before the work and never replace an input or a file aromm did not write without
+``--force`` (:mod:`aromm.core.files`).
 Each group of subcommands lives in its own module and is registered below.
 """
 

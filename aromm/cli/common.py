@@ -4,14 +4,16 @@ Exit codes (:func:`run_guarded`; docs/design.md): 0 success; 1 numerical failure
 and why) or memory exhausted (the message says what to change); 2 bad input (the message names the file, option or
 key and what is allowed); 3 the result was printed (and the main output written) but an optional extra (a plot, a
 field VTU) could not be written; 130 interrupted (Ctrl-C), with a one-line hint when there is a checkpoint to resume
-from.
+from; 143 terminated (SIGTERM, unwound as Ctrl-C: cache locks removed).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -36,7 +38,7 @@ SEED = click.IntRange(min=0)  # numpy's generators take non-negative seeds
 
 T = TypeVar("T")
 
-EXIT_NUMERICAL, EXIT_INPUT, EXIT_EXTRA, EXIT_INTERRUPTED = 1, 2, 3, 130
+EXIT_NUMERICAL, EXIT_INPUT, EXIT_EXTRA, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 3, 130, 143
 
 
 class FiniteFloat(click.FloatRange):
@@ -58,6 +60,15 @@ class Interrupted(KeyboardInterrupt):
     def __init__(self, hint: str = "") -> None:
         super().__init__(hint)
         self.hint = hint
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (what a batch scheduler or ``kill`` sends), raised in the main thread so the command unwinds as for
+    Ctrl-C: cache locks and temporary files are removed, one line is printed, the exit code is 143 (128 + 15)."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated()
 
 
 class ExtraFailed(Exception):
@@ -89,9 +100,15 @@ def show_warning(message: Warning | str, category: type[Warning], filename: str,
 def run_guarded(cli: click.Group, argv: list[str]) -> int:
     """Run the click group and map what ends it to an exit code (module docstring), with a message; warnings are
     printed as ``aromm: warning:`` lines (:func:`show_warning`), never raw."""
-    with warnings.catch_warnings():
-        warnings.showwarning = show_warning
-        return _run(cli, argv)
+    main = threading.current_thread() is threading.main_thread()  # signal handlers live in the main thread only
+    previous = signal.signal(signal.SIGTERM, _terminate) if main else None
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = show_warning
+            return _run(cli, argv)
+    finally:
+        if main:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _run(cli: click.Group, argv: list[str]) -> int:
@@ -107,6 +124,9 @@ def _run(cli: click.Group, argv: list[str]) -> int:
         if isinstance(cause, EOFError):
             click.echo(f"aromm: error: unexpected end of input ({cause})", err=True)
             return EXIT_INPUT
+        if isinstance(cause, Terminated):
+            click.echo("aromm: terminated (SIGTERM); nothing half-written was kept", err=True)
+            return EXIT_TERMINATED
         click.echo("aromm: interrupted", err=True)
         if isinstance(cause, Interrupted) and cause.hint:
             click.echo(f"aromm: {cause.hint}", err=True)

@@ -8,7 +8,8 @@
 * The cache directory is ``$AROMM_CACHE_DIR`` when set, else ``$XDG_CACHE_HOME/aromm``, else
   ``~/.cache/aromm``; never the package directory.
 * It holds the kinds of :data:`KINDS`; every entry records its kind (``cache_kind``), and an entry of another
-  kind (or lacking an array its kind needs) at a key is rebuilt with a :class:`CacheWarning`.
+  kind, lacking an array its kind needs, holding a non-finite number, or unreadable (damaged) is rebuilt with one
+  :class:`CacheWarning`.
 * One build per entry at a time (:meth:`NpzCache.lock`): an exclusive ``fcntl.flock`` on ``<kind>-<key>.lock``
   beside the entry; a second process waits, then finds the entry built.  The lock file is removed by its holder
   before the release (a waiter re-opens a fresh one), so none is left behind.
@@ -50,7 +51,7 @@ log = logging.getLogger(__name__)
 
 
 class CacheWarning(UserWarning):
-    """A cache entry could not be used (another kind at its key): it is rebuilt."""
+    """A cache entry could not be used (damaged, another kind at its key, non-finite values): it is rebuilt."""
 
 
 def default_cache_dir() -> Path:
@@ -106,20 +107,25 @@ class NpzCache:
         return self.directory / f"{kind}-{key}.npz"
 
     def load(self, kind: str, key: str) -> dict[str, np.ndarray] | None:
-        """The stored arrays, or None when absent, unreadable (a damaged file counts as absent) or of another kind
-        (with a :class:`CacheWarning`)."""
+        """The stored arrays, or None when absent, or (with one :class:`CacheWarning`: it is rebuilt) unreadable,
+        of another kind, incomplete or holding a non-finite number."""
         p = self.path(kind, key)
         if not p.is_file():
             return None
         try:
             with np.load(p, allow_pickle=False) as data:
                 arrays = {name: data[name] for name in data.files}
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError):
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
+            warnings.warn(f"cache: {p} is damaged ({type(err).__name__}: {err}): rebuilt (and replaced)",
+                          CacheWarning, stacklevel=2)
             return None
         found = str(arrays.pop(KIND_ENTRY)) if KIND_ENTRY in arrays else None
         missing = [a for a in KINDS[kind][1] if a not in arrays]
-        if (found is not None and found != kind) or missing:
-            what = f"a {found} entry" if found is not None else f"an entry without {', '.join(missing)}"
+        broken = sorted(k for k, a in arrays.items() if a.dtype.kind in "fc" and not np.all(np.isfinite(a)))
+        if (found is not None and found != kind) or missing or broken:
+            what = (f"a {found} entry" if found is not None and found != kind else
+                    f"an entry without {', '.join(missing)}" if missing else
+                    f"an entry with non-finite values in {', '.join(broken[:3])}")
             warnings.warn(f"cache: {p} is {what}, not a {kind} entry: rebuilt (and replaced)", CacheWarning,
                           stacklevel=2)
             return None
