@@ -90,7 +90,8 @@ def test_a_damaged_or_non_finite_entry_is_rebuilt_with_one_warning(tmp_path: Pat
     cache.path("rom", "k").write_bytes(b"PK\x03\x04 not a zip archive")
     with pytest.warns(CacheWarning, match="is damaged .*: rebuilt"):
         assert cache.load("rom", "k") is None
-    cache.save("rom", "k", {"capacity.names": ["c"], "conductance.names": ["k"], "capacity.op0": np.full((2, 2), np.nan)})
+    nan = np.full((2, 2), np.nan)
+    cache.save("rom", "k", {"capacity.names": ["c"], "conductance.names": ["k"], "capacity.op0": nan})
     with pytest.warns(CacheWarning, match="non-finite values in capacity.op0"):
         assert cache.load("rom", "k") is None
 
