@@ -90,10 +90,23 @@ def _table(result: Identification) -> str:
             rho = unc.correlation[i, j]
             lines.append(f"correlation {a} / {unc.names[j]}: "
                          + (f"{rho:+.3f}" if math.isfinite(rho) else "undefined (a parameter is not identifiable)"))
-    lines.append("model: " + ", ".join(f"{k} {v}" for k, v in result.model.items() if k in ("kind", "order")))
+    lines.append("model: " + ", ".join(f"{k} {v}" for k, v in result.model.items() if k in ("kind", "order"))
+                 + _reduction_note(result.model))
     if result.posterior is not None:
         lines.append(_posterior_table(result.posterior))
     return "\n".join(lines)
+
+
+def _reduction_note(model: Mapping[str, object]) -> str:
+    """What the reduced model says of its own error, which the intervals do not include: its estimate over its
+    training box (greedy estimate plus compression loss, °C; an estimate, not a certified bound) and whether it met
+    its tolerance."""
+    if model.get("kind") != "reduced" or "reference_error" not in model:
+        return ""
+    error = float(str(model["reference_error"]))
+    met = "" if "converged" not in model else (" (met its tolerance)" if str(model["converged"]) == "1"
+                                               else " (above its tolerance)")
+    return f"; its estimated error {error:.2g} °C over its box{met}, not in the intervals (an estimate, not a bound)"
 
 
 def _posterior_table(post: Posterior) -> str:
