@@ -18,6 +18,7 @@ import numpy as np
 
 from aromm.core.anisotropy import FIBRE_KEYS, phase_tensor
 from aromm.core.errors import InputError
+from aromm.core.labchecks import ABSOLUTE_ZERO
 from aromm.core.labcsv import read_lab_csv
 from aromm.core.profiles import Profile
 from aromm.core.resources import MAX_TIME_STEPS, available_memory
@@ -197,7 +198,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
                                                      "scipy engine, or give the axis as [x, y, z]")
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
-    initial_T = r.number(initial.get("T", 0.0), "initial.T")
+    initial_T = _celsius(r, r.number(initial.get("T", 0.0), "initial.T"), "initial.T")
     time = _time(r, data)
     varying = [f.face for f in boundary if f.varies]
     if varying and time is None:
@@ -379,12 +380,20 @@ def _boundary(r: TableReader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
     return tuple(faces)
 
 
+def _celsius(r: TableReader, value: float, key: str) -> float:
+    """A scene temperature (°C), refused below absolute zero (a value in K, or a sign lost, is the usual cause)."""
+    if value < ABSOLUTE_ZERO:
+        raise r.fail(key, f"{value:g} °C is below absolute zero ({ABSOLUTE_ZERO:g} °C): scene temperatures are in °C")
+    return value
+
+
 def _load(r: TableReader, value: Any, key: str) -> Load:
     """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file, a laboratory
     export read by :func:`aromm.core.labcsv.read_lab_csv`) read as a piecewise-linear history held at its last value
     (:class:`~aromm.core.profiles.Profile`)."""
     if not isinstance(value, str):
-        return r.number(value, key)
+        number = r.number(value, key)
+        return number if key.endswith(".flux") else _celsius(r, number, key)
     file = Path(value)
     if not file.is_absolute() and r.path is not None:
         file = r.path.parent / file
