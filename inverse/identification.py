@@ -311,7 +311,8 @@ def identify(
     rise = np.concatenate([(f.fitted - y0).ravel() for f, y0 in zip(fits, starts0, strict=True)])
     uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
                              data_notes=offsets, scales=relative_scales(box, theta),
-                             positive=[is_positive(n) for n in box.names], model_error=model_error, model_rise=rise)
+                             positive=[is_positive(n) for n in box.names], model_error=model_error, model_rise=rise,
+                             output_error=max(float(getattr(sc.model, "output_error", 0.0)) for sc in scenarios))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),

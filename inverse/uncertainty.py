@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -96,6 +96,7 @@ class Uncertainty:
     log_scale: tuple[bool, ...] = ()
     error_sources: tuple[str, ...] = ()
     model_error: float = 0.0
+    budget: Mapping[str, FloatArray] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, object]:
         num = _num
@@ -120,6 +121,10 @@ class Uncertainty:
                                for i, n in zip(idx, self.names, strict=True)},
             "model_error": self.model_error,
             "error_sources": list(self.error_sources),
+            "budget": {source: {n: num(half[i]) for i, n in zip(idx, self.names, strict=True)}
+                       for source, half in self.budget.items()},
+            "interval95_total": {n: [num(self.lower[i]), num(self.upper[i])]
+                                 for i, n in zip(idx, self.names, strict=True)},
             "noise_p_value": num(self.noise_p_value),
             "warnings": list(self.warnings),
         }
@@ -130,7 +135,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                blocks: Sequence[npt.NDArray[np.intp]] | None = None, noise_std: float | None = None,
                data_notes: Sequence[str] = (), scales: FloatArray | None = None,
                positive: Sequence[bool] | None = None, model_error: float = 0.0,
-               model_rise: FloatArray | None = None) -> Uncertainty:
+               model_rise: FloatArray | None = None, output_error: float = 0.0) -> Uncertainty:
     """Uncertainty from ``sensitivity`` X = ∂Ŷ/∂β (N, p) and ``residuals`` Y − Ŷ (N,) at the optimum.
 
     ``blocks`` are index arrays (n_times, n_faces) into the rows of X and r, one per independent
@@ -151,6 +156,9 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     (:func:`domain_interval`), never reaching zero.  ``model_error`` ε > 0 is a stated relative model error
     (e.g. the voxel model's discretisation error, 0.02): with ``model_rise`` (N,), the fitted rise Ŷ − Ŷ(0), it adds
     :func:`model_error_std` in quadrature to the standard errors; ``error_sources`` says what the interval includes.
+    ``output_error`` (°C) bounds a bias of every model output (a reduced model's error against its full model): its
+    worst-case shift of the estimates, :func:`bias_shift`, is added to the half-widths linearly (a bias does not
+    average out).  ``budget`` gives each source's 95 % half-width; the interval (``lower``, ``upper``) is the total.
     """
     names = tuple(names)
     beta = np.asarray(estimates, dtype=float)
@@ -229,18 +237,45 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
         warnings.warn(msg, ResidualWarning, stacklevel=2)
     se_model = model_error_std(x, model_error, model_rise) if model_error else np.zeros(p)
     total = np.sqrt(se**2 + se_model**2)
+    bias = bias_shift(x, output_error) if output_error else np.zeros(p)
+    budget = {"measurement noise": t_q * se, **({"stated model error": t_q * se_model} if model_error else {}),
+              **({"reduced model": bias} if output_error else {})}
     pos = np.zeros(p, dtype=bool) if positive is None else np.asarray(positive, dtype=bool) & (beta > 0)
-    lower, upper = domain_interval(beta, t_q * total, pos)
-    lower_hac, upper_hac = domain_interval(beta, float(st.norm.ppf(0.5 + level / 2)) * np.sqrt(se_hac**2 + se_model**2),
-                                           pos)
+    lower, upper = domain_interval(beta, t_q * total + bias, pos)
+    lower_hac, upper_hac = domain_interval(
+        beta, float(st.norm.ppf(0.5 + level / 2)) * np.sqrt(se_hac**2 + se_model**2) + bias, pos)
     sources = ["measurement noise (residual variance s²)"]
     if np.any(np.isfinite(se_hac)):
         sources.append("correlated residuals (the HAC interval only)")
     if model_error:
         sources.append(f"a stated relative model error of {model_error:g} (discretisation, reduction)")
+    if output_error:
+        sources.append(f"the reduced model's estimated output error {output_error:.2g} °C (its worst-case shift, added "
+                       "linearly; an estimate, not a bound)")
     return Uncertainty(names, beta, total, lower, upper, corr, math.sqrt(s2), dof, condition,
                        (*notes, *residual_notes), se_hac, lower_hac, upper_hac, window, diagnostics,
-                       noise_std, noise_p, se_model, tuple(bool(v) for v in pos), tuple(sources), float(model_error))
+                       noise_std, noise_p, se_model, tuple(bool(v) for v in pos), tuple(sources), float(model_error),
+                       budget)
+
+
+def bias_shift(sensitivity: FloatArray, bound: float) -> FloatArray:
+    """The largest shift of the least-squares estimates when every model output may be off by up to ``bound`` (°C)
+    in either direction: δβ = X⁺ δY with |δY_i| ≤ bound, so |δβ_j| ≤ bound · Σ_i |(X⁺)_ji| (first order, the
+    Gauss–Newton step of the bias); infinite for a parameter the data do not determine.
+
+    >>> bias_shift(np.array([[1.0], [1.0]]), 0.1).round(12).tolist()  # two equal outputs: the mean moves by 0.1
+    [0.1]
+    """
+    if not (math.isfinite(bound) and bound >= 0):
+        raise InputError(f"output_error must be a finite bound >= 0 (°C), got {bound!r}")
+    x = np.asarray(sensitivity, dtype=float)
+    scale = np.linalg.norm(x, axis=0)
+    live = scale > NULL_SENSITIVITY * max(float(scale.max()), np.finfo(float).tiny)
+    out = np.full(x.shape[1], np.inf)
+    if np.any(live):
+        pinv = np.linalg.pinv(x[:, live] / scale[live], rcond=SINGULAR) / scale[live][:, None]
+        out[live] = bound * np.abs(pinv).sum(axis=1)
+    return out
 
 
 def domain_interval(beta: FloatArray, half: FloatArray,

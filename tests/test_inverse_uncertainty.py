@@ -9,7 +9,7 @@ from inverse_cases import LinearModel, scenario_model
 
 from inverse.identification import identify
 from inverse.measurements import Measurements, simulate_measurements
-from inverse.uncertainty import IdentifiabilityWarning, linearised
+from inverse.uncertainty import IdentifiabilityWarning, bias_shift, linearised
 
 T = np.linspace(0.0, 10.0, 25)
 LINE = np.column_stack([np.ones_like(T), T])  # y = a + b t
@@ -100,3 +100,37 @@ def test_transient_data_identify_both_without_warning() -> None:
     assert res.uncertainty.warnings == ()
     assert res.uncertainty.condition < 1e3
     assert -1.0 < res.uncertainty.correlation[0, 1] < 1.0
+
+
+def test_a_bounded_output_bias_shifts_the_line_fit_by_at_most_its_bound_and_the_bound_is_attained() -> None:
+    """Independent truth: for y = a + b t fitted by least squares (scipy.stats.linregress), a bias δY with
+    |δY_i| ≤ ε moves the estimates by X⁺δY; the worst such bias is ε·sign(X⁺ row), which attains the bound."""
+    eps = 0.05
+    bound = bias_shift(LINE, eps)
+    pinv = np.linalg.pinv(LINE)
+    rng = np.random.default_rng(3)
+    y = _noisy_line(rng)
+    base = st.linregress(T, y)
+    for j, name in enumerate(("intercept", "slope")):
+        worst = eps * np.sign(pinv[j])
+        moved = st.linregress(T, y + worst)
+        assert abs(getattr(moved, name) - getattr(base, name)) == pytest.approx(bound[j], rel=1e-9)
+    for _ in range(20):  # any other bias within the bound moves them less
+        moved = st.linregress(T, y + eps * rng.uniform(-1.0, 1.0, T.size))
+        assert abs(moved.intercept - base.intercept) <= bound[0] * (1 + 1e-12)
+        assert abs(moved.slope - base.slope) <= bound[1] * (1 + 1e-12)
+
+
+def test_the_budget_adds_the_bias_linearly_to_the_noise_interval() -> None:
+    y = _noisy_line(np.random.default_rng(0))
+    fit = st.linregress(T, y)
+    beta = np.array([fit.intercept, fit.slope])
+    plain = linearised(("a", "b"), beta, LINE, y - LINE @ beta)
+    biased = linearised(("a", "b"), beta, LINE, y - LINE @ beta, output_error=0.05)
+    np.testing.assert_allclose(biased.budget["measurement noise"], (plain.upper - plain.lower) / 2, rtol=1e-12)
+    np.testing.assert_allclose(biased.budget["reduced model"], bias_shift(LINE, 0.05), rtol=1e-12)
+    np.testing.assert_allclose((biased.upper - biased.lower) / 2,
+                               biased.budget["measurement noise"] + biased.budget["reduced model"], rtol=1e-12)
+    doc = biased.to_json()
+    assert set(doc["budget"]) == {"measurement noise", "reduced model"}  # type: ignore[arg-type]
+    assert doc["interval95_total"] == doc["interval95"]

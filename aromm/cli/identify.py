@@ -39,7 +39,7 @@ from inverse.posterior import (
     sample_posterior,
 )
 from inverse.repetitions import Problem, repeated, summary
-from inverse.uncertainty import UncertaintyWarning
+from inverse.uncertainty import Uncertainty, UncertaintyWarning
 
 
 def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[str, tuple[float, float]], *,
@@ -78,6 +78,7 @@ def _table(result: Identification) -> str:
         hac = f"[{unc.lower_hac[i]:.6g}, {unc.upper_hac[i]:.6g}]" if math.isfinite(unc.std_error_hac[i]) else "-"
         rows.append([name, f"{est:.6g}", f"{se:.3g}", rel, ci, hac])
     lines = aligned(rows, right=3)
+    lines += _budget_lines(unc)
     lines.append("the intervals include: " + "; ".join(unc.error_sources)
                  + ("" if unc.model_error else "; not the discretisation error of the voxel model (state it with "
                     "--model-error)"))
@@ -97,6 +98,29 @@ def _table(result: Identification) -> str:
     return "\n".join(lines)
 
 
+#: What to do when a source other than the noise makes most of an interval.
+REMEDIES = {"reduced model": "rebuild the model with a tighter [reduction] tolerance or a higher --order",
+            "stated model error": "refine the voxel model (--refine) to lower the discretisation error"}
+
+
+def _budget_lines(unc: Uncertainty) -> list[str]:
+    """The 95 % half-width of each error source per parameter (when there is more than the noise), and one line
+    when a source other than the noise makes most of an interval."""
+    if len(unc.budget) < 2:
+        return []
+    rows = [["error budget (95 % half-width)", *unc.names]]
+    rows += [[source, *(f"{h:.3g}" for h in half)] for source, half in unc.budget.items()]
+    lines = aligned(rows, right=len(unc.names))
+    total = sum(np.asarray(h, dtype=float) for h in unc.budget.values())
+    for source, half in unc.budget.items():
+        share = np.asarray(half, dtype=float) / np.where(total > 0, total, np.inf)
+        if source in REMEDIES and np.any(share > 0.5):
+            j = int(np.argmax(share))
+            lines.append(f"the {source} makes {100 * share[j]:.0f} % of the interval of {unc.names[j]}: "
+                         f"{REMEDIES[source]}")
+    return lines
+
+
 def _reduction_note(model: Mapping[str, object]) -> str:
     """What the reduced model says of its own error, which the intervals do not include: its estimate over its
     training box (greedy estimate plus compression loss, °C; an estimate, not a certified bound) and whether it met
@@ -106,7 +130,7 @@ def _reduction_note(model: Mapping[str, object]) -> str:
     error = float(str(model["reference_error"]))
     met = "" if "converged" not in model else (" (met its tolerance)" if str(model["converged"]) == "1"
                                                else " (above its tolerance)")
-    return f"; its estimated error {error:.2g} °C over its box{met}, not in the intervals (an estimate, not a bound)"
+    return f"; its estimated error {error:.2g} °C over its box{met} (an estimate, not a bound)"
 
 
 def _posterior_table(post: Posterior) -> str:

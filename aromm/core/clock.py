@@ -45,6 +45,11 @@ class TimeShifted:
         return self.model.outputs
 
     @property
+    def output_error(self) -> float:
+        """The wrapped model's own output error (°C), if it states one."""
+        return float(getattr(self.model, "output_error", 0.0))
+
+    @property
     def parameter_names(self) -> frozenset[str]:
         return self.model.parameter_names | {TIME_OFFSET}
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
@@ -184,6 +185,14 @@ class ReducedModel:
         parameters of its loads and initial state only scale inputs)."""
         operators = self.projected.capacity.parameters | self.projected.conductance.parameters
         warn_outside(self.box, self.parameters, values, use, scaling=self.parameter_names - operators)
+
+    @property
+    def output_error(self) -> float:
+        """What the model says of its own output error (°C, ``info["reference_error"]``: a Krylov model's greedy
+        estimate plus compression loss over its box, the amalgam's error on its reference case); 0 when unknown.  An
+        estimate, not a bound: identification adds its shift to the intervals (inverse.uncertainty.bias_shift)."""
+        value = float(self.info.get("reference_error", 0.0))
+        return value if math.isfinite(value) else 0.0
 
     # ----------------------------------------------------------------- protocol
     @property
