@@ -129,6 +129,15 @@ def _temperature_kelvin(unit: str, where: str) -> bool:
     raise InputError(f"{where}: unknown temperature unit {unit!r}; allowed: °C (degC, C) or K")
 
 
+def _cells(path: Path, number: int, line: str, delimiter: str) -> list[str]:
+    """The cells of one line, each stripped; a quote left open (``1,"0.1,0.05``) is refused with its line: a
+    quoted cell never spans lines in a logger's export."""
+    try:
+        return [c.strip() for c in next(csv.reader([line], delimiter=delimiter, strict=True), [])]
+    except csv.Error as err:
+        raise InputError(f"{path} line {number}: {err} (a quote \" left open?): {line.strip()!r}") from None
+
+
 def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = None, *,
                  columns: Mapping[str, str] | None = None, time_unit: str | None = None,
                  temperature_unit: str | None = None, quantity: Quantity = "temperature",
@@ -155,8 +164,7 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
                          "header 't,<face>,...' and one row per time")
     notes = [] if encoding == "utf-8" else [f"read as {encoding} (not UTF-8)"]
     delimiter, decimal_comma = _dialect([ln for _, ln in numbered])
-    rows = [(n, [c.strip() for c in cells]) for (n, _), cells
-            in zip(numbered, csv.reader([ln for _, ln in numbered], delimiter=delimiter), strict=True)]
+    rows = [(n, _cells(p, n, ln, delimiter)) for n, ln in numbered]
     if delimiter != "," or decimal_comma:
         notes.append(f"delimiter {'tab' if delimiter == chr(9) else repr(delimiter)}"
                      + (", decimal comma" if decimal_comma else ""))
