@@ -11,16 +11,43 @@ Public API::
     study = aromm.rev(scene)                        # REV study: k̄ spread against sub-volume edge, crop
 """
 
-from aromm.api import homogenize, mean_capacity, reduce, simulate
-from aromm.core.errors import InputError, NumericalError
-from aromm.core.observables import Observables
-from aromm.core.system import ThermalSystem
-from aromm.full.solve import FullModel
-from aromm.homogenization.properties import fluxmetric, homogeneous_twin
-from aromm.homogenization.representative import rev
-from aromm.homogenization.synthetic import homogeneous_measurements
-from aromm.reduction.rom import ReducedModel
-from aromm.scene.scene_file import Scene, assemble, load_scene
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+#: Where each public name lives: imported on first use (PEP 562), so ``import aromm`` and ``aromm --version`` do not
+#: load scipy, the solvers and every wing (``python -X importtime -c "import aromm"``; tests/test_startup.py).
+_EXPORTS = {
+    "homogenize": "aromm.api", "mean_capacity": "aromm.api", "reduce": "aromm.api", "simulate": "aromm.api",
+    "InputError": "aromm.core.errors", "NumericalError": "aromm.core.errors",
+    "Observables": "aromm.core.observables", "ThermalSystem": "aromm.core.system", "FullModel": "aromm.full.solve",
+    "fluxmetric": "aromm.homogenization.properties", "homogeneous_twin": "aromm.homogenization.properties",
+    "rev": "aromm.homogenization.representative",
+    "homogeneous_measurements": "aromm.homogenization.synthetic", "ReducedModel": "aromm.reduction.rom",
+    "Scene": "aromm.scene.scene_file", "assemble": "aromm.scene.scene_file", "load_scene": "aromm.scene.scene_file",
+}
+
+if TYPE_CHECKING:
+    from aromm.api import homogenize, mean_capacity, reduce, simulate
+    from aromm.core.errors import InputError, NumericalError
+    from aromm.core.observables import Observables
+    from aromm.core.system import ThermalSystem
+    from aromm.full.solve import FullModel
+    from aromm.homogenization.properties import fluxmetric, homogeneous_twin
+    from aromm.homogenization.representative import rev
+    from aromm.homogenization.synthetic import homogeneous_measurements
+    from aromm.reduction.rom import ReducedModel
+    from aromm.scene.scene_file import Scene, assemble, load_scene
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'aromm' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "FullModel",
@@ -42,3 +69,7 @@ __all__ = [
     "simulate",
 ]
 __version__ = "0.1.0"
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})

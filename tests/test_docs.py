@@ -40,8 +40,12 @@ def test_scene_reference_names_every_section_key_face_and_generator() -> None:
 
 
 def _commands(group: click.Group, prefix: str = "aromm") -> list[tuple[str, click.Command]]:
+    """Every command under ``group``, through click's own listing (the top group imports its commands lazily)."""
     out: list[tuple[str, click.Command]] = []
-    for name, command in sorted(group.commands.items()):
+    ctx = click.Context(group)
+    for name in sorted(group.list_commands(ctx)):
+        command = group.get_command(ctx, name)
+        assert command is not None, name
         out.append((f"{prefix} {name}", command))
         if isinstance(command, click.Group):
             out.extend(_commands(command, f"{prefix} {name}"))

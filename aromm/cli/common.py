@@ -17,14 +17,16 @@ import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 import numpy as np
 from tqdm import tqdm
 
 from aromm.core.errors import InputError, NumericalError
-from aromm.scene.scene_file import Scene
+
+if TYPE_CHECKING:  # the scene module loads scipy and the wings: not for `aromm --version`
+    from aromm.scene.scene_file import Scene
 
 # Peak memory per voxel of the direct (CHOLMOD) path, measured at 80³: 5.5 GB for 5.2e5 nodes (issue 12)
 DIRECT_BYTES_PER_VOXEL = 1.1e4
