@@ -29,7 +29,6 @@ from aromm.scene.scene_file import assemble
 from inverse import checkpoint as ckpt
 from inverse.farm import FARMS, Farm
 from inverse.identification import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, Identification, Progress, identify
-from inverse.plotting import check_plot, save_identification_plot
 from inverse.posterior import (
     DEFAULT_WALKERS,
     Posterior,
@@ -244,9 +243,11 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     corner = plot.with_name(f"{plot.stem}_posterior{plot.suffix}") if plot is not None and posterior_steps else None
     distinct([(plot, "--plot"), (corner, "--plot (its corner plot)"), (checkpoint, "--checkpoint")])
     if plot is not None:
+        from inverse.plotting import check_plot  # matplotlib only with --plot
+
         check_plot(plot, inputs=inputs, force=force)
-    if corner is not None:
-        check_plot(corner, inputs=inputs, force=force)
+        if corner is not None:
+            check_plot(corner, inputs=inputs, force=force)
     if checkpoint is not None:
         check_output(checkpoint, ckpt.CHECKPOINT, inputs=inputs, force=force, option="--checkpoint")
         if resume and checkpoint.exists():
@@ -298,6 +299,8 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     else:
         click.echo(_table(result))
     if plot is not None:
+        from inverse.plotting import save_identification_plot
+
         extras = [("plot", lambda: save_identification_plot(result, plot))]
         if corner is not None and result.posterior is not None:
             from inverse.corner import save_posterior_plot
