@@ -260,8 +260,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
 
 def bias_shift(sensitivity: FloatArray, bound: float) -> FloatArray:
     """The largest shift of the least-squares estimates when every model output may be off by up to ``bound`` (°C)
-    in either direction: δβ = X⁺ δY with |δY_i| ≤ bound, so |δβ_j| ≤ bound · Σ_i |(X⁺)_ji| (first order, the
-    Gauss–Newton step of the bias); infinite for a parameter the data do not determine.
+    in either direction: ``δβ = X⁺ δY`` with ``abs(δY_i) ≤ bound``, so ``abs(δβ_j) ≤ bound · Σ_i abs((X⁺)_ji)``
+    (first order, the Gauss–Newton step of the bias); infinite for a parameter the data do not determine.
 
     >>> bias_shift(np.array([[1.0], [1.0]]), 0.1).round(12).tolist()  # two equal outputs: the mean moves by 0.1
     [0.1]
