@@ -115,6 +115,16 @@ def scene_with(name: str, old: str, new: str) -> Setup:
     return text(name, SCENE.replace(old, new))
 
 
+def forged_npy(name: str) -> Setup:
+    """A 1 kB ``.npy`` whose header claims 100000³ int32 voxels (4e15 bytes)."""
+    def write(d: Path) -> None:
+        header = io.BytesIO()
+        np.lib.format.write_array_header_1_0(header, {"descr": "<i4", "fortran_order": False,
+                                                      "shape": (100000, 100000, 100000)})
+        (d / name).write_bytes(header.getvalue() + bytes(1024))
+    return write
+
+
 def head(name: str, source: str, size: int) -> Setup:
     """``name``: the first ``size`` bytes of ``source`` (a truncated copy)."""
     def write(d: Path) -> None:
@@ -281,6 +291,10 @@ CASES: tuple[Case, ...] = (
          (text("m.csv", ""),)),
     Case("identify-measurements-header", (*ID[:3], "m.csv", *ID[4:], *K), 2, ("m.csv", "line 1", "t,<face>"),
          (text("m.csv", "when,z0\n1,2\n"),)),
+    Case("identify-order-with-full-model", (*ID, *K, "--order", "60"), 2, ("--order", "--model full")),
+    Case("simulate-order-with-full-model", ("simulate", "scene.toml", "--order", "60"), 2, ("--order", "--model full")),
+    Case("simulate-npy-header-claims-more", ("simulate", "bad.toml"), 2, ("forged.npy", "header claims", "truncated"),
+         (forged_npy("forged.npy"), scene_with("bad.toml", "labels.npy", "forged.npy"))),
     Case("identify-measurements-open-quote", (*ID[:3], "m.csv", *ID[4:], *K), 2, ("m.csv", "line 3", "quote"),
          (text("m.csv", 't,z0,z1\n1,0.1,0.05\n2,"0.2,0.1\n3,0.3,0.15\n'),)),
     Case("simulate-history-open-quote", ("simulate", "hist.toml"), 2, ("q.csv", "line 2", "quote"),

@@ -73,6 +73,13 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated()
 
 
+def refuse_order_with_full_model(model: str) -> None:
+    """``--order`` given on the command line with ``--model full`` is refused: it would be ignored (issue 38)."""
+    ctx = click.get_current_context()
+    if model == "full" and ctx.get_parameter_source("order") is click.core.ParameterSource.COMMANDLINE:
+        raise click.UsageError("--order is the reduced model's order: it does not apply to --model full")
+
+
 class ExtraFailed(Exception):
     """The result was printed, but an optional extra could not be written (exit code 3; message printed)."""
 

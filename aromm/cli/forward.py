@@ -11,7 +11,16 @@ import numpy as np
 from aromm.api import default_boundary, fluxmetric, homogenize, is_root, mean_capacity, reduce, simulate
 from aromm.cli import checks
 from aromm.cli import engine_options as engine_cli
-from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, FORCE, REFINE, SEED, FiniteFloat, echo_json, write_extras
+from aromm.cli.common import (
+    DIRECT_BYTES_PER_VOXEL,
+    FORCE,
+    REFINE,
+    SEED,
+    FiniteFloat,
+    echo_json,
+    refuse_order_with_full_model,
+    write_extras,
+)
 from aromm.core.errors import InputError
 from aromm.core.files import OutputKind, check_folder, check_output, signed
 from aromm.core.observables import TIME_SERIES, Observables, write_csv
@@ -107,6 +116,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
 
     The table (or JSON) is printed first; with --out, observables.csv is written next and the fields (field.vtu,
     or the --fields series) last, as extras: if only a field fails, the exit code is 3."""
+    refuse_order_with_full_model(model)
     times = parse_times(field_times)
     if times is not None and (model != "reduced" or out is None or engine != "scipy"):
         raise click.UsageError("--fields needs --model reduced, --out DIR and the scipy engine (the full model "

@@ -18,7 +18,15 @@ from tqdm import tqdm
 from aromm.api import is_root
 from aromm.cli import checks
 from aromm.cli import engine_options as engine_cli
-from aromm.cli.common import FORCE, SEED, FiniteFloat, Interrupted, echo_json, write_extras
+from aromm.cli.common import (
+    FORCE,
+    SEED,
+    FiniteFloat,
+    Interrupted,
+    echo_json,
+    refuse_order_with_full_model,
+    write_extras,
+)
 from aromm.core.domain import training_box
 from aromm.core.errors import InputError
 from aromm.core.files import check_output, distinct
@@ -220,6 +228,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     (under `mpiexec -n P`) the ranks build the reduced model, each reading its box of the image, and rank 0
     alone identifies and prints; a model in the cache is found whichever engine built it.
     """
+    refuse_order_with_full_model(kind)
     if engine == "petsc" and kind == "full":
         raise click.UsageError("--engine petsc builds the reduced model (--model reduced); the full model's "
                                "identification runs on the scipy engine")

@@ -116,7 +116,27 @@ def _natural_key(name: str) -> list[object]:
     return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", name)]
 
 
+def _check_npy_size(path: Path) -> None:
+    """Refuse a ``.npy`` whose header claims more data than the file holds (a truncated or forged file), before
+    numpy allocates what the header claims."""
+    try:
+        with path.open("rb") as fh:
+            version = np.lib.format.read_magic(fh)
+            shape, _, dtype = (np.lib.format.read_array_header_1_0(fh) if version == (1, 0)
+                               else np.lib.format.read_array_header_2_0(fh))
+            start = fh.tell()
+    except (OSError, ValueError, EOFError):
+        return  # not a plain .npy (a .npz under another name...): np.load says what it is
+    claimed = int(np.prod(shape, dtype=object)) * np.dtype(dtype).itemsize
+    held = path.stat().st_size - start
+    if claimed > held:
+        raise InputError(f"{path}: the .npy header claims an array of shape {tuple(int(n) for n in shape)} "
+                         f"({claimed:,} bytes of {np.dtype(dtype)}) but the file holds {held:,} bytes: truncated or "
+                         "damaged; write the image again")
+
+
 def _read_npy(path: Path) -> np.ndarray:
+    _check_npy_size(path)
     try:
         array = np.load(path, allow_pickle=False)
     except (OSError, ValueError, EOFError) as err:
