@@ -129,7 +129,7 @@ def _run(cli: click.Group, argv: list[str]) -> int:
         err.show()
         return EXIT_INPUT
     except click.exceptions.Abort as err:  # click turns KeyboardInterrupt (and EOFError) into Abort
-        cause = err.__cause__
+        cause = err.__cause__ or err.__context__  # click < 8.1.4 raised Abort() without "from"
         if isinstance(cause, EOFError):
             click.echo(f"aromm: error: unexpected end of input ({cause})", err=True)
             return EXIT_INPUT

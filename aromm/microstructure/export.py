@@ -95,8 +95,8 @@ def export_image(
     >>> labels = np.zeros((2, 2, 2), dtype=int)
     >>> file = export_image(pathlib.Path(tempfile.mkdtemp()) / "cube.vtu", labels, 1e-3, {"T": np.arange(27.0)})
     >>> mesh = meshio.read(file)
-    >>> mesh.points.shape, mesh.cells[0].type, mesh.point_data["T"][5]
-    ((27, 3), 'hexahedron', np.float64(5.0))
+    >>> mesh.points.shape, mesh.cells[0].type, float(mesh.point_data["T"][5])
+    ((27, 3), 'hexahedron', 5.0)
     """
     path = Path(path)
     kind = _format(path, FORMATS)

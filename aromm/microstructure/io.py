@@ -177,7 +177,7 @@ def _read_tiff_pages(path: Path) -> list[np.ndarray]:
     try:
         with tifffile.TiffFile(path) as tif:
             return [np.asarray(series.asarray()) for series in tif.series]
-    except (OSError, ValueError, IndexError) as err:  # tifffile.TiffFileError is a ValueError
+    except (OSError, ValueError, IndexError, tifffile.TiffFileError) as err:  # a ValueError from tifffile 2023.7 on
         raise InputError(f"{path}: not a readable TIFF file ({err})") from None
 
 
