@@ -214,7 +214,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     if diagnostics.systematic:
         residual_notes.append(
             f"the residuals are systematic, not white noise ({diagnostics.describe()}): the {100 * level:g} % "
-            "interval reflects the noise only, not the model error (homogenisation, discretisation, reduced model) "
+            f"interval reflects the noise{' and the reduced model' if output_error else ' only'}, not the model error "
+            f"(homogenisation, discretisation{'' if output_error else ', reduced model'}) "
             + (f"behind them; the HAC interval (Newey-West, Bartlett window of {window:.3g} time steps) accounts for "
                "correlated residuals, not for a bias of the model" if math.isfinite(window) else "behind them"))
     noise_p = math.nan
