@@ -69,20 +69,23 @@ class Factorization:
         return x
 
 
-#: A direct (Cholesky, LU) solve in float64 leaves a residual of about ε ‖abs(A) abs(x)‖, whatever rtol asks: measured
-#: 0.47–0.56 × that on CHOLMOD solves of voxel systems K + sC (12³–24³, contrasts 1e3–4e6, shifts 1/60–30 s⁻¹;
-#: 2026-12-03), so the relative residual reached 2.5e-9 at fibre.k 300 / gas 0.026, where a fixed 1e-10 refused an
-#: SPD system.  A residual within rtol plus this many times that floor is accepted [Higham2002, Thm 10.4], as the
-#: multigrid's CG accepts its own (aromm.linalg.multigrid.pcg.FLOOR_FACTOR).
-ROUNDING_FACTOR = float(np.sqrt(27.0))
+#: The residual b − A x computed in float64 carries a rounding error of about √k · ε · ‖abs(A) abs(x)‖ (k ≤ 27 terms per
+#: row of the voxel stencil, ε the machine epsilon): no solver can certify a smaller one [Higham2002, § 3.5, Thm 10.4].
+#: Both the multigrid's CG (aromm.linalg.multigrid.pcg, ``MultigridSolver.at_floor``) and the direct solves
+#: (:func:`check_residual`) accept a residual within rtol plus this floor.  Measured: ε ‖abs(A) abs(x)‖ / ‖b‖ on the
+#: wood VERs (K + C/60 at k_F = 1, the load) 1.9e-11 at 32³, 5.4e-11 at 64³, growing like ‖A‖ ∝ h⁻², so ≈ 1.2e-10 at
+#: 96³, where a CG solve to 1e-10 stagnated at 2.1e-10 for 500 iterations; CHOLMOD's residual on voxel K + sC (12³–24³,
+#: contrasts 1e3–4e6, shifts 1/60–30 s⁻¹; 2026-12-03) 0.47–0.56 × ε ‖abs(A) abs(x)‖, so its relative residual reached
+#: 2.5e-9 at fibre.k 300 / gas 0.026, where a fixed 1e-10 refused an SPD system.
+FLOOR_FACTOR = float(np.sqrt(27.0))
 #: A rounding floor above this fraction of ‖b‖ leaves fewer than three digits: refused as badly conditioned.
 FLOOR_LIMIT = 1e-3
 
 
 def rounding_floor(a: sp.csr_array, x: FloatArray, nb: float) -> float:
-    """``ROUNDING_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖``: the relative residual float64 cannot certify below."""
+    """``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖``: the relative residual float64 cannot certify below."""
     magnitude = sp.csr_array((np.abs(a.data), a.indices, a.indptr), shape=a.shape) @ np.abs(x)
-    return ROUNDING_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
+    return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
 
 
 def check_residual(a: sp.csr_array, x: FloatArray, b: FloatArray, rtol: float, method: str) -> None:

@@ -26,7 +26,7 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
-from aromm.linalg.factorizations import DEFAULT_RTOL, factorize_direct, resolve_method
+from aromm.linalg.factorizations import DEFAULT_RTOL, FLOOR_FACTOR, factorize_direct, resolve_method, rounding_floor
 from aromm.linalg.multigrid.assembled import GridMatrix, galerkin
 from aromm.linalg.multigrid.hierarchy import CoarseLevel, fixed_mask, galerkin_levels
 from aromm.linalg.multigrid.operator import VoxelOperator
@@ -38,12 +38,6 @@ SPREAD = 8.0  # Chebyshev interval [λ/SPREAD, λ]: the upper part of the spectr
 MAX_ITERATIONS = 500
 #: Gershgorin row ratio ``Σ_j abs(m_0j) / m_00`` of the Q1 face mass, (4 + 2 + 2 + 1)/4: bounds a convection face.
 FACE_MASS_BOUND = 9.0 / 4.0
-#: The residual b − A x computed in float64 carries a rounding error of about √k · ε · ‖abs(A) abs(x)‖ (k ≤ 27 terms per
-#: row of the voxel stencil, ε the machine epsilon): no CG can certify a smaller one [Higham2002, § 3.5].
-#: ε ‖abs(A) abs(x)‖ / ‖b‖ measured on the wood VERs (K + C/60 at k_F = 1, the load): 1.9e-11 at 32³, 5.4e-11 at 64³,
-#: growing like ‖A‖ ∝ h⁻², so ≈ 1.2e-10 at 96³, where a solve to 1e-10 stagnated at 2.1e-10 for 500 iterations.
-#: A residual within rtol plus this floor is accepted (counted in ``MultigridSolver.at_floor``).
-FLOOR_FACTOR = float(np.sqrt(27.0))
 # V-cycle arithmetic: single halves its memory traffic; CG, its residuals and the stopping test stay float64
 PRECISIONS: dict[str, type] = {"single": np.float32, "double": np.float64}
 
@@ -242,9 +236,7 @@ class MultigridSolver:
             magnitude /= fine.inverse_diagonal
             magnitude *= fine.lam
             return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
-        m = self._matrix
-        magnitude = sp.csr_array((np.abs(m.data), m.indices, m.indptr), shape=m.shape) @ np.abs(x)
-        return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
+        return rounding_floor(self._matrix, x, nb)
 
 
 def _pcg(a: _Operator, m: Callable[[FloatArray, FloatArray], FloatArray], x: FloatArray, r: FloatArray, *,
