@@ -34,8 +34,7 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     reductor.check()
     linear = reductor.solver if reductor.solver != "auto" or solver not in SOLVERS else solver
     box = krylov.material_box(system, reductor.bounds)
-    key = system_key(system, [name for name, _, _ in box], order, reductor.cache_key, box, dict(basis_values),
-                     solver, linear)
+    key = system_key(system, box, order, reductor.cache_key, dict(basis_values), solver, linear)
     if store is not None:
         stored = store.load("rom", key)
         kept = store.load("krylov-basis", key) if fields and stored is not None else None

@@ -126,14 +126,16 @@ def scene_physics_key(scene: Scene, box: Collection[str] = ()) -> str | None:
                        box=box)
 
 
-def system_key(system: ThermalSystem, box: Collection[str], *parts: Any, fingerprint: str | None = None) -> str:
-    """The key of a reduced model of an assembled ``system`` trained over the parameters ``box`` (names), with
-    ``parts`` (the reduction's options): its operators, outputs and histories (its fingerprint, or ``fingerprint``
-    when the operators live elsewhere, e.g. distributed), the values of every parameter outside the box (the
-    initial temperature among them) and its time grid."""
-    pinned = {k: float(np.asarray(v)) for k, v in system.values().items() if k not in box}
+def system_key(system: ThermalSystem, box: Sequence[tuple[str, float, float]], *parts: Any,
+               fingerprint: str | None = None) -> str:
+    """The key of a reduced model of an assembled ``system`` trained over ``box`` ((name, lower, upper) per
+    parameter), with ``parts`` (the reduction's options): its operators, outputs and histories (its fingerprint, or
+    ``fingerprint`` when the operators live elsewhere, e.g. distributed), the box, the values of every parameter
+    outside it (the initial temperature among them) and its time grid."""
+    names = {name for name, _, _ in box}
+    pinned = {k: float(np.asarray(v)) for k, v in system.values().items() if k not in names}
     return content_key("reduced system", _VERSION, fingerprint or system.fingerprint(), plain(pinned),
-                       plain(system.time), sorted(box), plain(parts))
+                       plain(system.time), plain(tuple(box)), plain(parts))
 
 
 def _empty(value: Any) -> bool:

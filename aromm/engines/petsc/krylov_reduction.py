@@ -52,8 +52,8 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
     system = distributed(source, comm)
     assembly = time.perf_counter() - start
     box = material_box(system.template, reductor.bounds)
-    key = system_key(system.template, [name for name, _, _ in box], "petsc-krylov", int(order), reductor.cache_key,
-                     box, linear_solver, fingerprint=system.fingerprint)
+    key = system_key(system.template, box, "petsc-krylov", int(order), reductor.cache_key, linear_solver,
+                     fingerprint=system.fingerprint)
     store = resolve_cache(cache)
     found = cached(store, key, comm)
     if found is not None:
