@@ -242,7 +242,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     budget = {"measurement noise": t_q * se, **({"stated model error": t_q * se_model} if model_error else {}),
               **({"reduced model": bias} if output_error else {})}
     pos = np.zeros(p, dtype=bool) if positive is None else np.asarray(positive, dtype=bool) & (beta > 0)
-    lower, upper = domain_interval(beta, t_q * total + bias, pos)
+    lower, upper = domain_interval(beta, budget_total(budget), pos)
     lower_hac, upper_hac = domain_interval(
         beta, float(st.norm.ppf(0.5 + level / 2)) * np.sqrt(se_hac**2 + se_model**2) + bias, pos)
     sources = ["measurement noise (residual variance s²)"]
@@ -257,6 +257,23 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                        (*notes, *residual_notes), se_hac, lower_hac, upper_hac, window, diagnostics,
                        noise_std, noise_p, se_model, tuple(bool(v) for v in pos), tuple(sources), float(model_error),
                        budget)
+
+
+#: Sources of the budget that are biases (bounded, not random): added linearly, the others in quadrature.
+BIASES = frozenset({"reduced model"})
+
+
+def budget_total(budget: Mapping[str, FloatArray]) -> FloatArray:
+    """The total 95 % half-width of a budget: its random sources (noise, a stated model error) in quadrature, plus
+    its biases (:data:`BIASES`) linearly.
+
+    >>> budget_total({"measurement noise": np.array([3.0]), "stated model error": np.array([4.0]),
+    ...               "reduced model": np.array([1.0])}).tolist()
+    [6.0]
+    """
+    random = [np.asarray(h, dtype=float) for source, h in budget.items() if source not in BIASES]
+    biases = [np.asarray(h, dtype=float) for source, h in budget.items() if source in BIASES]
+    return np.sqrt(sum(h**2 for h in random)) + sum(biases)
 
 
 def bias_shift(sensitivity: FloatArray, bound: float) -> FloatArray:

@@ -46,7 +46,7 @@ from inverse.posterior import (
     sample_posterior,
 )
 from inverse.repetitions import Problem, repeated, summary
-from inverse.uncertainty import Uncertainty, UncertaintyWarning
+from inverse.uncertainty import Uncertainty, UncertaintyWarning, budget_total
 
 
 def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[str, tuple[float, float]], *,
@@ -118,7 +118,7 @@ def _budget_lines(unc: Uncertainty) -> list[str]:
     rows = [["error budget (95 % half-width)", *unc.names]]
     rows += [[source, *(f"{h:.3g}" for h in half)] for source, half in unc.budget.items()]
     lines = aligned(rows, right=len(unc.names))
-    total = sum(np.asarray(h, dtype=float) for h in unc.budget.values())
+    total = budget_total(unc.budget)
     for source, half in unc.budget.items():
         share = np.asarray(half, dtype=float) / np.where(total > 0, total, np.inf)
         if source in REMEDIES and np.any(share > 0.5):
