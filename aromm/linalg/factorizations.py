@@ -75,8 +75,9 @@ class Factorization:
 #: (:func:`check_residual`) accept a residual within rtol plus this floor.  Measured: ε ‖abs(A) abs(x)‖ / ‖b‖ on the
 #: wood VERs (K + C/60 at k_F = 1, the load) 1.9e-11 at 32³, 5.4e-11 at 64³, growing like ‖A‖ ∝ h⁻², so ≈ 1.2e-10 at
 #: 96³, where a CG solve to 1e-10 stagnated at 2.1e-10 for 500 iterations; CHOLMOD's residual on voxel K + sC (12³–24³,
-#: contrasts 1e3–4e6, shifts 1/60–30 s⁻¹; `python benchmarks/direct_floor.py`, 2026-12-03) 0.47–0.56 × ε ‖abs(A) abs(x)‖,
-#: so its relative residual reached 2.5e-9 at fibre.k 300 / gas 0.026, where a fixed 1e-10 refused an SPD system.
+#: contrasts 1e3–4e6, shifts 1/60–30 s⁻¹; `python benchmarks/direct_floor.py`, 2026-12-03) 0.47–0.56 ×
+#: ε ‖abs(A) abs(x)‖, so its relative residual reached 2.5e-9 at fibre.k 300 / gas 0.026, where a fixed 1e-10 refused
+#: an SPD system.
 FLOOR_FACTOR = float(np.sqrt(27.0))
 #: A rounding floor above this fraction of ‖b‖ leaves fewer than three digits: refused as badly conditioned.
 FLOOR_LIMIT = 1e-3
