@@ -329,6 +329,12 @@ class ScipyEngine:
     def to_numpy(self, block: FloatArray) -> FloatArray:
         return block
 
+    def term_products(self, basis: FloatArray) -> FloatArray:
+        """``[K_1 Ψ, …, C_1 Ψ, …]`` (n × m r) over the conductance then the capacity terms (the certificate's M,
+        :mod:`aromm.reduction.certificate`)."""
+        terms = (*self.system.conductance.terms, *self.system.capacity.terms)
+        return np.hstack([_product(t.operator, basis) for t in terms])
+
 
 def pencil(memo: Mapping[int, FloatArray], conduction: Sequence[Any], capacity: Sequence[Any],
            values: Mapping[str, Any], shift: float) -> FloatArray:
