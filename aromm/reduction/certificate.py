@@ -53,8 +53,9 @@ BETA = 1.0
 POINTS = 600
 #: |e^{s t}| below e^{-TAIL} on the contour's end: the rest of the arm is neglected.
 TAIL = 40.0
-#: Ratio of consecutive σ of the Gram ladder: the norm N̂_σ at σ ≤ |s| ≤ LADDER σ loses at most √LADDER per residual.
-LADDER = 4.0
+#: Largest ratio of consecutive σ of the Gram ladder (between two rungs their Gram matrices are interpolated): on
+#: a 7³ body ratios 4, 30, 300 and one rung gave effectivities within 10 % of each other.
+LADDER = 1000.0
 
 
 class CertifyingEngine(Protocol):
@@ -87,8 +88,8 @@ class Certificate:
 
     @classmethod
     def from_arrays(cls, data: Mapping[str, np.ndarray]) -> Certificate:
-        return cls(*(np.asarray(data[k], dtype=float) for k in ("theta", "sigmas", "grams", "vtu")),
-                   loads=int(data["loads"]))
+        theta, sigmas, grams, vtu = (np.asarray(data[k], dtype=float) for k in ("theta", "sigmas", "grams", "vtu"))
+        return cls(theta, sigmas, grams, vtu, int(data["loads"]))
 
 
 def contour(end: float, first: float, gap: float | None = None) -> tuple[npt.NDArray[np.complex128], FloatArray]:
@@ -107,8 +108,8 @@ def ladder(end: float, first: float) -> FloatArray:
     where the zero-delay damping reaches e^{-TAIL}."""
     s, _ = contour(end, first)
     lo, hi = float(np.abs(s).min()), float(np.abs(s).max())
-    count = int(np.floor(np.log(hi / lo) / np.log(LADDER))) + 1
-    return lo * LADDER ** np.arange(count)
+    count = max(2, int(np.ceil(np.log(hi / lo) / np.log(LADDER))) + 1)
+    return np.geomspace(lo, hi, count)
 
 
 def certify(engine: CertifyingEngine, system: ThermalSystem, basis: Any, reference: Mapping[str, float],
@@ -185,15 +186,22 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     def coefficients(head: npt.NDArray[np.complex128], x: npt.NDArray[np.complex128]) -> npt.NDArray[np.complex128]:
         return np.concatenate([head, -(factors[:, :, None] * x[:, None, :]).reshape(s.size, -1)], axis=1)
 
-    rung = np.clip(np.searchsorted(cert.sigmas, np.abs(s), side="right") - 1, 0, len(cert.sigmas) - 1)
+    # (K̂ + σĈ)⁻¹ ≤ θ N̂_a⁻¹ + (1 − θ) N̂_b⁻¹ for σ = θ σ_a + (1 − θ) σ_b (the inverse is operator convex), and
+    # ≤ N̂_a⁻¹ for σ ≥ σ_a: between two rungs the two Gram matrices are interpolated, beyond them the nearest is used.
+    sig = np.clip(np.abs(s), cert.sigmas[0], cert.sigmas[-1])
+    lower = np.clip(np.searchsorted(cert.sigmas, sig, side="right") - 1, 0, len(cert.sigmas) - 1)
+    upper = np.minimum(lower + 1, len(cert.sigmas) - 1)
+    span = cert.sigmas[upper] - cert.sigmas[lower]
+    share = np.where(span > 0, (cert.sigmas[upper] - sig) / np.where(span > 0, span, 1.0), 1.0)
 
     def norm(c: npt.NDArray[np.complex128]) -> FloatArray:
         square, floor = np.zeros(s.size), np.zeros(s.size)
-        for j in np.unique(rung):  # one matrix product per rung of the ladder
-            at, g = rung == j, cert.grams[j]
-            square[at] = np.einsum("ki,ki->k", c[at].conj(), c[at] @ g).real
+        for j, g in enumerate(cert.grams):  # one matrix product per rung of the ladder
+            weight = np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
+            at = weight > 0
+            square[at] += weight[at] * np.einsum("ki,ki->k", c[at].conj(), c[at] @ g).real
             diag = np.sqrt(np.maximum(np.diag(g), 0.0))
-            floor[at] = 8 * c.shape[1] * np.finfo(float).eps * (np.abs(c[at]) @ diag) ** 2
+            floor[at] += weight[at] * 8 * c.shape[1] * np.finfo(float).eps * (np.abs(c[at]) @ diag) ** 2
         return np.sqrt(np.maximum(square, 0.0) + floor)
 
     o = len(names)

@@ -82,7 +82,8 @@ class KrylovReductor:
     ``max_points``; ``per_axis`` training points per box axis (0: 5 for ≤ 2 parameters, 3 for ≤ 4, else 2);
     ``dual``: the outputs' moments too; ``solver``: the engine's linear solver (``"auto"``: by size);
     ``highest``: the largest shift is ``highest / t_first`` (the response at t_first carries frequencies above
-    1/t_first).
+    1/t_first); ``certify``: attach the certified output error bound (:mod:`aromm.reduction.certificate`; None:
+    below :data:`~aromm.reduction.scipy_engine.DIRECT_BELOW` unknowns, where its solves are direct and cheap).
     """
 
     bounds: Box = ()
@@ -96,6 +97,7 @@ class KrylovReductor:
     dual: bool = True
     solver: str = "auto"
     highest: float = 3.0
+    certify: bool | None = None
     name: str = field(default="krylov", init=False)
 
     @classmethod
@@ -138,7 +140,7 @@ class KrylovReductor:
     @property
     def cache_key(self) -> str:
         return repr((self.name, self.bounds, self.tolerance, self.shifts, self.steps, self.rtol, self.compression,
-                     self.max_points, self.per_axis, self.dual, self.solver, self.highest))
+                     self.max_points, self.per_axis, self.dual, self.solver, self.highest, self.certify))
 
     @property
     def drop(self) -> float:

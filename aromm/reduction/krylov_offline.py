@@ -12,13 +12,16 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 
+import numpy as np
+
 from aromm.core.cache import NpzCache
 from aromm.core.system import FloatArray, ThermalSystem
 from aromm.reduction import krylov
+from aromm.reduction.certificate import certify, ladder
 from aromm.reduction.lifting import lift
 from aromm.reduction.model_key import system_key
 from aromm.reduction.rom import ReducedModel, from_arrays, one_blas_thread, to_arrays
-from aromm.reduction.scipy_engine import SOLVERS, ScipyEngine
+from aromm.reduction.scipy_engine import DIRECT_BELOW, SOLVERS, ScipyEngine
 
 WithFields = Callable[[ReducedModel, ThermalSystem, FloatArray, Mapping[str, float], str], ReducedModel]
 
@@ -47,6 +50,8 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     engine = ScipyEngine(lifted, linear)
     with one_blas_thread():  # small dense algebra dominates: threaded BLAS only fights for the shared cores
         rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress)
+        rom, extra = certified(engine, lifted, rom, psi, reductor=reductor, box=box)
+    info.update(extra)
     info.update({"offline_seconds": time.perf_counter() - start, "cached": 0, "key": key,
                  "lifted_faces": len(system.dirichlet)})
     rom = replace(rom, info=info)
@@ -55,3 +60,33 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
         if fields:
             store.save("krylov-basis", key, {"psi": engine.to_numpy(psi)})
     return with_fields(rom, system, engine.to_numpy(psi), basis_values, solver) if fields else rom
+
+
+#: The certificate's offline matrix M (n × (inputs + outputs + terms · order)) is held whole: above this many bytes
+#: the model is returned without a bound (info says so).
+CERTIFY_BYTES = 2 * 1024 ** 3
+
+
+def certified(engine: ScipyEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
+              reductor: krylov.KrylovReductor, box: krylov.Box) -> tuple[ReducedModel, krylov.Info]:
+    """The model with its certificate (:mod:`aromm.reduction.certificate`) and what info records of it: the worst
+    bound over the training set (``error_bound``, °C), the CPU seconds; without one when M would not fit."""
+    terms = len(system.conductance.terms) + len(system.capacity.terms)
+    width = engine.input_terms().shape[1] + len(system.observation) + terms * rom.order
+    wanted = system.n < DIRECT_BELOW if reductor.certify is None else reductor.certify
+    if not wanted or system.n * width * 8 > CERTIFY_BYTES:
+        why = (f"not computed: {system.n} unknowns, it would cost about {len(ladder(*_grid(system)))} × {width} "
+               "shifted solves (ask with KrylovReductor(certify=True))" if not wanted else
+               f"not computed: M of {system.n} × {width} would exceed {CERTIFY_BYTES} B")
+        return rom, {"error_bound": float("nan"), "certificate": why}
+    start = time.process_time()
+    rom = replace(rom, certificate=certify(engine, system, psi, krylov.centre(box), reductor.rtol))
+    bounds = [rom.error_bound(mu) for mu in krylov.training_set(box, reductor.per_axis)]
+    worst = max(float(np.max(b)) for b in bounds if b is not None)
+    return rom, {"error_bound": worst, "certificate": "primal-dual contour bound",
+                 "certify_seconds": time.process_time() - start}
+
+
+def _grid(system: ThermalSystem) -> tuple[float, float]:
+    assert system.time is not None
+    return system.time.end, system.time.dt

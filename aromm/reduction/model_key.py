@@ -38,7 +38,7 @@ from aromm.microstructure.digest import label_digest
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
 
-_VERSION = 2  # 2: box values masked, pinned values and time grid in every key; entries of version 1 are never read
+_VERSION = 3  # 2: box values masked, pinned values and time grid in every key; 3: models carry a certificate
 #: What stands in a key for a value of the training box.
 BOXED = "in the training box"
 #: Options of ``aromm.reduce`` that say how the model is computed, not which model: left out of the key.

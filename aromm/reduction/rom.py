@@ -56,6 +56,7 @@ from aromm.core.system import (
     is_matrix_free,
     require_free_transient,
 )
+from aromm.reduction.certificate import Certificate, error_bound
 from aromm.reduction.modal_integration import ModalForm
 
 #: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
@@ -132,6 +133,7 @@ class ReducedModel:
     basis: FloatArray | None = field(default=None, repr=False, compare=False)
     field_lifting: Affine = field(default=Affine(), repr=False, compare=False)
     box: tuple[tuple[str, float, float], ...] = ()
+    certificate: Certificate | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def from_system(cls, system: ThermalSystem, basis: FloatArray,
@@ -193,6 +195,14 @@ class ReducedModel:
         estimate, not a bound: identification adds its shift to the intervals (inverse.uncertainty.bias_shift)."""
         value = float(self.info.get("reference_error", 0.0))
         return value if math.isfinite(value) else 0.0
+
+    def error_bound(self, params: Mapping[str, float] | None = None) -> FloatArray | None:
+        """Certified upper bound (°C) of max over the output times of |reduced − full| per output at ``params``
+        (:mod:`aromm.reduction.certificate`: against the same full model exact in time); None without a
+        certificate (a modal model, a model built on another engine)."""
+        if self.certificate is None:
+            return None
+        return error_bound(self, self.certificate, {**self.parameters, **(params or {})})
 
     # ----------------------------------------------------------------- protocol
     @property
@@ -360,6 +370,8 @@ def to_arrays(model: ReducedModel) -> dict[str, np.ndarray]:
     out["box.bounds"] = np.array([[lo, hi] for _, lo, hi in model.box], dtype=float).reshape(-1, 2)
     out["info.names"] = np.array(list(model.info), dtype=str)
     out["info.values"] = np.array([str(v) for v in model.info.values()], dtype=str)
+    if model.certificate is not None:
+        out.update({f"certificate.{k}": v for k, v in model.certificate.arrays().items()})
     return out
 
 
@@ -400,4 +412,6 @@ def from_arrays(data: Mapping[str, np.ndarray]) -> ReducedModel:
     info = {str(k): _info_value(str(v)) for k, v in zip(data["info.names"], data["info.values"], strict=True)}
     box = tuple((str(n), float(lo), float(hi)) for n, (lo, hi) in zip(data.get("box.names", ()),
                                                                        data.get("box.bounds", ()), strict=True))
-    return ReducedModel(projected, groups["initial"], info, box=box)
+    cert = {k.removeprefix("certificate."): v for k, v in data.items() if k.startswith("certificate.")}
+    return ReducedModel(projected, groups["initial"], info, box=box,
+                        certificate=Certificate.from_arrays(cert) if cert else None)
