@@ -16,7 +16,7 @@ import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -312,7 +312,7 @@ def identify(
     uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
                              data_notes=offsets, scales=relative_scales(box, theta),
                              positive=[is_positive(n) for n in box.names], model_error=model_error, model_rise=rise,
-                             output_error=max(float(getattr(sc.model, "output_error", 0.0)) for sc in scenarios))
+                             **reduced_error([sc.model for sc in scenarios], dict(zip(box.names, theta, strict=True))))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),
@@ -324,3 +324,14 @@ def identify(
         bounds=box.as_dict(),
         fits=fits,
     )
+
+
+def reduced_error(models: Sequence[object], estimates: Mapping[str, float]) -> dict[str, Any]:
+    """The reduced models' output error for the interval (inverse.uncertainty.linearised): their certified bound at
+    the estimates (°C, the largest over models and outputs; aromm.reduction.certificate) when every model has one,
+    else what they estimate of themselves (``output_error``, an estimate)."""
+    bounds = [b(estimates) if callable(b := getattr(m, "error_bound", None)) else None for m in models]
+    found = [b for b in bounds if b is not None]
+    if found and len(found) == len(bounds):
+        return {"output_error": max(float(np.max(b)) for b in found), "output_error_certified": True}
+    return {"output_error": max(float(getattr(m, "output_error", 0.0)) for m in models)}

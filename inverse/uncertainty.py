@@ -135,7 +135,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                blocks: Sequence[npt.NDArray[np.intp]] | None = None, noise_std: float | None = None,
                data_notes: Sequence[str] = (), scales: FloatArray | None = None,
                positive: Sequence[bool] | None = None, model_error: float = 0.0,
-               model_rise: FloatArray | None = None, output_error: float = 0.0) -> Uncertainty:
+               model_rise: FloatArray | None = None, output_error: float = 0.0,
+               output_error_certified: bool = False) -> Uncertainty:
     """Uncertainty from ``sensitivity`` X = ∂Ŷ/∂β (N, p) and ``residuals`` Y − Ŷ (N,) at the optimum.
 
     ``blocks`` are index arrays (n_times, n_faces) into the rows of X and r, one per independent
@@ -158,7 +159,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     :func:`model_error_std` in quadrature to the standard errors; ``error_sources`` says what the interval includes.
     ``output_error`` (°C) bounds a bias of every model output (a reduced model's error against its full model): its
     worst-case shift of the estimates, :func:`bias_shift`, is added to the half-widths linearly (a bias does not
-    average out).  ``budget`` gives each source's 95 % half-width; the interval (``lower``, ``upper``) is the total.
+    average out); ``output_error_certified``: it is a certified bound, not an estimate.  ``budget`` gives each
+    source's 95 % half-width; the interval (``lower``, ``upper``) is the total.
     """
     names = tuple(names)
     beta = np.asarray(estimates, dtype=float)
@@ -251,8 +253,10 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     if model_error:
         sources.append(f"a stated relative model error of {model_error:g} (discretisation, reduction)")
     if output_error:
-        sources.append(f"the reduced model's estimated output error {output_error:.2g} °C (its worst-case shift, added "
-                       "linearly; an estimate, not a bound)")
+        kind = ("certified output error bound", "a bound at the estimates") if output_error_certified else (
+            "estimated output error", "an estimate, not a bound")
+        sources.append(f"the reduced model's {kind[0]} {output_error:.2g} °C (its worst-case shift, added linearly; "
+                       f"{kind[1]})")
     return Uncertainty(names, beta, total, lower, upper, corr, math.sqrt(s2), dof, condition,
                        (*notes, *residual_notes), se_hac, lower_hac, upper_hac, window, diagnostics,
                        noise_std, noise_p, se_model, tuple(bool(v) for v in pos), tuple(sources), float(model_error),

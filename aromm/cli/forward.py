@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
@@ -92,6 +94,23 @@ def parse_times(text: str | None) -> tuple[float, ...] | None:
     return times
 
 
+def _bound(rom: Any) -> dict[str, object]:
+    """``error_bound``: the certified bound (°C) of |reduced − full| over the output times per output, or None with
+    ``error_bound_note`` saying why there is none (aromm.reduction.certificate)."""
+    values = rom.error_bound() if hasattr(rom, "error_bound") else None
+    if values is None:
+        return {"error_bound": None, "error_bound_note": str(rom.info.get("certificate", "this model has none"))}
+    return {"error_bound": dict(zip(rom.outputs, (float(v) for v in values), strict=True))}
+
+
+def _bound_line(bound: Mapping[str, object]) -> str:
+    values = bound["error_bound"]
+    if not isinstance(values, Mapping):
+        return f"reduced model: no certified error bound ({bound.get('error_bound_note')})"
+    parts = ", ".join(f"{k} ≤ {float(v):.2g} °C" for k, v in values.items())
+    return f"reduced model: certified error against the full model at the output times: {parts}"
+
+
 @click.command("simulate")
 @SCENE
 @click.option("--model", type=click.Choice(["full", "reduced"]), default="full", show_default=True,
@@ -130,19 +149,23 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
         checks.cache_folder(None)
     system = assemble(sc) if engine == "scipy" else None
     progress = sys.stderr.isatty() and is_root(engine)
+    bound: dict[str, object] = {}
     if model == "reduced":
         rom = reduce(sc, settings=sc.reduction.updated(order=order, solver=solver),  # the scene: identify's key
                      progress=progress, engine=engine, fields=times is not None)
         obs = rom.simulate()
+        bound = _bound(rom)
     else:
         obs = simulate(system if system is not None else sc, fields="last" if field else False,
                        method=solver, scheme=scheme, progress=progress, engine=engine)  # type: ignore[arg-type]
     if not is_root(engine):
         return
     if as_json:
-        echo_json(obs.to_json())
+        echo_json({**obs.to_json(), **bound})
     else:
         click.echo(_table(obs))
+        if bound:
+            click.echo(_bound_line(bound), err=True)
     if files is not None:
         write_csv(obs, files[0], "observables file")
         click.echo(f"wrote {files[0]}", err=True)
