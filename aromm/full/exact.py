@@ -1,0 +1,64 @@
+"""The full semi-discrete model solved exactly in time, by dense modal decomposition (small systems: the truth of
+the reduced models' certified bounds, tests/test_certificate.py and benchmarks/certified_bound.py).
+
+``C Ṫ + K T = F(t)`` with ``K W = C W Λ``, ``Wᵀ C W = I``: each mode ``ẏ = −λ y + a + b (t − t₀)`` is integrated in
+closed form between consecutive load breakpoints and output times (loads piecewise linear in time,
+:mod:`aromm.core.profiles`), from ``T(0) = initial.T`` (uniform).  Fixed temperatures are not handled (lift them
+first).  Cost O(n³): a few thousand unknowns at most.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+
+import numpy as np
+import scipy.linalg as sla
+
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray, ThermalSystem, dense
+
+#: Largest system solved densely.
+MAX_UNKNOWNS = 6_000
+
+
+def exact_outputs(system: ThermalSystem, values: Mapping[str, float], times: FloatArray) -> FloatArray:
+    """Outputs (len(times) × outputs) of ``system`` at ``values`` (module docstring), exact in time.
+
+    >>> from aromm.core.system import TimeGrid
+    >>> from aromm.core.vocabulary import FaceSpec, PhaseSpec
+    >>> from aromm.fem import assemble_voxels
+    >>> s = assemble_voxels(np.ones((2, 2, 2), int), (1e-3,) * 3, [PhaseSpec("a", 1, 1.0, 1e6)],
+    ...                     [FaceSpec("z0", flux=1000.0)], time=TimeGrid(1.0, 0.5), outputs=["z1"])
+    >>> bool(exact_outputs(s, {}, np.array([1.0]))[0, 0] > 0)  # heated through z0: the far face warms
+    True
+    """
+    if system.dirichlet or system.n > MAX_UNKNOWNS:
+        raise InputError(f"exact_outputs: dense solution of systems without fixed temperatures and at most "
+                         f"{MAX_UNKNOWNS} unknowns (got {system.n}, {len(system.dirichlet)} fixed faces)")
+    v = system.values(dict(values))
+    k, c = dense(system.conductance.evaluate(v)), dense(system.capacity.evaluate(v))
+    lam, w = sla.eigh(k, c)
+    lam = np.maximum(lam, 0.0)
+    _, e = system.observation_matrix()
+    e = dense(e)
+
+    def load(t: float) -> FloatArray:
+        return np.asarray(system.load.evaluate(v, at=t), dtype=float).ravel()
+
+    breaks = {float(b) for term in system.load.terms if term.time is not None for b in term.time.times}
+    cuts = sorted({0.0, *np.asarray(times, dtype=float).tolist(), *(b for b in breaks if 0 < b < max(times))})
+    y = w.T @ c @ np.full(system.n, float(v["initial.T"]))  # type: ignore[arg-type]
+    out = {}
+    for t0, t1 in itertools.pairwise(cuts):
+        tau = t1 - t0
+        a = w.T @ load(t0 + 1e-12 * tau)
+        b = (w.T @ load(t1 - 1e-12 * tau) - a) / tau
+        decay = np.exp(-lam * tau)
+        small = lam * tau < 1e-8
+        safe = np.where(small, 1.0, lam)
+        phi1 = np.where(small, tau, (1 - decay) / safe)  # ∫₀^τ e^{−λ(τ−σ)} dσ
+        phi2 = np.where(small, tau ** 2 / 2, (tau - phi1) / safe)  # ∫₀^τ e^{−λ(τ−σ)} σ dσ
+        y = decay * y + a * phi1 + b * phi2
+        out[t1] = e @ (w @ y)
+    return np.stack([out[float(t)] for t in times])
