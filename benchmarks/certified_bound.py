@@ -1,0 +1,108 @@
+"""The certified output error bound of Krylov models against the full model exact in time (issue 35, item 3).
+
+For each case: a Krylov model (default tolerance) over its box, then at ``--points`` parameter points of a Latin
+hypercube over the box (log scale, seeded; off the training grid) the actual worst error over outputs and output
+times against :func:`aromm.full.exact.exact_outputs`, the certified bound (:mod:`aromm.reduction.certificate`) and
+their ratio, the effectivity (the bound must be ≥ 1× the error; the target is ≤ 100×).  The truth's own rounding is
+measured too, as the difference of two exact-in-time evaluations of the full model (the dense modal solution and the
+reduced integrator on the identity basis): errors below 10× that floor are not measurable, and those points are
+counted apart instead of entering the effectivity.  CPU seconds of the build,
+of the certificate's offline part and of one bound evaluation beside them.
+
+    python benchmarks/certified_bound.py --size 8 --points 20
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+import warnings
+
+import numpy as np
+
+from aromm.core.profiles import Profile
+from aromm.core.system import ThermalSystem, TimeGrid
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.fem import assemble_voxels
+from aromm.full.exact import exact_outputs
+from aromm.reduction.offline import reduce
+from aromm.reduction.rom import ReducedModel
+
+FLUX = [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)]
+
+
+def case(name: str, size: int) -> tuple[ThermalSystem, dict[str, tuple[float, float]]]:
+    rng = np.random.default_rng(2)
+    two = (rng.random((size,) * 3) < 0.4).astype(int)
+    gas, fibre = PhaseSpec("gas", 0, 0.026, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)
+    grid, outputs = TimeGrid(2.0, 0.05), ["z0", "z1"]
+    box = {"fibre.k": (0.1, 1.0), "fibre.c": (1e6, 1e7)}
+    if name == "three phases":
+        three = two + (rng.random(two.shape) < 0.2) * (two == 0) * 2
+        phases = [gas, fibre, PhaseSpec("filler", 2, 2.0, 2e6)]
+        return assemble_voxels(three, (5e-6,) * 3, phases, FLUX, time=grid, outputs=outputs), \
+            {"fibre.k": (0.1, 1.0), "filler.k": (0.5, 5.0)}
+    if name == "contrast 1e4":
+        fibre = PhaseSpec("fibre", 1, 500.0, 4e6)
+        return assemble_voxels(two, (5e-6,) * 3, [gas, fibre], FLUX, time=TimeGrid(0.02, 0.0005),
+                               outputs=outputs), {"fibre.k": (300.0, 1000.0)}
+    if name == "four unknowns":
+        return assemble_voxels(two, (5e-6,) * 3, [gas, fibre], FLUX, time=grid, outputs=outputs), \
+            {**box, "z1.h": (5.0, 50.0), "gas.k": (0.01, 0.05)}
+    faces = FLUX
+    if name == "load history":
+        faces = [FaceSpec("z0", flux=Profile((0.0, 0.3, 0.75, 1.4), (0.0, 800.0, 200.0, 500.0))),
+                 FaceSpec("z1", h=20.0, T_ext=15.0)]
+    system = assemble_voxels(two, (5e-6,) * 3, [gas, fibre], faces, time=grid, outputs=outputs)
+    if name == "load history":
+        system = ThermalSystem(**{**system.__dict__, "parameters": {**system.parameters, "initial.T": 25.0}})
+    return system, box
+
+
+def hypercube(box: dict[str, tuple[float, float]], count: int, rng: np.random.Generator) -> list[dict[str, float]]:
+    """``count`` points, one per stratum of every axis (log scale), strata permuted independently."""
+    out: list[dict[str, float]] = [{} for _ in range(count)]
+    for name, (lo, hi) in box.items():
+        u = (rng.permutation(count) + rng.random(count)) / count
+        for point, value in zip(out, np.exp(np.log(lo) + u * np.log(hi / lo)), strict=True):
+            point[name] = float(value)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--size", type=int, default=8, help="voxels per side")
+    parser.add_argument("--points", type=int, default=20)
+    parser.add_argument("--order", type=int, default=200, help="order asked (the span's width caps it)")
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    print(f"{args.size}³ bodies, {args.points} Latin-hypercube points per case, load average {os.getloadavg()[0]:.2f}")
+    print(f"{'case':15s} {'order':>5s} {'actual max':>11s} {'bound max':>10s} {'effectivity':>13s} "
+          f"{'build CPU s':>11s} {'cert CPU s':>10s} {'bound CPU s':>11s} {'truth floor':>11s} {'below':>5s}")
+    for name in ("two phases", "three phases", "contrast 1e4", "four unknowns", "load history"):
+        system, box = case(name, args.size)
+        start = time.process_time()
+        rom = reduce(system, order=args.order, method="krylov", bounds=box, cache=False)
+        build = time.process_time() - start
+        times = system.time.times if system.time is not None else np.array([])
+        actual, bound, seconds, floor = [], [], [], []
+        full = ReducedModel.from_system(system, np.eye(system.n))
+        for mu in hypercube(box, args.points, np.random.default_rng(7)):
+            truth = exact_outputs(system, mu, times)
+            floor.append(float(np.abs(full.simulate(mu, times).as_array() - truth).max()))
+            actual.append(float(np.abs(rom.simulate(mu, times).as_array() - truth).max()))
+            start = time.process_time()
+            b = rom.error_bound(mu)
+            seconds.append(time.process_time() - start)
+            bound.append(float(np.max(b)) if b is not None else float("nan"))
+        seen = np.array(actual) > 10 * np.array(floor)
+        ratio = (np.array(bound) / np.array(actual))[seen]
+        span = f"{ratio.min():6.3g}–{ratio.max():<6.3g}" if ratio.size else f"{'—':13s}"
+        print(f"{name:15s} {rom.order:5d} {max(actual):11.3g} {max(bound):10.3g} {span} {build:11.2f} "
+              f"{float(rom.info.get('certify_seconds', 0)):10.2f} {np.median(seconds):11.3f} {max(floor):11.2g} "
+              f"{int((~seen).sum()):5d}")
+
+
+if __name__ == "__main__":
+    main()
