@@ -95,7 +95,7 @@ def parse_times(text: str | None) -> tuple[float, ...] | None:
 
 
 def _bound(rom: Any) -> dict[str, object]:
-    """``error_bound``: the certified bound (°C) of |reduced − full| over the output times per output, or None with
+    """``error_bound``: the certified bound (°C) of ``|reduced − full|`` over the output times per output, or None with
     ``error_bound_note`` saying why there is none (aromm.reduction.certificate)."""
     values = rom.error_bound() if hasattr(rom, "error_bound") else None
     if values is None:

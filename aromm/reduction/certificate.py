@@ -8,25 +8,26 @@ ch. 11],
     Δŷ(s) = e_du(s)ᵀ r̂(s),   r̂ = b̂(s) − A(s) Ψ x̂(s),   r_du = eᵀ − A(s) Ψ ψ_r(s),   A(s) = K(μ) + s C(μ),
 
 where x̂ and ψ_r are the reduced primal and dual solutions and e_du = A⁻¹ r_du the dual error (Galerkin orthogonality
-Ψᵀ r̂ = 0 removes the reduced dual; A is complex symmetric).  On the sector |arg s| ≤ φ, ``|v* A(s) v| ≥ cos(φ/2)
+Ψᵀ r̂ = 0 removes the reduced dual; A is complex symmetric).  On the sector ``|arg s| ≤ φ``, ``|v* A(s) v| ≥ cos(φ/2)
 v*(K + |s| C) v`` for every v (K, C ≥ 0), so with the μ-independent norm ``N̂_σ = K(μ̂) + σ C(μ̂)`` and the min-θ
 constant ``α(μ) = min_t θ_t(μ)/θ_t(μ̂)`` over the conductance and capacity terms (exact and free: every term's
-operator is positive semi-definite) [Haasdonk2008, § 4]
+operator is positive semi-definite) [Haasdonk2008, § 4]::
 
     |Δŷ(s)| ≤ ‖r_du(s)‖_{N̂_σ⁻¹} ‖r̂(s)‖_{N̂_σ⁻¹} / (α(μ) cos(arg s / 2)),   any σ ≤ |s|.
 
 The time-domain error follows from the Bromwich integral taken along a contour that wraps the origin and turns into
 the left half-plane (a hyperbola, [Weideman2007]): ``|Δy(t_k)| ≤ (1/π) ∫ |Δŷ(s)| |e^{s t_k}| |ds|`` over the upper
-half, and at the output times ``t_first ≤ t_k ≤ t_end`` the factor |e^{s t_k}| ≤ e^{Re s · t_first} on the arms damps
-the high frequencies at which no reduced model is accurate (a plain vertical line overestimated the error 1e5–1e7×,
-this contour 1.1–3.4× for the exact transform: benchmarks/certified_bound.py).  Load histories are piecewise linear:
+half, and at the output times ``t_first ≤ t_k ≤ t_end`` the factor ``|e^{s t_k}| ≤ e^{Re s · t_first}`` on the arms
+damps the high frequencies at which no reduced model is accurate (on a 7³ body the same integral of the exact error
+transform along a vertical line was 1e5–1e7× the error, along this contour 1.1–3.4×; the bound's effectivities are in
+benchmarks/certified_bound.py).  Load histories are piecewise linear:
 each breakpoint's part enters with its own delay.  The dual norms come from one Gram matrix ``MᵀN̂_σ⁻¹M``,
-``M = [U, Eᵀ, K_1Ψ, …, C_1Ψ, …]``, per σ of a geometric ladder over the contour's |s| (offline: one shifted solve
+``M = [U, Eᵀ, K_1Ψ, …, C_1Ψ, …]``, per σ of a geometric ladder over the contour's ``|s|`` (offline: one shifted solve
 per column of M and rung); online every point costs reduced solves and quadratic forms, nothing of size n.
 
 What the bound includes: the reduction error against the same semi-discrete full model solved exactly in time.  It
 assumes the Gram matrices exact (their solves met ``rtol``; rounding of the quadratic forms is added) and neglects
-the contour's tail (|e^{s t}| < e^{-40} there) and the quadrature error of the contour integral, which is estimated
+the contour's tail (``|e^{s t}| < e^{-40}`` there) and the quadrature error of the contour integral, which is estimated
 from half the points and added.
 """
 
@@ -46,12 +47,12 @@ from aromm.core.system import FloatArray, ThermalSystem, dense
 
 log = logging.getLogger(__name__)
 
-#: The contour's arms leave the imaginary axis at this angle (rad): sector |arg s| ≤ π/2 + BETA, inf-sup
+#: The contour's arms leave the imaginary axis at this angle (rad): sector ``|arg s| ≤ π/2 + BETA``, inf-sup
 #: cos(arg s / 2) ≥ 0.28; measured on a 7³ body, 0.5–1.2 give effectivities within 1.5× of each other.
 BETA = 1.0
 #: Contour points on the upper half (geometric in Im s); the half-grid estimate of the quadrature error is added.
 POINTS = 600
-#: |e^{s t}| below e^{-TAIL} on the contour's end: the rest of the arm is neglected.
+#: ``|e^{s t}|`` below e^{-TAIL} on the contour's end: the rest of the arm is neglected.
 TAIL = 40.0
 #: Largest ratio of consecutive σ of the Gram ladder (between two rungs their Gram matrices are interpolated): on
 #: a 7³ body ratios 4, 30, 300 and one rung gave effectivities within 10 % of each other.
@@ -93,7 +94,7 @@ class Certificate:
 
 
 def contour(end: float, first: float, gap: float | None = None) -> tuple[npt.NDArray[np.complex128], FloatArray]:
-    """Points s (upper half, from the real axis) and trapezoid weights |ds| of the hyperbola
+    """Points s (upper half, from the real axis) and trapezoid weights ``|ds|`` of the hyperbola
     ``s = 1/end − tan β (√(u² + y²) − y) + i u``, y = 1/first, out to where ``e^{Re s · gap} < e^{-TAIL}``."""
     gap = first if gap is None else gap
     y, slope = 1.0 / first, np.tan(BETA)
@@ -104,8 +105,8 @@ def contour(end: float, first: float, gap: float | None = None) -> tuple[npt.NDA
 
 
 def ladder(end: float, first: float) -> FloatArray:
-    """σ of the Gram matrices: geometric (ratio :data:`LADDER`) from the contour's smallest |s| (1/end) to its |s|
-    where the zero-delay damping reaches e^{-TAIL}."""
+    """σ of the Gram matrices: geometric (ratio at most :data:`LADDER`, at least two) from the contour's smallest
+    ``|s|`` (1/end) to its ``|s|`` where the zero-delay damping reaches e^{-TAIL}."""
     s, _ = contour(end, first)
     lo, hi = float(np.abs(s).min()), float(np.abs(s).max())
     count = max(2, int(np.ceil(np.log(hi / lo) / np.log(LADDER))) + 1)
@@ -148,7 +149,7 @@ def _pieces(profile: Profile | None) -> list[tuple[float, float, int]]:
 
 
 def _damping(s: npt.NDArray[np.complex128], delay: float, times: FloatArray) -> FloatArray:
-    """max over output times t > delay of |e^{s (t − delay)}| (0 when none is later)."""
+    """max over output times t > delay of ``|e^{s (t − delay)}|`` (0 when none is later)."""
     later = times[times > delay * (1 + 1e-12)] - delay
     if later.size == 0:
         return np.zeros(s.shape)
@@ -156,7 +157,7 @@ def _damping(s: npt.NDArray[np.complex128], delay: float, times: FloatArray) -> 
 
 
 def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> FloatArray:
-    """Upper bound (°C) of max over output times of |y_r − y| per output of ``model`` (a
+    """Upper bound (°C) of the largest ``|y_r − y|`` over the output times, per output, of ``model`` (a
     :class:`~aromm.reduction.rom.ReducedModel` carrying ``cert``) at ``values`` (module docstring); inf when a
     term's coefficient is not positive there."""
     sys_ = model.projected
@@ -250,7 +251,7 @@ def _solve_rows(vecs: FloatArray, lam: FloatArray, s: npt.NDArray[np.complex128]
 
 
 def _chords(s: npt.NDArray[np.complex128]) -> FloatArray:
-    """Trapezoid weights |ds| of a path through the points ``s``."""
+    """Trapezoid weights ``|ds|`` of a path through the points ``s``."""
     seg = np.abs(np.diff(s))
     return np.concatenate([seg, [0.0]]) / 2 + np.concatenate([[0.0], seg]) / 2
 

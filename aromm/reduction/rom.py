@@ -197,8 +197,8 @@ class ReducedModel:
         return value if math.isfinite(value) else 0.0
 
     def error_bound(self, params: Mapping[str, float] | None = None) -> FloatArray | None:
-        """Certified upper bound (°C) of max over the output times of |reduced − full| per output at ``params``
-        (:mod:`aromm.reduction.certificate`: against the same full model exact in time); None without a
+        """Certified upper bound (°C) of the largest ``|reduced − full|`` over the output times, per output, at
+        ``params`` (:mod:`aromm.reduction.certificate`: against the same full model exact in time); None without a
         certificate (a modal model, a model built on another engine)."""
         if self.certificate is None:
             return None
