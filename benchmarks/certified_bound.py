@@ -5,8 +5,8 @@ hypercube over the box (log scale, seeded; off the training grid) the actual wor
 times against :func:`aromm.full.exact.exact_outputs`, the certified bound (:mod:`aromm.reduction.certificate`) and
 their ratio, the effectivity (the bound must be ≥ 1× the error; the target is ≤ 100×).  The truth's own rounding is
 measured too, as the difference of two exact-in-time evaluations of the full model (the dense modal solution and the
-reduced integrator on the identity basis): errors below 10× that floor are not measurable, and those points are
-counted apart instead of entering the effectivity.  CPU seconds of the build,
+reduced integrator on the identity basis): errors below 10× its worst over the case are not measurable, and those
+points are counted apart ("below") instead of entering the effectivity.  CPU seconds of the build,
 of the certificate's offline part and of one bound evaluation beside them.
 
     python benchmarks/certified_bound.py --size 8 --points 20
@@ -26,6 +26,7 @@ from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
 from aromm.full.exact import exact_outputs
+from aromm.reduction.lifting import lift
 from aromm.reduction.offline import reduce
 from aromm.reduction.rom import ReducedModel
 
@@ -51,6 +52,8 @@ def case(name: str, size: int) -> tuple[ThermalSystem, dict[str, tuple[float, fl
         return assemble_voxels(two, (5e-6,) * 3, [gas, fibre], FLUX, time=grid, outputs=outputs), \
             {**box, "z1.h": (5.0, 50.0), "gas.k": (0.01, 0.05)}
     faces = FLUX
+    if name == "fixed face":
+        faces = [FaceSpec("z0", flux=500.0), FaceSpec("z1", T=10.0)]
     if name == "load history":
         faces = [FaceSpec("z0", flux=Profile((0.0, 0.3, 0.75, 1.4), (0.0, 800.0, 200.0, 500.0))),
                  FaceSpec("z1", h=20.0, T_ext=15.0)]
@@ -80,13 +83,14 @@ def main() -> None:
     print(f"{args.size}³ bodies, {args.points} Latin-hypercube points per case, load average {os.getloadavg()[0]:.2f}")
     print(f"{'case':15s} {'order':>5s} {'actual max':>11s} {'bound max':>10s} {'effectivity':>13s} "
           f"{'build CPU s':>11s} {'cert CPU s':>10s} {'bound CPU s':>11s} {'truth floor':>11s} {'below':>5s}")
-    for name in ("two phases", "three phases", "contrast 1e4", "four unknowns", "load history"):
+    for name in ("two phases", "three phases", "contrast 1e4", "four unknowns", "load history", "fixed face"):
         system, box = case(name, args.size)
         start = time.process_time()
         rom = reduce(system, order=args.order, method="krylov", bounds=box, cache=False)
         build = time.process_time() - start
         times = system.time.times if system.time is not None else np.array([])
         actual, bound, seconds, floor = [], [], [], []
+        system = lift(system, rom.parameters)  # the outputs of the lifted system are the original ones exactly
         full = ReducedModel.from_system(system, np.eye(system.n))
         for mu in hypercube(box, args.points, np.random.default_rng(7)):
             truth = exact_outputs(system, mu, times)
@@ -96,7 +100,7 @@ def main() -> None:
             b = rom.error_bound(mu)
             seconds.append(time.process_time() - start)
             bound.append(float(np.max(b)) if b is not None else float("nan"))
-        seen = np.array(actual) > 10 * np.array(floor)
+        seen = np.array(actual) > 10 * max(floor)  # the floor varies from point to point: its worst over the case
         ratio = (np.array(bound) / np.array(actual))[seen]
         span = f"{ratio.min():6.3g}–{ratio.max():<6.3g}" if ratio.size else f"{'—':13s}"
         print(f"{name:15s} {rom.order:5d} {max(actual):11.3g} {max(bound):10.3g} {span} {build:11.2f} "

@@ -3,8 +3,10 @@ the reduced models' certified bounds, tests/test_certificate.py and benchmarks/c
 
 ``C Ṫ + K T = F(t)`` with ``K W = C W Λ``, ``Wᵀ C W = I``: each mode ``ẏ = −λ y + a + b (t − t₀)`` is integrated in
 closed form between consecutive load breakpoints and output times (loads piecewise linear in time,
-:mod:`aromm.core.profiles`), from ``T(0) = initial.T`` (uniform).  Fixed temperatures are not handled (lift them
-first).  Cost O(n³): a few thousand unknowns at most.
+:mod:`aromm.core.profiles`), from ``T(0) = initial.T + Σ c_i v_i`` with the outputs ``y = E T + Σ c_j g_j(t) d_j``
+(the ``initial`` and ``feedthrough`` groups of a lifted system).  Fixed temperatures are refused: lift them first
+(:func:`aromm.reduction.lifting.lift` reproduces the original outputs exactly).  Cost O(n³): a few thousand
+unknowns at most.
 """
 
 from __future__ import annotations
@@ -48,7 +50,10 @@ def exact_outputs(system: ThermalSystem, values: Mapping[str, float], times: Flo
 
     breaks = {float(b) for term in system.load.terms if term.time is not None for b in term.time.times}
     cuts = sorted({0.0, *np.asarray(times, dtype=float).tolist(), *(b for b in breaks if 0 < b < max(times))})
-    y = w.T @ c @ np.full(system.n, float(v["initial.T"]))  # type: ignore[arg-type]
+    start = np.full(system.n, float(v["initial.T"]))  # type: ignore[arg-type]
+    if system.initial:
+        start = start + np.asarray(system.initial.evaluate(v), dtype=float).ravel()
+    y = w.T @ c @ start
     out = {}
     for t0, t1 in itertools.pairwise(cuts):
         tau = t1 - t0
@@ -61,4 +66,6 @@ def exact_outputs(system: ThermalSystem, values: Mapping[str, float], times: Flo
         phi2 = np.where(small, tau ** 2 / 2, (tau - phi1) / safe)  # ∫₀^τ e^{−λ(τ−σ)} σ dσ
         y = decay * y + a * phi1 + b * phi2
         out[t1] = e @ (w @ y)
-    return np.stack([out[float(t)] for t in times])
+    direct = [np.asarray(system.feedthrough.evaluate(v, at=float(t)), dtype=float).ravel() if system.feedthrough
+              else 0.0 for t in times]
+    return np.stack([out[float(t)] + d for t, d in zip(times, direct, strict=True)])
