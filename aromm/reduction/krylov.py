@@ -71,6 +71,8 @@ ESTIMATE_SAFETY = 10.0
 INDICATOR_REFINEMENT = 3
 
 Box = tuple[tuple[str, float, float], ...]
+#: The certified bound of a span's Galerkin model (basis, model) at every training point (°C, max over outputs).
+Bound = Callable[[Block, ReducedModel], FloatArray]
 
 
 @dataclass(frozen=True)
@@ -305,8 +307,11 @@ def residual_indicator(engine: ReductionEngine, model: ReducedModel, basis: Bloc
 
 
 def build_span(engine: ReductionEngine, reductor: KrylovReductor, box: Box, times: FloatArray,
-               shifts: FloatArray, *, max_width: int, progress: bool = False) -> Span:
-    """Greedy rational-Krylov span over the box (module docstring, steps 1–3)."""
+               shifts: FloatArray, *, max_width: int, progress: bool = False, bound: Bound | None = None) -> Span:
+    """Greedy rational-Krylov span over the box (module docstring, steps 1–3).  With ``bound`` (the certified
+    output error bound of a span's model at every training point, °C, :mod:`aromm.reduction.certificate`), a span
+    whose estimate meets the tolerance is kept only when its bound is below half of it (the other half is the
+    compression's); else the next point is where the bound is largest."""
     training = training_set(box, reductor.per_axis)
     reference = centre(box)
     fine = np.geomspace(shifts[0], shifts[-1], INDICATOR_REFINEMENT * len(shifts))
@@ -327,20 +332,29 @@ def build_span(engine: ReductionEngine, reductor: KrylovReductor, box: Box, time
         points.append(mu)
         model = engine.project(basis)
         outputs = model.simulate_batch(params, times)
+        worst: FloatArray | None = None
         if previous is not None:
             history.append(float(np.abs(outputs - previous).max()))
             log.info("krylov: estimated error %.3g °C with %d points", history[-1], len(points))
             if history[-1] <= reductor.tolerance / ESTIMATE_SAFETY:
-                break
+                if bound is None:
+                    break
+                worst = bound(basis, model)
+                log.info("krylov: certified bound %.3g °C over the training grid with %d points", worst.max(),
+                         len(points))
+                if worst.max() <= reductor.tolerance / 2 or np.all(used):
+                    break
         previous = outputs
         if len(points) >= reductor.max_points or engine.width(basis) >= max_width:
             break
-        eta = residual_indicator(engine, model, basis, training, fine, active=active)
-        eta[used] = -np.inf
-        best = int(np.argmax(eta))
+        score = worst if worst is not None else residual_indicator(engine, model, basis, training, fine,
+                                                                   active=active)
+        score = np.where(used, -np.inf, score)
+        best = int(np.argmax(score))
         used[best] = True
         mu = training[best]
-        log.info("krylov: worst relative residual %.3g at %s", eta[best], _label(mu))
+        log.info("krylov: next point %s (%s %.3g)", _label(mu), "bound" if worst is not None else
+                 "worst relative residual", score[best])
     moments.bar.close()
     return Span(basis, model, points, history, moments.coordinates(engine.width(basis)))
 
@@ -391,7 +405,7 @@ def _check_outputs(engine: ReductionEngine, names: tuple[str, ...]) -> None:
 
 
 def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: KrylovReductor, order: int, *,
-                 progress: bool = False) -> tuple[ReducedModel, Block, Info]:
+                 progress: bool = False, bound: Bound | None = None) -> tuple[ReducedModel, Block, Info]:
     """The reduced model of order ≤ ``order``, its basis Ψ (an engine block) and what the build recorded.
 
     Errors are measured at the scene's output times (those of the outputs the model is used for)."""
@@ -403,7 +417,8 @@ def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: Krylo
     box = material_box(system, reductor.bounds)
     shifts = reductor.shift_values(system.time)
     start = time.process_time()
-    span = build_span(engine, reductor, box, times, shifts, max_width=max(4 * order, 2), progress=progress)
+    span = build_span(engine, reductor, box, times, shifts, max_width=max(4 * order, 2), progress=progress,
+                      bound=bound)
     span_seconds = time.process_time() - start
     training = training_set(box, reductor.per_axis)
     kept = np.eye(span.model.order)[:, :1]
