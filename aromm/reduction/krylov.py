@@ -371,8 +371,7 @@ def converged(span: Span, reductor: KrylovReductor, compression_loss: float) -> 
 
 
 def tolerance_note(info: Mapping[str, float | int | str]) -> str | None:
-    """A sentence for a Krylov model that did not meet its tolerance (``info["converged"]`` 0), else None: by its
-    own estimates, or by its certified bound over the training grid (``info["error_bound"]``, when it has one)."""
+    """Why a Krylov model missed its tolerance (``info["converged"]`` 0; by estimate or certified bound), else None."""
     if info.get("method") != "krylov" or int(info.get("converged", 1)) == 1:
         return None
     tol = float(info.get("tolerance", float("nan")))
