@@ -44,6 +44,7 @@ import numpy.typing as npt
 
 from aromm.core.profiles import Profile
 from aromm.core.system import FloatArray, ThermalSystem, dense
+from aromm.reduction.modal_integration import diagonalise
 
 log = logging.getLogger(__name__)
 
@@ -172,12 +173,16 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     alpha = float(np.min(theta / cert.theta))
     times = sys_.time.times
     loads = sys_.load.terms
-    gap = min([float(times[0])] + [float((times[times > tau] - tau).min()) for t in loads for _, tau, _ in
-                                   _pieces(t.time) if tau > 0 and np.any(times > tau)])
+    pieces = [_pieces(t.time) for t in loads]
+    initial = np.array([float(t.coefficient(v)) for t in model.initial.terms])
+    if initial.size != cert.vtu.shape[1] - cert.loads:  # a model whose initial terms are not the certificate's
+        return np.full(len(names), np.inf)
+    gap = min([float(times[0])] + [float((times[times > tau] - tau).min()) for ps in pieces for _, tau, _ in ps
+                                   if tau > 0 and np.any(times > tau)])
     s, w = contour(sys_.time.end, sys_.time.dt, gap)
-    kmat = sys_.conductance.evaluate(v)
-    cmat = sys_.capacity.evaluate(v)
-    lam, vecs = _pencil(np.asarray(kmat), np.asarray(cmat))
+    pencil = (np.asarray(sys_.capacity.evaluate(v))[None], np.asarray(sys_.conductance.evaluate(v))[None])
+    rates, modes = diagonalise(*pencil)
+    lam, vecs = rates[0], modes[0]
     r, p = cert.vtu.shape
     factors = np.hstack([np.broadcast_to(theta[:nk], (s.size, nk)), s[:, None] * theta[None, nk:]])
 
@@ -195,14 +200,15 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     span = cert.sigmas[upper] - cert.sigmas[lower]
     share = np.where(span > 0, (cert.sigmas[upper] - sig) / np.where(span > 0, span, 1.0), 1.0)
 
+    diags = np.sqrt(np.maximum(np.diagonal(cert.grams, axis1=1, axis2=2), 0.0))
+
     def norm(c: npt.NDArray[np.complex128]) -> FloatArray:
         square, floor = np.zeros(s.size), np.zeros(s.size)
         for j, g in enumerate(cert.grams):  # one matrix product per rung of the ladder
             weight = np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
             at = weight > 0
             square[at] += weight[at] * np.einsum("ki,ki->k", c[at].conj(), c[at] @ g).real
-            diag = np.sqrt(np.maximum(np.diag(g), 0.0))
-            floor[at] += weight[at] * 8 * c.shape[1] * np.finfo(float).eps * (np.abs(c[at]) @ diag) ** 2
+            floor[at] += weight[at] * 8 * c.shape[1] * np.finfo(float).eps * (np.abs(c[at]) @ diags[j]) ** 2
         return np.sqrt(np.maximum(square, 0.0) + floor)
 
     o = len(names)
@@ -210,24 +216,21 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     # zero-delay part of every input together (their errors may cancel: T0 = T_ext), each delayed piece alone
     head0, rhs0 = zero_head.copy(), np.zeros((s.size, r), dtype=complex)
     delayed = np.zeros(s.size)
-    for j, term in enumerate(loads):
+    for j, (term, ps) in enumerate(zip(loads, pieces, strict=True)):
         scale = float(term.coefficient(v))
-        unit_head = zero_head.copy()
-        unit_head[:, j] = 1.0
-        for c, tau, k in _pieces(term.time):
-            if tau == 0:
-                g = scale * c / s ** k
-                head0[:, j] += g
-                rhs0 += g[:, None] * cert.vtu[:, j][None, :]
-        late = [(c, tau, k) for c, tau, k in _pieces(term.time) if tau > 0]
+        for c, _, k in (piece for piece in ps if piece[1] == 0):
+            g = scale * c / s ** k
+            head0[:, j] += g
+            rhs0 += g[:, None] * cert.vtu[:, j][None, :]
+        late = [piece for piece in ps if piece[1] > 0]
         if late:
+            unit_head = zero_head.copy()
+            unit_head[:, j] = 1.0
             unit = norm(coefficients(unit_head, solve(cert.vtu[:, j])))
             for c, tau, k in late:
                 delayed += abs(scale * c) * unit * _damping(s, tau, times) / np.abs(s) ** k
-    initial = np.array([float(t.coefficient(v)) for t in model.initial.terms])
-    if initial.size and initial.size == p - cert.loads:
-        head0[:, cert.loads:p] += initial[None, :]
-        rhs0 += (cert.vtu[:, cert.loads:] @ initial)[None, :]
+    head0[:, cert.loads:p] += initial[None, :]
+    rhs0 += (cert.vtu[:, cert.loads:] @ initial)[None, :]
     primal = norm(coefficients(head0, _solve_rows(vecs, lam, s, rhs0))) * _damping(s, 0.0, times) + delayed
     kappa = np.cos(np.angle(s) / 2)
     coarse = np.zeros(s.size)
@@ -254,12 +257,3 @@ def _chords(s: npt.NDArray[np.complex128]) -> FloatArray:
     """Trapezoid weights ``|ds|`` of a path through the points ``s``."""
     seg = np.abs(np.diff(s))
     return np.concatenate([seg, [0.0]]) / 2 + np.concatenate([[0.0], seg]) / 2
-
-
-def _pencil(k: FloatArray, c: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """λ, W with K W = C W Λ, Wᵀ C W = I (the reduced pencil, C > 0)."""
-    chol = np.linalg.cholesky(c)
-    inv = np.linalg.inv(chol)
-    sym = inv @ k @ inv.T
-    lam, q = np.linalg.eigh((sym + sym.T) / 2)
-    return lam, inv.T @ q

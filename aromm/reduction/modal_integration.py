@@ -26,14 +26,38 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aromm.core.errors import NumericalError
 from aromm.core.profiles import Profile
 from aromm.core.system import FloatArray
 
+#: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
+ZERO_RATE = 1e-11
+#: Negative modal rates beyond this fraction of the largest mean a growing mode (refused).
+NEGATIVE_RATE = 1e-8
 #: Below this x = Λs the series of φ1 (two terms, error x²/6 < 2e-17) is used.
 PHI1_SERIES = 1e-8
 #: Below this x the series of φ2 (five terms, relative error < x⁵/5040 ≈ 2e-14) is used; above it the
 #: closed form loses at most ~2 eps / x ≈ 4e-14 relative to cancellation.
 PHI2_SERIES = 1e-2
+
+
+def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Rates Λ (m, r) and modes W (m, r, r) of m reduced pencils (m, r, r): ``A W = L W Λ``, ``Wᵀ L W = I``, Λ ≥ 0
+    (rates below :data:`ZERO_RATE` of the largest set to 0); NumericalError when L is not positive definite or a
+    rate is below −:data:`NEGATIVE_RATE` of the largest (a growing mode)."""
+    try:
+        chol = np.linalg.cholesky(lmat)
+    except np.linalg.LinAlgError:
+        raise NumericalError("reduced model: projected capacity matrix L is not positive definite "
+                             "(non-positive capacity, or a dependent basis)") from None
+    rinv = np.linalg.inv(chol)
+    sym = rinv @ amat @ np.swapaxes(rinv, 1, 2)
+    lam, q = np.linalg.eigh((sym + np.swapaxes(sym, 1, 2)) / 2)
+    top = np.max(np.abs(lam), axis=1, keepdims=True)
+    if np.any(lam < -NEGATIVE_RATE * top):
+        raise NumericalError(f"reduced model: growing mode (rate {lam.min():.3e} s⁻¹): the projected "
+                             "conductance is not positive semi-definite (negative conductivity?)")
+    return np.where(lam < ZERO_RATE * top, 0.0, lam), np.swapaxes(rinv, 1, 2) @ q
 
 
 def phi1(x: FloatArray) -> FloatArray:

@@ -57,12 +57,8 @@ from aromm.core.system import (
     require_free_transient,
 )
 from aromm.reduction.certificate import Certificate, error_bound
-from aromm.reduction.modal_integration import ModalForm
+from aromm.reduction.modal_integration import ModalForm, diagonalise
 
-#: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
-ZERO_RATE = 1e-11
-#: Negative modal rates beyond this fraction of the largest mean a growing mode (refused).
-NEGATIVE_RATE = 1e-8
 #: Largest condition number of the reduced conductance accepted for a steady limit.
 STEADY_CONDITION_MAX = 1e13
 #: (m, r, n_times) arrays alive at once in _ModalForm.modal: measured peak 4.2 (tracemalloc).
@@ -307,20 +303,7 @@ class ReducedModel:
         lmat = self.projected.capacity.stack(values, m)
         amat = self.projected.conductance.stack(values, m)
         rhs0 = self.initial.stack(values, m)
-        try:
-            chol = np.linalg.cholesky(lmat)
-        except np.linalg.LinAlgError:
-            raise NumericalError("reduced model: projected capacity matrix L is not positive definite "
-                                 "(non-positive capacity, or a dependent basis)") from None
-        rinv = np.linalg.inv(chol)
-        sym = rinv @ amat @ np.swapaxes(rinv, 1, 2)
-        lam, q = np.linalg.eigh((sym + np.swapaxes(sym, 1, 2)) / 2)
-        top = np.max(np.abs(lam), axis=1, keepdims=True)
-        if np.any(lam < -NEGATIVE_RATE * top):
-            raise NumericalError(f"reduced model: growing mode (rate {lam.min():.3e} s⁻¹): the projected "
-                                 "conductance is not positive semi-definite (negative conductivity?)")
-        lam = np.where(lam < ZERO_RATE * top, 0.0, lam)
-        w = np.swapaxes(rinv, 1, 2) @ q  # Wᵀ L W = I, Wᵀ A W = Λ
+        lam, w = diagonalise(lmat, amat)
         wt = np.swapaxes(w, 1, 2)
         constant = np.zeros((m, self.order))
         timed: list[tuple[FloatArray, Profile]] = []
