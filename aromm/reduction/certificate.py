@@ -18,8 +18,8 @@ operator is positive semi-definite) [Haasdonk2008, § 4]::
 The time-domain error follows from the Bromwich integral taken along a contour that wraps the origin and turns into
 the left half-plane (a hyperbola, [Weideman2007]): ``|Δy(t_k)| ≤ (1/π) ∫ |Δŷ(s)| |e^{s t_k}| |ds|`` over the upper
 half, and at the output times ``t_first ≤ t_k ≤ t_end`` the factor ``|e^{s t_k}| ≤ e^{Re s · t_first}`` on the arms
-damps the high frequencies at which no reduced model is accurate (on a 7³ body the same integral of the exact error
-transform along a vertical line was 1e5–1e7× the error, along this contour 1.1–3.4×; the bound's effectivities are in
+damps the high frequencies at which no reduced model is accurate (along a vertical line nothing damps them and the
+integral overestimates the error by orders of magnitude; the bound's effectivities are measured by
 benchmarks/certified_bound.py).  Load histories are piecewise linear:
 each breakpoint's part enters with its own delay.  The dual norms come from one Gram matrix ``MᵀN̂_σ⁻¹M``,
 ``M = [U, Eᵀ, K_1Ψ, …, C_1Ψ, …]``, per σ of a geometric ladder over the contour's ``|s|`` (offline: one shifted solve
@@ -49,14 +49,13 @@ from aromm.reduction.modal_integration import diagonalise
 log = logging.getLogger(__name__)
 
 #: The contour's arms leave the imaginary axis at this angle (rad): sector ``|arg s| ≤ π/2 + BETA``, inf-sup
-#: cos(arg s / 2) ≥ 0.28; measured on a 7³ body, 0.5–1.2 give effectivities within 1.5× of each other.
+#: cos(arg s / 2) ≥ 0.28 (a wider sector damps more and loses more in the inf-sup; not tuned).
 BETA = 1.0
 #: Contour points on the upper half (geometric in Im s); the half-grid estimate of the quadrature error is added.
 POINTS = 600
 #: ``|e^{s t}|`` below e^{-TAIL} on the contour's end: the rest of the arm is neglected.
 TAIL = 40.0
-#: Largest ratio of consecutive σ of the Gram ladder (between two rungs their Gram matrices are interpolated): on
-#: a 7³ body ratios 4, 30, 300 and one rung gave effectivities within 10 % of each other.
+#: Largest ratio of consecutive σ of the Gram ladder (between two rungs their Gram matrices are interpolated).
 LADDER = 1000.0
 
 
