@@ -386,7 +386,7 @@ def tolerance_note(info: Mapping[str, float | int | str]) -> str | None:
     else:
         return (f"the Krylov reduced model did not meet its tolerance {tol:.2g} °C by its certified bound: "
                 f"{bound:.2g} °C at worst over its training grid, although its own estimate is {estimate:.2g} °C "
-                "(the bound has run 4-150x the actual error; raise max_points or narrow the box to lower it)")
+                "(the bound has run 3-65x the actual error; raise max_points or narrow the box to lower it)")
     return (f"the Krylov reduced model did not meet its tolerance {tol:.2g} °C: estimated error "
             f"{estimate:.2g} °C ({why}); an estimate, not a bound")
 
