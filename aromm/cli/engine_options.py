@@ -1,5 +1,5 @@
 """``--engine scipy|petsc`` on the commands that assemble and solve (simulate, homogenize, reduce, measure,
-identify).
+identify), and ``--discretisation q1|fv`` on those and ``rev`` (it replaces the scene's ``[model] discretisation``).
 
 With ``--engine petsc`` the command runs under ``mpiexec -n P`` (PETSc/SLEPc, aromm.engines.petsc): every
 rank executes it, reads its box of the image (:func:`aromm.engines.petsc.problem.load_problem`), and
@@ -18,6 +18,7 @@ from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, refine_scene
 from aromm.core.errors import InputError
 from aromm.engines import ENGINES, PETSC_SOLVERS, check_engine, check_solver
 from aromm.linalg.direct import METHODS
+from aromm.scene.model_section import DISCRETISATIONS
 from aromm.scene.scene_file import Scene, load_scene
 
 ENGINE = click.option("--engine", type=click.Choice(ENGINES), default="scipy", show_default=True,
@@ -29,6 +30,24 @@ SOLVER = click.option("--solver", type=click.Choice((*METHODS, *PETSC_SOLVERS)),
                            "cholmod; petsc engine: gamg (CG + algebraic multigrid), mumps (Cholesky).")
 
 
+
+def _remember(ctx: click.Context, _param: click.Parameter, value: str | None) -> str | None:
+    ctx.meta["aromm.discretisation"] = value
+    return value
+
+
+DISCRETISATION = click.option(
+    "--discretisation", type=click.Choice(DISCRETISATIONS), default=None, expose_value=False, callback=_remember,
+    help="q1: trilinear elements (the papers' method); fv: cell-centred finite volumes with harmonic-mean face "
+         "conductances (taufactor, PuMA), which allow k = 0. Default: the scene's [model] discretisation, else q1.")
+
+
+def discretisation() -> str | None:
+    """The ``--discretisation`` of the running command (None: the scene's own)."""
+    ctx = click.get_current_context(silent=True)
+    return ctx.meta.get("aromm.discretisation") if ctx is not None else None
+
+
 def resolve(engine: str, solver: str) -> str:
     """Checks the engine (installed?) and that the solver belongs to it; returns the solver."""
     return check_solver(check_engine(engine), solver, METHODS)
@@ -38,13 +57,15 @@ def load(path: Path, engine: str, refine: int = 1, bytes_per_voxel: float = DIRE
     """The scene for ``engine``: a Scene (refined ``refine`` times, memory checked at ``bytes_per_voxel``), or for
     petsc a VoxelProblem whose image each rank reads by boxes."""
     if engine == "petsc":
+        if discretisation() not in (None, "q1"):
+            raise InputError("--discretisation fv runs on the scipy engine; the petsc engine assembles q1 elements")
         if refine != 1:
             raise InputError("--refine works with the scipy engine; with --engine petsc refine the image file")
         from aromm.engines.petsc import runtime
         from aromm.engines.petsc.problem import load_problem
 
         return load_problem(path, runtime.world())
-    return refine_scene(load_scene(path), refine, bytes_per_voxel)
+    return refine_scene(load_scene(path, discretisation()), refine, bytes_per_voxel)
 
 
 def outline(source: Any) -> Scene:

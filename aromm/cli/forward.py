@@ -127,6 +127,7 @@ def _bound_line(bound: Mapping[str, object]) -> str:
               help="Time stepping of the full model: BDF2 (second order) or backward Euler.")
 @engine_cli.SOLVER
 @engine_cli.ENGINE
+@engine_cli.DISCRETISATION
 @REFINE
 @JSON
 @FORCE
@@ -190,6 +191,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
               show_default=True, help="Relative residual ‖b − A x‖/‖b‖ every solve must reach (scipy engine).")
 @KTOL
 @engine_cli.ENGINE
+@engine_cli.DISCRETISATION
 @REFINE
 @JSON
 def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, ktol: float | None, engine: str,
@@ -242,6 +244,7 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
 @click.option("--out", type=click.Path(path_type=Path), required=True, help="CSV file t,<face>,...")
 @engine_cli.SOLVER
 @engine_cli.ENGINE
+@engine_cli.DISCRETISATION
 @JSON
 @FORCE
 def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: float, seed: int, perturb: float,

@@ -182,6 +182,7 @@ def _posterior_table(post: Posterior) -> str:
 @click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
               help="Reduced-model order ñ (with --model reduced).")
 @engine_cli.ENGINE
+@engine_cli.DISCRETISATION
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the particle swarm.")
 @click.option("--particles", type=click.IntRange(min=2), default=DEFAULT_PARTICLES, show_default=True,
               help="Swarm size of the particle swarm [ClercKennedy2002].")

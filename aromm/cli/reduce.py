@@ -39,6 +39,7 @@ from aromm.reduction.offline import METHODS as REDUCTIONS
                    "preconditioner (memory: the basis plus the preconditioner); auto picks by size. With "
                    "--engine petsc: SLEPc shift-invert, or Generalized Davidson + GAMG.")
 @engine_cli.ENGINE
+@engine_cli.DISCRETISATION
 @click.option("--cache-dir", type=click.Path(path_type=Path), default=None,
               help="Cache folder (default $AROMM_CACHE_DIR, else ~/.cache/aromm).")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the cache.")

@@ -8,6 +8,7 @@ import click
 
 from aromm.cli.checks import scene_inputs
 from aromm.cli.common import FORCE, FiniteFloat, echo_json, write_extras
+from aromm.cli.engine_options import DISCRETISATION, discretisation
 from aromm.cli.forward import JSON, KTOL, SCENE
 from aromm.core.errors import InputError
 from aromm.homogenization.representative import DEFAULT_TOLERANCE, rev, save_rev_plot
@@ -77,6 +78,7 @@ def _edges(text: str | None) -> list[int] | None:
               help="Write the REV curve (k̄ against the sub-volume edge) to FILE (format from the suffix).")
 @FORCE
 @JSON
+@DISCRETISATION
 def rev_cmd(scene: Path, *, edges: str | None, positions: int, tolerance: float, solver: str, rtol: float,
             ktol: float | None, boundaries: bool, plot: Path | None, force: bool, as_json: bool) -> None:
     """Representative-volume study of SCENE's image: apparent k̄ (and c̄) of sub-volumes of growing edge at several
@@ -89,7 +91,7 @@ def rev_cmd(scene: Path, *, edges: str | None, positions: int, tolerance: float,
     chosen = _edges(edges)
     if plot is not None:
         check_plot(plot, inputs=scene_inputs(scene), force=force)
-    sc = load_scene(scene)
+    sc = load_scene(scene, discretisation())
     study = rev(sc, chosen, positions=positions, tolerance=tolerance, method=solver, rtol=rtol, ktol=ktol,
                 boundaries=boundaries)
     if as_json:

@@ -277,6 +277,20 @@ def check_phases(phases: Sequence[PhaseSpec], labels_present: Mapping[int, objec
         raise InputError(f"image labels {sorted(missing)} belong to no phase; phases cover {sorted(known)}")
 
 
+def insulating(phase: PhaseSpec) -> bool:
+    """A phase that conducts no heat: a scalar ``k = 0`` (finite volumes only, :mod:`aromm.fv`)."""
+    return phase.tensor is None and not isinstance(phase.k, tuple) and phase.k == 0.0
+
+
+def check_image(labels: np.ndarray, voxel_size: Sequence[float], phases: Sequence[PhaseSpec]) -> None:
+    """Refuse an image that is not 3-D, voxel sizes that are not three positive lengths, labels of no phase."""
+    if labels.ndim != 3:
+        raise InputError(f"the image must be 3-D, got shape {labels.shape}")
+    if len(voxel_size) != 3 or not all(np.isfinite(v) and v > 0 for v in voxel_size):
+        raise InputError(f"voxel_size must be three positive lengths in m, got {tuple(voxel_size)}")
+    check_phases(phases, set(np.unique(labels).tolist()))
+
+
 def singular_boundary(boundary: Sequence[FaceSpec], time: object | None) -> str | None:
     """Why a steady problem with these faces has no unique solution (``None`` when it has one).
 

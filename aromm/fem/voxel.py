@@ -27,21 +27,14 @@ from aromm.core.vocabulary import (
     FaceSpec,
     PhaseSpec,
     boundary_mass,
-    check_phases,
+    check_image,
     face_means,
     face_terms,
+    insulating,
     parameter_values,
     phase_terms,
 )
 from aromm.fem.voxel_grid import VoxelGrid
-
-
-def _check_inputs(labels: np.ndarray, voxel_size: Sequence[float], phases: Sequence[PhaseSpec]) -> None:
-    if labels.ndim != 3:
-        raise InputError(f"the image must be 3-D, got shape {labels.shape}")
-    if len(voxel_size) != 3 or not all(np.isfinite(v) and v > 0 for v in voxel_size):
-        raise InputError(f"voxel_size must be three positive lengths in m, got {tuple(voxel_size)}")
-    check_phases(phases, set(np.unique(labels).tolist()))
 
 
 def assemble_voxels(
@@ -70,7 +63,9 @@ def assemble_voxels(
     """
     labels = np.asarray(labels)
     voxel_size = tuple(float(v) for v in voxel_size)
-    _check_inputs(labels, voxel_size, phases)
+    check_image(labels, voxel_size, phases)
+    if cold := [ph.name for ph in phases if insulating(ph)]:
+        raise InputError(f"phase {cold[0]!r}: k = 0 (insulating) needs the finite volumes (discretisation fv)")
     shape = (int(labels.shape[0]), int(labels.shape[1]), int(labels.shape[2]))
     flat = labels.ravel(order="C")
     phase = np.full(flat.size, -1, dtype=np.int64)

@@ -5,8 +5,10 @@ the reduced models' certified bounds, tests/test_certificate.py and benchmarks/c
 closed form between consecutive load breakpoints and output times (loads piecewise linear in time,
 :mod:`aromm.core.profiles`), from ``T(0) = initial.T + Σ c_i v_i`` with the outputs ``y = E T + Σ c_j g_j(t) d_j``
 (the ``initial`` and ``feedthrough`` groups of a lifted system).  Fixed temperatures are refused: lift them first
-(:func:`aromm.reduction.lifting.lift` reproduces the original outputs exactly).  Cost O(n³): a few thousand
-unknowns at most.
+(:func:`aromm.reduction.lifting.lift` reproduces the original outputs exactly).  Massless unknowns (zero rows of C:
+the face unknowns of the finite volumes, :mod:`aromm.fv`) are condensed exactly, ``T_m = K_mm⁻¹ (F_m − K_ms T_s)``,
+which leaves ``C_ss Ṫ_s + (K_ss − K_sm K_mm⁻¹ K_ms) T_s = F_s − K_sm K_mm⁻¹ F_m`` and adds the instantaneous
+``E_m K_mm⁻¹ F_m(t)`` to the outputs.  Cost O(n³): a few thousand unknowns at most.
 """
 
 from __future__ import annotations
@@ -40,20 +42,31 @@ def exact_outputs(system: ThermalSystem, values: Mapping[str, float], times: Flo
                          f"{MAX_UNKNOWNS} unknowns (got {system.n}, {len(system.dirichlet)} fixed faces)")
     v = system.values(dict(values))
     k, c = dense(system.conductance.evaluate(v)), dense(system.capacity.evaluate(v))
-    lam, w = sla.eigh(k, c)
-    lam = np.maximum(lam, 0.0)
     _, e = system.observation_matrix()
     e = dense(e)
+    massless = ~np.any(c != 0.0, axis=1)
+    m, s = np.flatnonzero(massless), np.flatnonzero(~massless)
+    rhs = np.hstack([k[np.ix_(m, s)], np.eye(m.size)])
+    solve_m = np.linalg.solve(k[np.ix_(m, m)], rhs) if m.size else rhs
+    condense, inject = solve_m[:, : s.size], solve_m[:, s.size:]  # K_mm⁻¹ K_ms, K_mm⁻¹
+    k_s = k[np.ix_(s, s)] - k[np.ix_(s, m)] @ condense
+    lam, w = sla.eigh(k_s, c[np.ix_(s, s)])
+    lam = np.maximum(lam, 0.0)
+    e_s = e[:, s] - e[:, m] @ condense
+
+    def full_load(t: float) -> FloatArray:
+        return np.asarray(system.load.evaluate(v, at=t), dtype=float).ravel()
 
     def load(t: float) -> FloatArray:
-        return np.asarray(system.load.evaluate(v, at=t), dtype=float).ravel()
+        f = full_load(t)
+        return f[s] - k[np.ix_(s, m)] @ (inject @ f[m])
 
     breaks = {float(b) for term in system.load.terms if term.time is not None for b in term.time.times}
     cuts = sorted({0.0, *np.asarray(times, dtype=float).tolist(), *(b for b in breaks if 0 < b < max(times))})
     start = np.full(system.n, float(v["initial.T"]))  # type: ignore[arg-type]
     if system.initial:
         start = start + np.asarray(system.initial.evaluate(v), dtype=float).ravel()
-    y = w.T @ c @ start
+    y = w.T @ c[np.ix_(s, s)] @ start[s]
     out = {}
     for t0, t1 in itertools.pairwise(cuts):
         tau = t1 - t0
@@ -65,7 +78,7 @@ def exact_outputs(system: ThermalSystem, values: Mapping[str, float], times: Flo
         phi1 = np.where(small, tau, (1 - decay) / safe)  # ∫₀^τ e^{−λ(τ−σ)} dσ
         phi2 = np.where(small, tau ** 2 / 2, (tau - phi1) / safe)  # ∫₀^τ e^{−λ(τ−σ)} σ dσ
         y = decay * y + a * phi1 + b * phi2
-        out[t1] = e @ (w @ y)
+        out[t1] = e_s @ (w @ y) + e[:, m] @ (inject @ full_load(t1)[m])
     direct = [np.asarray(system.feedthrough.evaluate(v, at=float(t)), dtype=float).ravel() if system.feedthrough
               else 0.0 for t in times]
     return np.stack([out[float(t)] + d for t, d in zip(times, direct, strict=True)])

@@ -42,6 +42,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from aromm.homogenization.accuracy import arithmetic_bound, harmonic_bound, periodic_energy_tolerances
 from aromm.homogenization.anisotropic_cells import anisotropic, assembled_cell
+from aromm.homogenization.fv_cells import fv_cell
 from aromm.linalg.direct import DEFAULT_RTOL, METHODS, check_residual, factorize, resolve_method
 from aromm.linalg.multigrid.hierarchy import CoarseLevel, assembled_matrix
 from aromm.linalg.multigrid.operator import VoxelOperator
@@ -112,6 +113,9 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
         raise InputError(f"unknown homogenisation boundary {boundary!r}; allowed: {', '.join(BOUNDARIES)}")
     if ktol is not None and not 0 < ktol < 1:
         raise InputError(f"homogenisation: ktol (relative error of k) must lie in (0, 1), got {ktol:g}")
+    if scene.discretisation == "fv":  # ktol: the finite-volume solves are direct, or AMG to rtol
+        k, fv_name, cpus, walls = fv_cell(scene, boundary, method, rtol, MG_CROSSOVER_VOXELS)
+        return CellResult(k, boundary, fv_name, cpu_seconds=cpus, wall_seconds=walls)
     name = resolve_solver(method, int(np.asarray(_image(scene).labels).size))
     if anisotropic(scene):  # full or per-voxel tensors: the assembled operator (aromm.homogenization.anisotropic_cells)
         name = "amg" if name == "mg" else name

@@ -9,7 +9,8 @@ solvers (the engines agree to 1e-8 °C and better: docs/scaling.md), so none of 
 
 ``physics`` is :func:`physics_key`: the image by a digest that does not depend on how it is cut into boxes
 (:mod:`aromm.microstructure.digest`), the voxel size, phases, face conditions, initial temperature, time grid,
-outputs and sensors, every number as a plain Python value (the same text under numpy 1 and 2).  The values of
+outputs and sensors, the discretisation (q1 or fv), every number as a plain Python value (the same text under
+numpy 1 and 2).  The values of
 the parameters of the training box (the Krylov reduction's ``bounds``) are left out (:func:`masked`): the model is
 trained over the box, so one model serves every value in it, and the loaded model takes the scene's own values
 (:meth:`~aromm.reduction.rom.ReducedModel.with_parameters`); every value outside the box is in the key.
@@ -38,7 +39,8 @@ from aromm.microstructure.digest import label_digest
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
 
-_VERSION = 3  # 2: box values masked, pinned values and time grid in every key; 3: models carry a certificate
+_VERSION = 4  # 2: box values masked, pinned values and time grid in every key; 3: models carry a certificate;
+#  4: the discretisation (q1 or fv) in every voxel key
 #: What stands in a key for a value of the training box.
 BOXED = "in the training box"
 #: Options of ``aromm.reduce`` that say how the model is computed, not which model: left out of the key.
@@ -106,13 +108,13 @@ def masked(specs: Any, box: Collection[str]) -> Any:
 
 def physics_key(digest: str, *, shape: Sequence[int], voxel_size: Sequence[float], phases: Any, boundary: Any,
                 initial_T: float, time: Any, outputs: Sequence[str], sensors: Any = (),
-                box: Collection[str] = ()) -> str:
+                box: Collection[str] = (), discretisation: str = "q1") -> str:
     """Content hash of a voxel scene's physics; ``digest`` the image's (:mod:`aromm.microstructure.digest`); the
-    values of the parameters named in ``box`` left out (:func:`masked`)."""
+    values of the parameters named in ``box`` left out (:func:`masked`); ``discretisation`` q1 or fv."""
     initial = BOXED if "initial.T" in box else float(initial_T)
     return content_key("voxel physics", _VERSION, tuple(int(n) for n in shape), tuple(float(v) for v in voxel_size),
                        masked(phases, box), masked(boundary, box), initial, plain(time),
-                       tuple(str(o) for o in outputs), plain(sensors), digest)
+                       tuple(str(o) for o in outputs), plain(sensors), digest, str(discretisation))
 
 
 def scene_physics_key(scene: Scene, box: Collection[str] = ()) -> str | None:
@@ -123,7 +125,7 @@ def scene_physics_key(scene: Scene, box: Collection[str] = ()) -> str | None:
     return physics_key(label_digest(np.asarray(geometry.labels)), shape=geometry.shape,
                        voxel_size=geometry.voxel_size, phases=scene.phases, boundary=scene.boundary,
                        initial_T=scene.initial_T, time=scene.time, outputs=scene.outputs, sensors=scene.sensors,
-                       box=box)
+                       box=box, discretisation=scene.discretisation)
 
 
 def system_key(system: ThermalSystem, box: Sequence[tuple[str, float, float]], *parts: Any,

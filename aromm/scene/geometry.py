@@ -17,6 +17,7 @@ from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem.mesh import assemble_mesh
 from aromm.fem.voxel import assemble_voxels
+from aromm.fv.volumes import assemble_volumes
 
 #: Cell data of a mesh that tells the phases apart (gmsh physical groups).
 MESH_LABEL_KEY = "gmsh:physical"
@@ -57,10 +58,15 @@ class VoxelGeometry:
 
     def assemble(self, phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], *,
                  interfaces: Mapping[tuple[str, str], float], time: TimeGrid | None, initial_T: float,
-                 outputs: Sequence[str], where: str = "", matrix_free: bool = False) -> ThermalSystem:
+                 outputs: Sequence[str], where: str = "", matrix_free: bool = False,
+                 discretisation: str = "q1") -> ThermalSystem:
+        """Q1 elements (``matrix_free``: their terms as operators) or, ``discretisation="fv"``, finite volumes."""
         if interfaces:
             raise InputError(f"{where}[interfaces]: contact resistance needs a conforming mesh (geometry.mesh); "
                              "voxel images have no interface surface to put it on")
+        if discretisation == "fv":
+            return assemble_volumes(self.labels, self.voxel_size, phases, boundary, time=time, initial_T=initial_T,
+                                    outputs=outputs)
         return assemble_voxels(self.labels, self.voxel_size, phases, boundary, time=time, initial_T=initial_T,
                                outputs=outputs, matrix_free=matrix_free)
 

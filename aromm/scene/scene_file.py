@@ -28,11 +28,13 @@ from aromm.microstructure.generators import GENERATORS
 from aromm.microstructure.segmentation import SegmentationReport, prepare_image
 from aromm.scene.contact_resistances import parse_interfaces
 from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
+from aromm.scene.model_section import parse_model, with_discretisation
 from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.scene.toml import TableReader, where
 
-SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction")
+SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction",
+            "model")
 PHASE_KEYS = ("label", "k", "c", *FIBRE_KEYS)
 FACE_KEYS = ("flux", "h", "T_ext", "T")
 IMAGE_KEYS = ("image", "voxel_size", "shape", "dtype", "segment", "crop", "downsample")
@@ -56,6 +58,7 @@ class Scene:
     reduction: ReductionSettings = field(default_factory=ReductionSettings)
     sensors: tuple[Sensor, ...] = ()
     segmentation: SegmentationReport | None = None  # a grey image's (aromm.microstructure.segmentation)
+    discretisation: str = "q1"  # of a voxel image: "q1" elements or "fv" finite volumes (aromm.scene.model_section)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -129,25 +132,30 @@ def assemble(scene: Scene, matrix_free: bool = False) -> ThermalSystem:
     singular = singular_boundary(scene.boundary, scene.time)
     if singular:
         raise InputError(f"{scene.where}{singular}")
-    free = {"matrix_free": True} if matrix_free and isinstance(scene.geometry, VoxelGeometry) else {}
+    if scene.discretisation != "q1" and scene.sensors:
+        raise InputError(f"{scene.where}outputs: point sensors sit on the q1 nodes; with discretisation fv use face "
+                         "means")
+    voxels: dict[str, Any] = {"matrix_free": matrix_free, "discretisation": scene.discretisation}
     system = scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
-                                     initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where, **free)
+                                     initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where,
+                                     **(voxels if isinstance(scene.geometry, VoxelGeometry) else {}))
     if not scene.sensors:
         return system
     rows = sensor_rows(scene.sensors, scene.geometry, system, scene.where)
     return replace(system, observation={**system.observation, **rows})
 
 
-def load_scene(path: str | Path) -> Scene:
+def load_scene(path: str | Path, discretisation: str | None = None) -> Scene:
     """Read and validate a TOML scene file (docs/design.md).
 
     Paths inside the file are relative to the file.  Refused with :class:`InputError`:
     unknown sections, keys or faces; missing or unreadable images; phase labels absent
     from the image or image labels with no phase; non-positive or non-finite k or c;
     a face given two conditions; ``dt <= 0`` or ``end < dt``; non-3-D images; bad voxel_size.
+    ``discretisation`` (``--discretisation``) replaces the file's ``[model] discretisation``.
     """
     path = Path(path)
-    return scene_from_dict(read_toml(path), path)
+    return scene_from_dict(with_discretisation(read_toml(path), discretisation), path)
 
 
 def scene_files(path: str | Path) -> tuple[Path, ...]:
@@ -215,7 +223,8 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
     reduction = parse_reduction(r, data, allowed)
-    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report)
+    return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report,
+                 parse_model(r, data, geometry, phases))
 
 
 def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
@@ -338,8 +347,8 @@ def _phases(r: TableReader, data: Mapping[str, Any], present: set[int]) -> tuple
                 raise r.fail(f"{key}.k", "orthotropic k must be [kx, ky, kz]")
             kx, ky, kz = (r.number(v, f"{key}.k", positive=True) for v in k_raw)
             k = (kx, ky, kz)
-        else:
-            k = r.number(k_raw, f"{key}.k", positive=True)
+        elif (k := r.number(k_raw, f"{key}.k")) < 0:
+            raise r.fail(f"{key}.k", f"must be >= 0 (0: an insulating phase, with discretisation fv), got {k_raw!r}")
         c = r.number(spec["c"], f"{key}.c", positive=True) if "c" in spec else None
         q = None
         if name in sources:

@@ -138,6 +138,9 @@ def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     present = sorted(runtime.union(image.labels_present(box_layout(image.shape, comm).box), comm))
     stand_in = np.asarray(present, dtype=np.int32).reshape(-1, 1, 1)
     scene = scene_from_dict(data, path, image=(stand_in, image.voxel_size))
+    if scene.discretisation != "q1":
+        raise InputError(f"{path}: model.discretisation: the petsc engine assembles q1 elements only; run "
+                         f"{scene.discretisation} with --engine scipy")
     geometry = scene.geometry
     assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
     return VoxelProblem(image, geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,

@@ -1,0 +1,1 @@
+"""Cell-centred finite volumes on voxel images (two-point fluxes, harmonic-mean face conductances)."""

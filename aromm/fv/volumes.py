@@ -1,0 +1,143 @@
+"""Assemble a voxel scene in cell-centred finite volumes (:mod:`aromm.fv.grid`) into a ThermalSystem.
+
+The same affine system as the Q1 elements of :mod:`aromm.fem.voxel` [Chavez2020, eq. 3], with the two-point terms::
+
+    K(p) = Σ_p k_p K_p + Σ_{p<q} (2 k_p k_q / (k_p + k_q)) K_pq + Σ_f h_f H_f,     C(p) = Σ_p c_p C_p,
+
+``K_p`` the links inside phase p and its half-links to the face unknowns, ``K_pq`` the links between p and q (named
+``K_p|q``, as the bonds of :mod:`aromm.dem.network`), ``C_p`` the voxel volumes (lumped: the face unknowns carry
+no capacity).  Face loads, exchanges, fixed temperatures and face means are those of :mod:`aromm.core.vocabulary`
+on the face unknowns.
+
+An insulating phase (``k = 0``, steady scenes only: a voxel that conducts nothing but stores heat would need its
+own history) carries no unknown.  In a steady scene the voxels that no conducting path joins to a face with a
+fixed temperature or an exchange are removed too (their temperature is undetermined), with one log line giving
+their volume fraction, as taufactor and PoreSpy do; a direction with no percolating path then carries no heat.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+import scipy.ndimage as ndi
+
+from aromm.core.errors import InputError
+from aromm.core.system import Affine, Coefficient, Term, ThermalSystem, TimeGrid
+from aromm.core.vocabulary import (
+    FACES,
+    FaceSpec,
+    PhaseSpec,
+    boundary_mass,
+    check_image,
+    face_means,
+    face_terms,
+    insulating,
+    parameter_values,
+    phase_terms,
+)
+from aromm.fv.grid import AXES, VolumeGrid, phase_index
+
+log = logging.getLogger(__name__)
+
+
+def connected(phase: npt.NDArray[np.int64], anchors: Sequence[str]) -> npt.NDArray[np.bool_]:
+    """The voxels with a phase (``phase >= 0``) that face neighbours join to a voxel on one of the box faces
+    ``anchors``.
+
+    >>> p = np.array([0, -1, 0, 0]).reshape(4, 1, 1)
+    >>> connected(p, ["x1"]).ravel().tolist()
+    [False, False, True, True]
+    """
+    components, _ = ndi.label(phase >= 0)  # the default structure: face neighbours, the two-point links
+    touching: set[int] = set()
+    for face in anchors:
+        axis, side = AXES.index(face[0]), (0 if face[1] == "0" else -1)
+        touching.update(np.unique(np.take(components, side, axis=axis)).tolist())
+    touching.discard(0)
+    return np.isin(components, sorted(touching))
+
+
+def _pruned(phase: npt.NDArray[np.int64], boundary: Sequence[FaceSpec]) -> npt.NDArray[np.int64]:
+    """``phase`` with the voxels of no path to a fixed-temperature or exchange face set to −1 (logged)."""
+    anchors = [f.face for f in boundary if f.T is not None or f.h is not None]
+    if not anchors:
+        return phase
+    keep = connected(phase, anchors)
+    removed = int(np.count_nonzero((phase >= 0) & ~keep))
+    if removed:
+        log.info("finite volumes: %d voxels (%.4g %% of the volume) have no conducting path to a face with a fixed "
+                 "temperature or an exchange (%s) and are left out", removed, 100.0 * removed / phase.size,
+                 ", ".join(anchors))
+    return np.where(keep, phase, -1)
+
+
+def _interface_terms(grid: VolumeGrid, phases: Sequence[PhaseSpec], present: Sequence[int]) -> list[Term]:
+    """The harmonic-mean links between every two phases that touch (axis by axis when either is orthotropic)."""
+    terms = []
+    for n, p in enumerate(present):
+        for q in present[n + 1:]:
+            a, b = phases[p], phases[q]
+            by_axis = a.orthotropic or b.orthotropic
+            for axis in AXES if by_axis else (None,):
+                op = grid.interface(p, q, axis)
+                if op is None:
+                    continue
+                names = tuple(f"{ph.name}.k_{axis}" if ph.orthotropic else f"{ph.name}.k" for ph in (a, b))
+                suffix = f"_{axis}" if axis else ""
+                terms.append(Term(f"K_{a.name}|{b.name}{suffix}", Coefficient(names, "harmonic"), op, "conduction"))
+    return terms
+
+
+def assemble_volumes(
+    labels: np.ndarray,
+    voxel_size: Sequence[float],
+    phases: Sequence[PhaseSpec],
+    boundary: Sequence[FaceSpec] = (),
+    *,
+    time: TimeGrid | None = None,
+    initial_T: float = 0.0,
+    outputs: Sequence[str] = (),
+) -> ThermalSystem:
+    """Assemble the voxel model in finite volumes into a :class:`ThermalSystem` with only the terms asked for.
+
+    >>> import numpy as np
+    >>> labels = np.array([0, 1]).reshape(2, 1, 1)
+    >>> phases = [PhaseSpec("a", 0, 1.0), PhaseSpec("b", 1, 3.0)]
+    >>> s = assemble_volumes(labels, (1.0,) * 3, phases, [FaceSpec("x0", T=1.0), FaceSpec("x1", T=0.0)])
+    >>> s.conductance.names
+    ('K_a', 'K_b', 'K_a|b')
+    """
+    labels = np.asarray(labels)
+    voxel = (float(voxel_size[0]), float(voxel_size[1]), float(voxel_size[2])) if len(voxel_size) == 3 else ()
+    check_image(labels, voxel_size, phases)
+    cold = [ph.name for ph in phases if insulating(ph)]
+    if cold and time is not None:
+        raise InputError(f"phase {cold[0]!r}: k = 0 (insulating) is for steady scenes (homogenize, rev, simulate "
+                         "without [time]); a transient needs every phase to conduct")
+    phase = phase_index(labels, [ph.label for ph in phases])
+    phase[np.isin(labels, [ph.label for ph in phases if insulating(ph)])] = -1  # no unknown in an insulator
+    if time is None:
+        phase = _pruned(phase, boundary)
+    faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
+    grid = VolumeGrid(phase, voxel, faces)  # type: ignore[arg-type]
+    present = sorted(set(np.unique(grid.cell_phase).tolist()))
+    if not present:
+        raise InputError("finite volumes: no voxel conducts heat to a face with a fixed temperature or an exchange "
+                         "(every phase insulating, or no percolating path)")
+    terms = (phase_terms(grid, phases, present, transient=time is not None) + _interface_terms(grid, phases, present))
+    faces_terms, dirichlet = face_terms(grid, boundary)
+    terms += faces_terms
+    return ThermalSystem(
+        n=grid.n,
+        conductance=Affine(tuple(t for t in terms if t.role in ("conduction", "exchange"))),
+        capacity=Affine(tuple(t for t in terms if t.role == "capacity")),
+        load=Affine(tuple(t for t in terms if t.role == "load")),
+        dirichlet=tuple(dirichlet),
+        observation=face_means(grid, outputs),
+        parameters=parameter_values([phases[i] for i in present], boundary, initial_T, time is not None),
+        time=time,
+        boundary=boundary_mass(grid),
+    )

@@ -1,0 +1,129 @@
+"""Homogenisation cell problems in cell-centred finite volumes (:mod:`aromm.fv`), the discretisation of taufactor,
+PuMA and OpenImpala.
+
+* ``temperature`` — T = 1 at face i0, T = 0 at face i1 (both half a cell from the voxel centres), the other faces
+  adiabatic: ``k_ii = Q L_i / (A_i ΔT)``, Q the heat flow through the fixed face (the reaction of the constraint).
+  The field's convention for k̄ and the tortuosity factor τ = φ k_phase / k̄ [Cooper2016].
+* ``flux`` — a uniform flux q into face i0, T = 0 at face i1 [Chavez2020, eq. 13]: ``k_ii = (Q / A_i) L_i /
+  (T̄_i0 − T̄_i1)`` with Q the heat that enters (q times the conducting part of the face).
+* ``periodic`` — ``T = G·x + T̃`` with T̃ periodic.  With D the link–cell incidence (the links of the periodic image,
+  wrapped across the box), W their harmonic-mean conductances (W/K) and s_j the jump of x_j along each link (d_j on
+  links along axis j, 0 on the others), T̃_j solves ``Dᵀ W D T̃_j = −Dᵀ W s_j`` and
+  ``k_ij |Ω| = (D T̃_i + s_i)ᵀ W (D T̃_j + s_j)``, the energy form (its algebraic error is quadratic in the solve's).
+  Each connected cluster's constant is pinned at one of its voxels.
+
+An insulating phase (``k = 0``) carries no unknown; a direction without a percolating path gives ``k = 0``.
+Solvers: the direct methods of :mod:`aromm.linalg.direct`, or ``amg`` (pyamg CG, to the relative residual ``rtol`` in
+the periodic problem, the default of :mod:`aromm.linalg.direct` in the others) — ``auto`` and ``mg`` take ``amg``
+from :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from aromm.core.system import FloatArray
+from aromm.core.vocabulary import FaceSpec, insulating
+from aromm.full.solve import reaction_heat_flow, steady_field
+from aromm.fv.grid import AXES, phase_index
+from aromm.fv.volumes import assemble_volumes, connected
+from aromm.linalg.direct import factorize, resolve_method
+from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene
+
+
+def fv_method(method: str, voxels: int, crossover: int) -> str:
+    """``auto`` or ``mg`` → ``amg`` from ``crossover`` voxels on (no geometric multigrid for the 7-point operator
+    yet), else the direct default; other names as :func:`aromm.linalg.direct.resolve_method` checks them."""
+    if method in ("auto", "mg"):
+        return "amg" if voxels >= crossover else resolve_method("auto")
+    return resolve_method(method)
+
+
+def _probe(scene: Scene, axis: int, boundary: str, method: str) -> float:
+    """k_ii under fixed temperatures (``temperature``) or a flux and a fixed temperature (``flux``)."""
+    image = scene.geometry
+    assert isinstance(image, VoxelGeometry)
+    name = AXES[axis]
+    hot = FaceSpec(f"{name}0", T=1.0) if boundary == "temperature" else FaceSpec(f"{name}0", flux=1.0)
+    faces = (hot, FaceSpec(f"{name}1", T=0.0))
+    conducting = np.isin(image.labels, [p.label for p in scene.phases if not insulating(p)])
+    if not connected(np.where(conducting, 0, -1), [f.face for f in faces if f.T is not None]).any():
+        return 0.0  # no conducting path reaches a fixed face: no heat flows
+    system = assemble_volumes(image.labels, image.voxel_size, scene.phases, faces, outputs=[f.face for f in faces])
+    field = steady_field(system, method=method)
+    size = image.size
+    area = float(np.prod(size)) / size[axis]
+    if boundary == "temperature":
+        return reaction_heat_flow(system, field, system.dirichlet[0].dofs) * size[axis] / area
+    entering = float(np.sum(system.load.evaluate(system.values())))
+    drop = float(system.observation[hot.face] @ field)  # the cold face is at 0
+    return entering / area * size[axis] / drop if entering else 0.0
+
+
+def _periodic(scene: Scene, method: str, rtol: float) -> FloatArray:
+    """The full tensor of the periodic cell problem (module docstring)."""
+    image = scene.geometry
+    assert isinstance(image, VoxelGeometry)
+    k_of = np.array([p.k if isinstance(p.k, tuple) else (p.k,) * 3 for p in scene.phases], dtype=float)
+    phase = phase_index(np.asarray(image.labels), [p.label for p in scene.phases])
+    cells = phase >= 0
+    index = np.full(phase.shape, -1, dtype=np.int64)
+    index[cells] = np.arange(int(cells.sum()))
+    rows, w, jumps = [], [], []
+    for axis in range(3):
+        a = index.ravel()
+        b = np.roll(index, -1, axis=axis).ravel()
+        ka = k_of[phase.ravel(), axis]
+        kb = k_of[np.roll(phase, -1, axis=axis).ravel(), axis]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            g = np.where(ka + kb > 0, 2.0 * ka * kb / (ka + kb), 0.0)
+        keep = (a >= 0) & (b >= 0) & (g > 0)
+        area = float(np.prod(image.voxel_size)) / image.voxel_size[axis]
+        rows.append(np.stack([a[keep], b[keep]]))
+        w.append(g[keep] * area / image.voxel_size[axis])
+        jump = np.zeros((3, int(keep.sum())))
+        jump[axis] = image.voxel_size[axis]
+        jumps.append(jump)
+    link = np.concatenate(rows, axis=1)
+    weights = np.concatenate(w)
+    s = np.concatenate(jumps, axis=1)
+    m, n = link.shape[1], int(cells.sum())
+    d = sp.csr_array(sp.coo_array((np.concatenate([-np.ones(m), np.ones(m)]),
+                                   (np.tile(np.arange(m), 2), np.concatenate([link[0], link[1]]))), shape=(m, n)))
+    a_full = sp.csr_array(d.T @ sp.diags_array(weights) @ d)
+    _, component = csgraph.connected_components(a_full, directed=False)
+    _, first = np.unique(component, return_index=True)
+    free = np.setdiff1d(np.arange(n), first)  # one pinned voxel per cluster
+    solver = factorize(a_full[free][:, free], method, rtol)
+    gradients = []
+    for j in range(3):
+        t = np.zeros(n)
+        t[free] = solver.solve(-(d.T @ (weights * s[j]))[free])
+        gradients.append(d @ t + s[j])
+    volume = float(np.prod(image.size))
+    return np.array([[gradients[i] @ (weights * gradients[j]) / volume for j in range(3)] for i in range(3)])
+
+
+def fv_cell(scene: Scene, boundary: str, method: str, rtol: float,
+            crossover: int) -> tuple[FloatArray, str, list[float], list[float]]:
+    """(k tensor W/(m K), solver, CPU s and wall s per solve) of the scene's image in finite volumes."""
+    image = scene.geometry
+    assert isinstance(image, VoxelGeometry)
+    name = fv_method(method, int(np.asarray(image.labels).size), crossover)
+    cpu, wall = time.process_time(), time.perf_counter()
+    if boundary == "periodic":
+        k = _periodic(scene, name, rtol)
+        return k, name, [time.process_time() - cpu], [time.perf_counter() - wall]
+    k = np.zeros((3, 3))
+    cpus, walls = [], []
+    for axis in range(3):
+        k[axis, axis] = _probe(scene, axis, boundary, name)
+        cpus.append(time.process_time() - cpu)
+        walls.append(time.perf_counter() - wall)
+        cpu, wall = time.process_time(), time.perf_counter()
+    return k, name, cpus, walls

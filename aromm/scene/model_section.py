@@ -1,0 +1,42 @@
+"""The ``[model]`` section of a scene: which discretisation turns the voxel image into a ThermalSystem.
+
+``discretisation = "q1"`` (the default, the trilinear elements of [Chavez2020], :mod:`aromm.fem.voxel`) or ``"fv"``
+(the cell-centred two-point finite volumes of taufactor and PuMA, :mod:`aromm.fv`); ``--discretisation`` on the
+command line overrides it.  A phase with ``k = 0`` (insulating) needs ``fv``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from aromm.core.vocabulary import PhaseSpec, insulating
+from aromm.scene.geometry import SceneGeometry, VoxelGeometry
+from aromm.scene.toml import TableReader
+
+DISCRETISATIONS = ("q1", "fv")
+
+
+def with_discretisation(data: Mapping[str, Any], discretisation: str | None) -> Mapping[str, Any]:
+    """The parsed scene ``data`` with ``[model] discretisation`` replaced (``None``: unchanged)."""
+    if discretisation is None:
+        return data
+    model = data.get("model", {})
+    return {**data, "model": {**(model if isinstance(model, dict) else {}), "discretisation": discretisation}}
+
+
+def parse_model(r: TableReader, data: Mapping[str, Any], geometry: SceneGeometry,
+                phases: Sequence[PhaseSpec]) -> str:
+    """The scene's discretisation, checked against its geometry and phases."""
+    model = r.table(data, "model", ("discretisation",))
+    name = model.get("discretisation", "q1")
+    if name not in DISCRETISATIONS:
+        raise r.fail("model.discretisation", f"unknown discretisation {name!r}; allowed: q1 (trilinear elements, "
+                                             "the default), fv (cell-centred finite volumes)")
+    if name == "fv" and not isinstance(geometry, VoxelGeometry):
+        raise r.fail("model.discretisation", "fv discretises a voxel image; a mesh scene keeps its elements (q1)")
+    cold = [ph.name for ph in phases if insulating(ph)]
+    if cold and name != "fv":
+        raise r.fail(f"phases.{cold[0]}.k", 'k = 0 (an insulating phase) needs the finite volumes: [model] '
+                                            'discretisation = "fv", or --discretisation fv')
+    return str(name)
