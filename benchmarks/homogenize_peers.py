@@ -27,7 +27,11 @@ Tables:
    layers normal to z, k 1 / 10; exact arithmetic and harmonic means), Gaussian-filtered random medium
    (σ = 2 voxels, periodic filter, 40 % of phase k = 0.3 W/(m K) in k = 0.025, 100³ and 200³).  aromm
    ``mg`` with periodic (full tensor) and fixed-temperature faces (taufactor's own condition), both at
-   ``ktol``; taufactor's MultiPhaseSolver on the CPU along x (its default convergence).  Seconds per
+   ``ktol``; aromm's finite volumes (``fv``, aromm.fv: taufactor's discretisation) with fixed temperatures, pyamg CG
+   to the residual rtol 1e-8; taufactor's MultiPhaseSolver on the CPU along x (its default convergence).  Also
+   ``pores`` (the random medium's 40 % phase conducting through an insulating solid, k = 0: fv and taufactor's
+   Solver only) and ``wood`` (the shipped 46³ VER).  Under each case: k_xx of fv against taufactor, and of q1 against
+   fv (the same voxels and faces: the discretisation's share).  Seconds per
    direction (a third of aromm's total): its three periodic directions share one multigrid set-up, its three
    fixed-temperature directions one Galerkin hierarchy (constrained per axis; CoarseLevel.with_fixed).
 2. crossover (``--crossover``) — periodic tensor of the random medium, n = 16 … 80: CHOLMOD (nested
@@ -62,7 +66,14 @@ K_GAS, K_FIBRE = 0.025, 0.3
 
 
 def image(case: str, n: int) -> tuple[np.ndarray, tuple[float, float], dict[str, float]]:
-    """Labels (x, y, z) with phase 1 the conductive one, the two conductivities, and the exact values."""
+    """Labels (x, y, z) with phase 1 the conductive one, the two conductivities, and the exact values.
+
+    ``pores``: the random medium's 40 % phase conducts (k = 1) through an insulating solid (k = 0: finite volumes and
+    taufactor only); ``wood``: the shipped 46³ VER (data/wood_ver.npz, fibre 0.3 in gas 0.025; ``n`` ignored)."""
+    if case == "wood":
+        with np.load(os.path.join(os.path.dirname(__file__), "..", "data", "wood_ver.npz")) as data:
+            labels = np.asarray(data[data.files[0]]).astype(np.uint8)
+        return labels, (K_GAS, K_FIBRE), {}
     if case == "sphere":
         c = (np.arange(n) + 0.5) / n - 0.5
         x, y, z = np.meshgrid(c, c, c, indexing="ij")
@@ -74,7 +85,7 @@ def image(case: str, n: int) -> tuple[np.ndarray, tuple[float, float], dict[str,
     import scipy.ndimage as ndi
 
     field = ndi.gaussian_filter(np.random.default_rng(0).standard_normal((n, n, n)), 2.0, mode="wrap")
-    return (field > np.quantile(field, 0.6)).astype(np.uint8), (K_GAS, K_FIBRE), {}
+    return (field > np.quantile(field, 0.6)).astype(np.uint8), (0.0, 1.0) if case == "pores" else (K_GAS, K_FIBRE), {}
 
 
 #: libraries aromm's solvers import on first use (the coarsest grid's CHOLMOD, pyamg): imported before the clock
@@ -95,17 +106,18 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
         torch.set_num_threads(threads)
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         cpu, wall = time.process_time(), time.perf_counter()
-        solver = taufactor.MultiPhaseSolver(labels + 1, cond={1: k0, 2: k1}, device="cpu")
+        solver = (taufactor.Solver(labels, device="cpu") if k0 == 0.0 else  # D_eff relative to the conducting phase
+                  taufactor.MultiPhaseSolver(labels + 1, cond={1: k0, 2: k1}, device="cpu"))
         solver.solve(verbose=False)
         k = np.full((3, 3), np.nan)
-        k[0, 0] = float(np.ravel(solver.D_eff)[0])
+        k[0, 0] = float(np.ravel(solver.D_eff)[0]) * (k1 if k0 == 0.0 else 1.0)
         out = {"k": k.tolist(), "cpu_per_direction": time.process_time() - cpu,
                "wall_per_direction": time.perf_counter() - wall, "iterations": [solver.iter],
                "threads": torch.get_num_threads()}
         if spec.get("reference"):  # untimed: the same SOR continued to a 100× tighter flux spread
             solver.converged = False
             solver.solve(verbose=False, conv_crit=TAUFACTOR_REFERENCE, iter_limit=200_000)
-            out["reference_xx"] = float(np.ravel(solver.D_eff)[0])
+            out["reference_xx"] = float(np.ravel(solver.D_eff)[0]) * (k1 if k0 == 0.0 else 1.0)
     else:
         from threadpoolctl import threadpool_info, threadpool_limits
 
@@ -114,8 +126,10 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
         from aromm.scene.geometry import VoxelGeometry
         from aromm.scene.scene_file import Scene
 
-        scene = Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)))
         method, boundary = tool.split("-")
+        scene = Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)),
+                      discretisation="fv" if method == "fv" else "q1")
+        method = "auto" if method == "fv" else method  # fv: pyamg CG from 20³ voxels (aromm.homogenization.fv_cells)
         for backend in LAZY_IMPORTS.get(method, ()):  # before the clock, as taufactor's torch is
             importlib.import_module(backend)
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
@@ -175,10 +189,17 @@ def ratios(results: dict[str, dict[str, object]]) -> str:
         return ""
     parts = [f"{float(peer['cpu_per_direction']) / float(res['cpu_per_direction']):.2f} vs {tool}"  # type: ignore[arg-type]
              for tool, res in results.items() if tool != "taufactor" and "cpu_per_direction" in res]
-    return "  CPU s/dir taufactor / aromm: " + ", ".join(parts)
+    line = "  CPU s/dir taufactor / aromm: " + ", ".join(parts)
+    fv, q1 = results.get("fv-temperature", {}), results.get("mg-temperature", {})
+    if "k" in fv and "k" in peer:
+        line += f"\n  k_xx fv / taufactor − 1: {(fv['k'][0][0] / peer['k'][0][0] - 1) * 100:+.3f} %"  # type: ignore[index]
+    if "k" in fv and "k" in q1:
+        line += f"; q1 / fv − 1: {(q1['k'][0][0] / fv['k'][0][0] - 1) * 100:+.3f} % (same faces, same voxels)"  # type: ignore[index]
+    return line
 
 
-PEER_CASES = ("sphere:40", "sphere:80", "laminate:64", "random:100", "random:200")
+PEER_CASES = ("sphere:40", "sphere:80", "laminate:64", "random:100", "random:200", "pores:100", "wood:46")
+CASES = ("sphere", "laminate", "random", "pores", "wood")
 QUICK_CASES = ("sphere:40", "laminate:32", "random:64")
 
 
@@ -191,7 +212,9 @@ def peers(cases: list[str], threads: int, ktol: float | None, reference: bool) -
     for case_size in cases:
         case, n = case_size.split(":")
         results = {}
-        for tool in ("mg-periodic", "mg-temperature", "taufactor"):
+        tools = ("fv-temperature", "taufactor") if case == "pores" else \
+            ("mg-periodic", "mg-temperature", "fv-temperature", "taufactor")
+        for tool in tools:
             spec: dict[str, object] = {"tool": tool, "case": case, "n": int(n), "threads": threads, "ktol": ktol,
                                        "reference": reference}
             results[tool] = run(spec)
@@ -237,7 +260,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1,
                         help="threads of every tool, set in each fresh process (default 1: like for like)")
     parser.add_argument("--cases", nargs="+", metavar="CASE:N",
-                        help=f"peer cases to run (default {' '.join(PEER_CASES)}; cases sphere, laminate, random)")
+                        help=f"peer cases to run (default {' '.join(PEER_CASES)}; cases {', '.join(CASES)})")
     args = parser.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
@@ -247,8 +270,8 @@ def main() -> None:
     cases = args.cases or list(QUICK_CASES if args.quick else PEER_CASES)
     for case_size in cases:
         case, _, n = case_size.partition(":")
-        if case not in ("sphere", "laminate", "random") or not n.isdigit() or int(n) < 2:
-            parser.error(f"--cases takes CASE:N with CASE sphere, laminate or random and N ≥ 2, got {case_size!r}")
+        if case not in CASES or not n.isdigit() or int(n) < 2:
+            parser.error(f"--cases takes CASE:N with CASE among {', '.join(CASES)} and N ≥ 2, got {case_size!r}")
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, {os.cpu_count()} CPUs, {args.threads} "
           f"thread(s) per tool, load {os.getloadavg()[0]:.1f} (shared machine: CPU seconds are the robust figure)")
     if not args.no_peers:

@@ -136,7 +136,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                data_notes: Sequence[str] = (), scales: FloatArray | None = None,
                positive: Sequence[bool] | None = None, model_error: float = 0.0,
                model_rise: FloatArray | None = None, output_error: float = 0.0,
-               output_error_certified: bool = False) -> Uncertainty:
+               output_error_certified: bool = False, biases: Mapping[str, FloatArray] | None = None) -> Uncertainty:
     """Uncertainty from ``sensitivity`` X = ∂Ŷ/∂β (N, p) and ``residuals`` Y − Ŷ (N,) at the optimum.
 
     ``blocks`` are index arrays (n_times, n_faces) into the rows of X and r, one per independent
@@ -159,8 +159,9 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     :func:`model_error_std` in quadrature to the standard errors; ``error_sources`` says what the interval includes.
     ``output_error`` (°C) bounds a bias of every model output (a reduced model's error against its full model): its
     worst-case shift of the estimates, :func:`bias_shift`, is added to the half-widths linearly (a bias does not
-    average out); ``output_error_certified``: it is a certified bound, not an estimate.  ``budget`` gives each
-    source's 95 % half-width; the interval (``lower``, ``upper``) is the total.
+    average out); ``output_error_certified``: it is a certified bound, not an estimate.  ``biases`` are further
+    bounded shifts of the estimates by source (:data:`BIAS_SOURCES`, e.g. ``"discretisation"``), added linearly too.
+    ``budget`` gives each source's 95 % half-width; the interval (``lower``, ``upper``) is the total.
     """
     names = tuple(names)
     beta = np.asarray(estimates, dtype=float)
@@ -240,13 +241,17 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
         warnings.warn(msg, ResidualWarning, stacklevel=2)
     se_model = model_error_std(x, model_error, model_rise) if model_error else np.zeros(p)
     total = np.sqrt(se**2 + se_model**2)
-    bias = bias_shift(x, output_error) if output_error else np.zeros(p)
+    bias = bias_shift(scaled, output_error) * unit if output_error else np.zeros(p)
+    extra = {source: np.asarray(shift, dtype=float) for source, shift in (biases or {}).items()}
+    unknown = sorted(set(extra) - set(BIAS_SOURCES))
+    if unknown:
+        raise InputError(f"biases: unknown source {unknown[0]!r}; allowed: {', '.join(BIAS_SOURCES)}")
     budget = {"measurement noise": t_q * se, **({"stated model error": t_q * se_model} if model_error else {}),
-              **({"reduced model": bias} if output_error else {})}
+              **({"reduced model": bias} if output_error else {}), **extra}
     pos = np.zeros(p, dtype=bool) if positive is None else np.asarray(positive, dtype=bool) & (beta > 0)
     lower, upper = domain_interval(beta, budget_total(budget), pos)
     lower_hac, upper_hac = domain_interval(
-        beta, float(st.norm.ppf(0.5 + level / 2)) * np.sqrt(se_hac**2 + se_model**2) + bias, pos)
+        beta, float(st.norm.ppf(0.5 + level / 2)) * np.sqrt(se_hac**2 + se_model**2) + bias + sum(extra.values()), pos)
     sources = ["measurement noise (residual variance s²)"]
     if np.any(np.isfinite(se_hac)):
         sources.append("correlated residuals (the HAC interval only)")
@@ -257,14 +262,18 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
             "estimated output error", "an estimate, not a bound")
         sources.append(f"the reduced model's {kind[0]} {output_error:.2g} °C (its worst-case shift, added linearly; "
                        f"{kind[1]})")
+    sources.extend(BIAS_SOURCES[source] for source in extra)
     return Uncertainty(names, beta, total, lower, upper, corr, math.sqrt(s2), dof, condition,
                        (*notes, *residual_notes), se_hac, lower_hac, upper_hac, window, diagnostics,
                        noise_std, noise_p, se_model, tuple(bool(v) for v in pos), tuple(sources), float(model_error),
                        budget)
 
 
+#: Further bias sources of :func:`linearised` and what the interval then says of them.
+BIAS_SOURCES = {"discretisation": "the discretisation (the shift of the estimates to the other discretisation's, q1 "
+                                  "↔ fv, which bracket the voxel geometry's; added linearly)"}
 #: Sources of the budget that are biases (bounded, not random): added linearly, the others in quadrature.
-BIASES = frozenset({"reduced model"})
+BIASES = frozenset({"reduced model", *BIAS_SOURCES})
 
 
 def budget_total(budget: Mapping[str, FloatArray]) -> FloatArray:

@@ -20,7 +20,8 @@ from aromm.core.errors import InputError
 from aromm.core.files import Input, check_folder
 from aromm.core.labchecks import PLAUSIBLE, kelvin_suspect
 from aromm.core.labcsv import read_lab_csv
-from aromm.core.vocabulary import is_positive
+from aromm.core.vocabulary import insulating, is_positive
+from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene, scene_files
 from aromm.scene.sensors import output_names
 from inverse.identification import bounds_problem
@@ -156,3 +157,18 @@ def cache_folder(directory: Path | None, option: str = "--cache-dir") -> Path:
     """The cache folder (``directory``, else ``$AROMM_CACHE_DIR`` or the user's cache), writable or creatable."""
     folder = NpzCache(directory).directory
     return check_folder(folder, "cache", option if directory is not None else f"cache folder (${ENV_VAR})")
+
+
+def other_discretisation(scene: Scene, engine: str) -> str:
+    """The discretisation ``--discretisation-check`` compares with (q1 ↔ fv), refused where it has none."""
+    if engine != "scipy":
+        raise click.UsageError("--discretisation-check runs on the scipy engine (the petsc engine assembles q1 only)")
+    if not isinstance(scene.geometry, VoxelGeometry):
+        raise click.UsageError("--discretisation-check compares the voxel discretisations; this scene is a mesh")
+    if scene.sensors:
+        raise click.UsageError("--discretisation-check: point sensors sit on the q1 nodes, fv has face means only")
+    if cold := [ph.name for ph in scene.phases if insulating(ph)]:
+        raise click.UsageError(f"--discretisation-check: phase {cold[0]!r} is insulating (k = 0), which q1 cannot "
+                               "model")
+    return "fv" if scene.discretisation == "q1" else "q1"
+

@@ -87,8 +87,9 @@ def _table(result: Identification) -> str:
     lines = aligned(rows, right=3)
     lines += _budget_lines(unc)
     lines.append("the intervals include: " + "; ".join(unc.error_sources)
-                 + ("" if unc.model_error else "; not the discretisation error of the voxel model (state it with "
-                    "--model-error)"))
+                 + ("" if unc.model_error or "discretisation" in unc.budget else
+                    "; not the discretisation error of the voxel model (--discretisation-check re-fits with the other "
+                    "discretisation, q1 ↔ fv; or state it with --model-error)"))
     lines.append(f"criterion J = {result.criterion:.4g} °C² (eq. 12), residual std {unc.residual_std:.3g} °C, "
                  f"{result.evaluations} evaluations, {result.seconds:.1f} s")
     lines.append(f"residuals: {unc.residuals.describe()}: "
@@ -107,6 +108,7 @@ def _table(result: Identification) -> str:
 
 #: What to do when a source other than the noise makes most of an interval.
 REMEDIES = {"reduced model": "rebuild the model with a tighter [reduction] tolerance or a higher --order",
+            "discretisation": "resolve the image finer (--refine 2 halves the gap, docs/method/finite_volumes.md)",
             "stated model error": "refine the voxel model (--refine) to lower the discretisation error"}
 
 
@@ -201,6 +203,10 @@ def _posterior_table(post: Posterior) -> str:
 @click.option("--model-error", type=FiniteFloat(min=0.0, max=1.0), default=0.0, show_default=True, metavar="E",
               help="Stated relative error of the model's temperature rise (e.g. 0.02: the voxel model's "
                    "discretisation error); widens the intervals, which then say so.")
+@click.option("--discretisation-check", "check_discretisation", is_flag=True,
+              help="Re-fit with the same model in the other discretisation (q1 ↔ fv, built or cached like the first) "
+                   "from the estimates: the shift enters the error budget as 'discretisation' (the two bracket the "
+                   "voxel geometry's value).")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
               help="Also sample the posterior of the unknowns: N steps of an emcee ensemble started at the estimates "
                    "(optional extra: pip install 'aromm[posterior]'); with --plot, a corner plot FILE_posterior.png.")
@@ -222,7 +228,8 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
                  temperature_unit: str | None, plausible: str | None, unknowns: tuple[str, ...], kind: str,
                  order: int, engine: str, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
-                 resume: bool, noise_std: float | None, model_error: float, posterior_steps: int | None, walkers: int,
+                 resume: bool, noise_std: float | None, model_error: float, check_discretisation: bool,
+                 posterior_steps: int | None, walkers: int,
                  repeat: int | None, repeat_noise: float, farm: str, workers: int | None, force: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean and sensor temperatures.
 
@@ -272,9 +279,15 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     if kind == "reduced":
         checks.cache_folder(None)
     tty = sys.stderr.isatty()
+    other = checks.other_discretisation(sc, engine) if check_discretisation else None
     model, info = _model(scene, source, kind, order, bounds, tty=tty and is_root(engine), engine=engine)
     if not is_root(engine):
         return
+    alternative = None
+    if other is not None:
+        alternative, alt_info = _model(scene, dataclasses.replace(source, discretisation=other), kind, order, bounds,
+                                       tty=tty, engine=engine)
+        info["discretisation_check"] = {"discretisation": other, **alt_info}
     if repeat is not None:
         _repeated(Problem(model, data, bounds, repeat_noise, particles, iterations, info), repeat, seed,
                   Farm(farm, workers), as_json)
@@ -294,7 +307,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
         try:
             result = identify(model, data, bounds, seed=seed, particles=particles, iterations=iterations,
                               checkpoint=checkpoint, resume=resume, progress=report, description=info,
-                              noise_std=noise_std, model_error=model_error)
+                              noise_std=noise_std, model_error=model_error, alternative=alternative)
         except KeyboardInterrupt:
             saved = checkpoint is not None and checkpoint.exists()
             raise Interrupted(f"resume with --resume --checkpoint {checkpoint}" if saved else "") from None

@@ -37,7 +37,7 @@ from aromm.core.profiles import Profile, time_factor
 from aromm.core.resources import FLOAT
 from aromm.core.system import FloatArray, ParamValues, ThermalSystem, TimeGrid
 from aromm.full.voxel_transient import is_matrix_free_voxel, voxel_steps
-from aromm.linalg.direct import factorize
+from aromm.linalg.direct import DEFAULT_RTOL, factorize
 
 Scheme = Literal["bdf2", "euler"]
 
@@ -139,9 +139,10 @@ def _outputs_at(system: ThermalSystem, values: ParamValues, t: float) -> FloatAr
     return np.asarray(system.feedthrough.evaluate(values, t), dtype=float)
 
 
-def steady_field(system: ThermalSystem, values: ParamValues | None = None, method: str = "auto") -> FloatArray:
+def steady_field(system: ThermalSystem, values: ParamValues | None = None, method: str = "auto",
+                 rtol: float = DEFAULT_RTOL) -> FloatArray:
     """Steady temperature field (K): solve ``K T = F`` with fixed temperatures eliminated (histories held at
-    their final values)."""
+    their final values); an iterative ``method`` to the relative residual ``rtol`` (checked)."""
     v = system.values(values)
     part = _partition(system, v)
     k = sp.csr_array(system.conductance.evaluate(v))
@@ -149,8 +150,8 @@ def steady_field(system: ThermalSystem, values: ParamValues | None = None, metho
     fixed = part.fixed_at(np.inf)
     rhs = _load(system, v)[part.free] - k_fd @ fixed
     points = _points(system, part)
-    return part.full(system.n, factorize(k_ff, steady_method(system, method, rhs.size), points=points).solve(rhs),
-                     fixed)
+    solver = factorize(k_ff, steady_method(system, method, rhs.size), rtol, points=points)
+    return part.full(system.n, solver.solve(rhs), fixed)
 
 
 def steady_method(system: ThermalSystem, method: str, unknowns: int) -> str:

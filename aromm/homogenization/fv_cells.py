@@ -13,8 +13,8 @@ PuMA and OpenImpala.
   Each connected cluster's constant is pinned at one of its voxels.
 
 An insulating phase (``k = 0``) carries no unknown; a direction without a percolating path gives ``k = 0``.
-Solvers: the direct methods of :mod:`aromm.linalg.direct`, or ``amg`` (pyamg CG, to the relative residual ``rtol`` in
-the periodic problem, the default of :mod:`aromm.linalg.direct` in the others) — ``auto`` and ``mg`` take ``amg``
+Solvers: the direct methods of :mod:`aromm.linalg.direct`, or ``amg`` (pyamg CG, to the relative residual
+``rtol``) — ``auto`` and ``mg`` take ``amg``
 from :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on.
 """
 
@@ -44,7 +44,7 @@ def fv_method(method: str, voxels: int, crossover: int) -> str:
     return resolve_method(method)
 
 
-def _probe(scene: Scene, axis: int, boundary: str, method: str) -> float:
+def _probe(scene: Scene, axis: int, boundary: str, method: str, rtol: float) -> float:
     """k_ii under fixed temperatures (``temperature``) or a flux and a fixed temperature (``flux``)."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
@@ -55,7 +55,7 @@ def _probe(scene: Scene, axis: int, boundary: str, method: str) -> float:
     if not connected(np.where(conducting, 0, -1), [f.face for f in faces if f.T is not None]).any():
         return 0.0  # no conducting path reaches a fixed face: no heat flows
     system = assemble_volumes(image.labels, image.voxel_size, scene.phases, faces, outputs=[f.face for f in faces])
-    field = steady_field(system, method=method)
+    field = steady_field(system, method=method, rtol=rtol)
     size = image.size
     area = float(np.prod(size)) / size[axis]
     if boundary == "temperature":
@@ -122,7 +122,7 @@ def fv_cell(scene: Scene, boundary: str, method: str, rtol: float,
     k = np.zeros((3, 3))
     cpus, walls = [], []
     for axis in range(3):
-        k[axis, axis] = _probe(scene, axis, boundary, name)
+        k[axis, axis] = _probe(scene, axis, boundary, name, rtol)
         cpus.append(time.process_time() - cpu)
         walls.append(time.perf_counter() - wall)
         cpu, wall = time.process_time(), time.perf_counter()

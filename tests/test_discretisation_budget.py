@@ -1,0 +1,87 @@
+"""The discretisation row of the error budget: data of one discretisation, a model of the other.
+
+The truth is the parameter that made the data.  A model of the other discretisation fits them with a biased estimate
+and a noise-only interval that misses the truth; re-fitted with the data's own discretisation
+(``alternative``), the shift enters the budget and the total interval must cover the truth again.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from inverse_cases import BOX, PHASES, TRUTH, tracheids
+
+from aromm.core.system import TimeGrid
+from aromm.core.vocabulary import FaceSpec
+from aromm.fem import assemble_voxels
+from aromm.full.solve import FullModel
+from aromm.fv.volumes import assemble_volumes
+from inverse.identification import identify
+from inverse.measurements import simulate_measurements
+from inverse.uncertainty import BIASES, linearised
+
+UNKNOWNS = {"fibre.k": (0.05, 1.0), "fibre.c": (1e5, 1e7)}
+
+
+def _model(assemble, n: int = 6) -> FullModel:  # type: ignore[no-untyped-def]
+    labels = tracheids(n).transpose(0, 2, 1)  # tubes along y: heat crosses the walls, k̄ depends on the scheme
+    return FullModel(assemble(labels, (BOX / n,) * 3, PHASES, [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)],
+                              time=TimeGrid(20.0, 0.5), outputs=["z0", "z1"]))
+
+
+@pytest.mark.parametrize(("data_by", "model_by"), [(assemble_volumes, assemble_voxels),
+                                                   (assemble_voxels, assemble_volumes)])
+def test_the_total_interval_covers_the_truth_of_the_other_discretisation(data_by, model_by) -> None:  # type: ignore[no-untyped-def]
+    data = simulate_measurements(_model(data_by), TRUTH, noise=0.01, rng=np.random.default_rng(0))
+    plain = identify(_model(model_by), data, UNKNOWNS, particles=8, iterations=4)
+    checked = identify(_model(model_by), data, UNKNOWNS, particles=8, iterations=4, alternative=_model(data_by))
+    noise = plain.uncertainty
+    assert not noise.lower[0] <= TRUTH["fibre.k"] <= noise.upper[0]  # biased, and the noise alone does not say so
+    total = checked.uncertainty
+    assert "discretisation" in total.budget
+    assert total.lower[0] <= TRUTH["fibre.k"] <= total.upper[0]
+    assert total.lower[1] <= TRUTH["fibre.c"] <= total.upper[1]
+
+
+def test_bias_rows_add_linearly_and_unknown_sources_are_refused() -> None:
+    x = np.array([[1.0, 0.0], [0.0, 1e-6], [1.0, 1e-6]])  # parameters whose raw scales differ by 1e6
+    beta = np.array([1.0, 1e6])
+    r = np.array([0.01, -0.01, 0.005])
+    base = linearised(["a", "b"], beta, x, r)
+    shifted = linearised(["a", "b"], beta, x, r, biases={"discretisation": np.array([0.5, 2e4])})
+    assert "discretisation" in BIASES
+    half = base.budget["measurement noise"] + np.array([0.5, 2e4])  # linearly, not in quadrature
+    np.testing.assert_allclose(shifted.upper - shifted.lower, 2 * half, rtol=1e-12)
+    with pytest.raises(ValueError, match="unknown source 'segmentation'"):
+        linearised(["a", "b"], beta, x, r, biases={"segmentation": np.zeros(2)})
+
+
+def test_the_reduced_model_shift_does_not_depend_on_the_units_of_a_parameter() -> None:
+    """A capacity in J/(m³ K) and a conductivity in W/(m K) have raw sensitivities 1e6 apart; the shift of each must be
+    finite and scale with its unit (it was infinite for the capacity)."""
+    x = np.array([[1.0, 2e-7], [0.5, 1e-7], [0.2, -3e-7], [0.1, 1e-7]])
+    beta = np.array([0.3, 4e6])
+    r = np.array([1e-3, -1e-3, 5e-4, 0.0])
+    unc = linearised(["k", "c"], beta, x, r, output_error=1e-3)
+    again = linearised(["k", "c"], beta * [1.0, 1e-6], x * [1.0, 1e6], r, output_error=1e-3)
+    shift = unc.budget["reduced model"]
+    assert np.all(np.isfinite(shift))
+    np.testing.assert_allclose(again.budget["reduced model"], shift * [1.0, 1e-6], rtol=1e-10)
+
+
+def test_identify_command_reports_the_discretisation_row(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    import json
+
+    from inverse_cases import twin_case
+
+    from aromm.cli import main
+
+    scene, csv = twin_case(tmp_path)
+    args = ["identify", str(scene), "--measurements", str(csv), "--unknown", "fibre.k=0.05:1", "--unknown",
+            "fibre.c=1e5:1e7", "--model", "full", "--particles", "4", "--iterations", "1", "--json"]
+    assert main([*args, "--discretisation-check"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    budget = out["uncertainty"]["budget"]
+    assert set(budget) == {"measurement noise", "discretisation"}
+    assert out["model"]["discretisation_check"]["discretisation"] == "fv"
+    assert budget["discretisation"]["fibre.k"] > 0
