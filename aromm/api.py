@@ -137,7 +137,8 @@ def _model_key(system: Any, settings: ReductionSettings, engine: str, run: dict[
     system (the engine's own key then), no cache, or ``fields`` (the scipy engine's cache keeps Ψ's recipe)."""
     if run.get("fields") or run.get("cache", True) in (False, None):
         return None
-    krylov = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance) is not None
+    krylov = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance,
+                                  settings.certify) is not None
     box = frozenset(settings.bounds) if krylov else frozenset()  # the values one model serves (model_key)
     keys = [_physics(source, engine, box) for source in (system, *run.get("references", ()))]
     if any(k is None for k in keys):
@@ -171,7 +172,9 @@ def _build(system: Any, settings: ReductionSettings, engine: str, run: dict[str,
     if settings.basis_storage != "float64":
         raise InputError("basis_storage applies to the scipy engine (the petsc engine keeps the basis in float64)")
     cache = run.get("cache", True)
-    reductor = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance)
+    if settings.certify:
+        raise InputError("reduce: certify needs the scipy engine (the petsc engine computes no certificate yet)")
+    reductor = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance, settings.certify)
     if reductor is not None:
         from aromm.engines.petsc.krylov_reduction import reduce_krylov
 

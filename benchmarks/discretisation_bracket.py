@@ -1,4 +1,4 @@
-"""Q1 elements and two-point finite volumes bracket the conductivity of the voxel geometry (docs/method/finite_volumes.md).
+"""Q1 elements and two-point finite volumes bracket the voxel geometry's conductivity (docs/method/finite_volumes.md).
 
 The same image is split r³ ways (``Scene.refined``: the geometry does not change, only the discretisation), r = 1 … R:
 the q1 values fall and the fv values rise towards the voxel geometry's k̄, which lies between them at every r.

@@ -13,6 +13,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
+from aromm.core.errors import InputError
 from aromm.core.profiles import Profile
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
@@ -22,6 +23,8 @@ from aromm.fv.volumes import assemble_volumes
 from aromm.reduction.lifting import lift
 from aromm.reduction.offline import reduce
 from aromm.reduction.rom import from_arrays, to_arrays
+from aromm.scene.reduction_section import ReductionSettings, parse_reduction
+from aromm.scene.toml import TableReader
 
 BOX = {"fibre.k": (0.1, 1.0), "fibre.c": (1e6, 1e7)}
 INSIDE = [{"fibre.k": 0.4, "fibre.c": 2e6}, {"fibre.k": 0.13, "fibre.c": 8e6}, {"fibre.k": 0.9, "fibre.c": 1.1e6}]
@@ -102,3 +105,15 @@ def test_the_certificate_survives_the_cache_format() -> None:
     assert first is not None and second is not None
     np.testing.assert_allclose(second, first, rtol=1e-12)
     assert 0 < float(rom.info["error_bound"]) < np.inf
+
+
+def test_certify_is_a_knob_of_the_scene_and_of_the_settings() -> None:
+    system = body([FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)], size=4)
+    off = reduce(system, order=6, method="krylov", bounds=BOX, cache=False, certify=False)
+    assert off.certificate is None and off.error_bound(INSIDE[0]) is None
+    parameters = {"fibre.k": 0.3, "fibre.c": 4e6}
+    assert parse_reduction(TableReader(None), {"reduction": {"certify": True}}, parameters).certify is True
+    with pytest.raises(InputError, match=r"reduction\.certify: must be true or false"):
+        parse_reduction(TableReader(None), {"reduction": {"certify": "yes"}}, parameters)
+    with pytest.raises(InputError, match="certify belongs to method 'krylov'"):
+        ReductionSettings(method="aromm", certify=True).checked()

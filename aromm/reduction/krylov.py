@@ -113,14 +113,12 @@ class KrylovReductor:
 
     @classmethod
     def named(cls, method: object, bounds: Mapping[str, tuple[float, float]] | None = None,
-              tolerance: float | None = None) -> KrylovReductor | None:
-        """The Krylov reductor that ``method`` asks for (``"krylov"`` over ``bounds`` with ``tolerance`` (°C, None:
-        the default), or a KrylovReductor itself), None for any other method."""
-        if isinstance(method, KrylovReductor):
-            return method
-        if method != "krylov":
-            return None
-        return cls.over(bounds) if tolerance is None else cls.over(bounds, tolerance=tolerance)
+              tolerance: float | None = None, certify: bool | None = None) -> KrylovReductor | None:
+        """The Krylov reductor that ``method`` asks for (``"krylov"`` over ``bounds`` with ``tolerance`` (°C) and
+        ``certify``, None: the defaults), or a KrylovReductor itself; None for any other method."""
+        if isinstance(method, KrylovReductor) or method != "krylov":
+            return method if isinstance(method, KrylovReductor) else None
+        return cls.over(bounds, certify=certify, **({} if tolerance is None else {"tolerance": tolerance}))
 
     def check(self) -> None:
         for name, lo, hi in self.bounds:
@@ -139,6 +137,8 @@ class KrylovReductor:
             raise InputError(f"krylov per_axis must be 0 (automatic) or >= 2, got {self.per_axis!r}")
         if self.compression not in COMPRESSIONS:
             raise InputError(f"unknown compression {self.compression!r}; allowed: {', '.join(COMPRESSIONS)}")
+        if self.certify not in (None, True, False):
+            raise InputError(f"krylov certify must be true, false or None (by size), got {self.certify!r}")
 
     @property
     def cache_key(self) -> str:

@@ -145,7 +145,7 @@ def reduce(
             raise InputError(f"{label}: unknown parameter(s) {unknown}; "
                              f"the system has {sorted(system.parameter_names)}")
     method = settings.method_for(system.n, references=bool(references))
-    krylov = KrylovReductor.named(method, settings.bounds, settings.tolerance)
+    krylov = KrylovReductor.named(method, settings.bounds, settings.tolerance, settings.certify)
     reductor = resolve_reductor(method) if krylov is None else None
     order, basis_values, solver = settings.order, dict(settings.basis), settings.solver
     if krylov is not None:
@@ -211,8 +211,9 @@ def matrix_free_krylov(scene: Scene, settings: ReductionSettings, references: bo
     if not isinstance(shape, tuple):
         return False
     nodes = int(np.prod(np.asarray(shape) + 1))
-    return nodes > MATRIX_FREE_ABOVE and KrylovReductor.named(settings.method_for(nodes, references),
-                                                               settings.bounds, settings.tolerance) is not None
+    krylov = KrylovReductor.named(settings.method_for(nodes, references), settings.bounds, settings.tolerance,
+                                  settings.certify)
+    return nodes > MATRIX_FREE_ABOVE and krylov is not None
 
 
 def _with_fields(rom: ReducedModel, original: ThermalSystem, psi: FloatArray, basis_values: Mapping[str, float],

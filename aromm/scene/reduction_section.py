@@ -51,6 +51,7 @@ class ReductionSettings:
     upper), the identification box, over which the Krylov reduction trains (the modal methods do not use it);
     ``tolerance`` (°C): the Krylov reduction's greedy stops at this estimated error (None: the reductor's default,
     aromm.reduction.krylov.KrylovReductor; a Krylov-only option, so ``"auto"`` then picks the Krylov method);
+    ``certify``: attach the certified output error bound (None: below 20,000 unknowns; Krylov-only like ``tolerance``);
     ``solver`` (linear solves), ``eigensolver`` and ``basis_storage`` of the modal bases."""
 
     order: int = 200
@@ -64,6 +65,7 @@ class ReductionSettings:
     corrections: bool | Sequence[Mapping[str, float]] = True
     bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     tolerance: float | None = None
+    certify: bool | None = None
     solver: str = "auto"
     eigensolver: str = "auto"
     basis_storage: str = "float64"
@@ -90,12 +92,16 @@ class ReductionSettings:
         if self.method == "krylov" and modal:
             raise InputError(f"reduce: {', '.join(modal)} belong to the modal methods (aromm, pod, greedy), not to "
                              "method 'krylov' (its options are those of aromm.reduction.krylov.KrylovReductor)")
-        if self.tolerance is not None:
-            if not (isinstance(self.tolerance, int | float) and math.isfinite(self.tolerance) and self.tolerance > 0):
-                raise InputError(f"tolerance (°C, of the Krylov reduction's greedy) must be a finite number > 0, got "
-                                 f"{self.tolerance!r}")
-            if self.method in ("aromm", "pod", "greedy") or (self.method == "auto" and modal):
-                raise InputError(f"reduce: tolerance belongs to method 'krylov', not to "
+        if self.tolerance is not None and not (isinstance(self.tolerance, int | float)
+                                               and math.isfinite(self.tolerance) and self.tolerance > 0):
+            raise InputError(f"tolerance (°C, of the Krylov reduction's greedy) must be a finite number > 0, got "
+                             f"{self.tolerance!r}")
+        if self.certify not in (None, True, False):
+            raise InputError(f"certify must be true, false or left out (by size), got {self.certify!r}")
+        for name in ("tolerance", "certify"):
+            if getattr(self, name) is not None and (self.method in ("aromm", "pod", "greedy")
+                                                     or (self.method == "auto" and modal)):
+                raise InputError(f"reduce: {name} belongs to method 'krylov', not to "
                                  f"{'the modal options ' + ', '.join(modal) if modal else repr(self.method)}")
         if self.eigensolver not in EIGENSOLVERS:
             raise InputError(f"unknown eigensolver {self.eigensolver!r}; allowed: {', '.join(EIGENSOLVERS)}")
@@ -114,7 +120,7 @@ class ReductionSettings:
         :data:`KRYLOV_ABOVE`."""
         if self.method != "auto":
             return self.method
-        if self.tolerance is not None:
+        if self.tolerance is not None or self.certify is not None:
             return "krylov"
         if self.modal_options() or references:
             return "aromm"
@@ -131,13 +137,14 @@ class ReductionSettings:
         return (self.order, method, self.modes, self.n_dirichlet, self.n_steklov, dict(self.basis),
                 dict(self.reference), self.relaxation, self.samples(()) if self.corrections is not True else True,
                 {k: tuple(v) for k, v in self.bounds.items()}, self.solver, self.eigensolver, self.basis_storage,
-                self.tolerance)
+                self.tolerance, self.certify)
 
 
 def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping[str, float]) -> ReductionSettings:
     """``[reduction]`` with ``basis`` and ``reference`` tables of parameter overrides (positive numbers), a
-    ``method`` name, ``bounds`` (parameter → [lower, upper], 0 < lower <= upper) and the Krylov ``tolerance`` (°C)."""
-    table = r.table(data, "reduction", ("basis", "reference", "method", "bounds", "tolerance"))
+    ``method`` name, ``bounds`` (parameter → [lower, upper], 0 < lower <= upper), the Krylov ``tolerance`` (°C) and
+    ``certify`` (true or false)."""
+    table = r.table(data, "reduction", ("basis", "reference", "method", "bounds", "tolerance", "certify"))
     out: dict[str, dict[str, float]] = {}
     for part in ("basis", "reference"):
         given = r.table(table, f"reduction.{part}", None, part)
@@ -161,5 +168,8 @@ def parse_reduction(r: TableReader, data: Mapping[str, Any], parameters: Mapping
             raise r.fail(key, f"lower bound {lo:g} above the upper bound {hi:g}")
         bounds[name] = (lo, hi)
     tolerance = r.number(table["tolerance"], "reduction.tolerance", positive=True) if "tolerance" in table else None
+    certify = table.get("certify")
+    if certify is not None and not isinstance(certify, bool):
+        raise r.fail("reduction.certify", f"must be true or false, got {certify!r}")
     return ReductionSettings(basis=out["basis"], reference=out["reference"], method=method, bounds=bounds,
-                             tolerance=tolerance)
+                             tolerance=tolerance, certify=certify)
