@@ -44,6 +44,15 @@ QUIRKS = {
                                        None),
     "missing values dropped with a count": ("missing.csv", "t,z0\n0,20.5\n1,\n2,NA\n3,21\n", "utf-8", [0, 3],
                                             [20.5, 21.0], "2 row(s) with missing values dropped (line(s) 3, 4)"),
+    "metadata lines without #": ("agilent.csv", "Datalogger: Agilent 34972A\nScan sweep 1\nt,z0\n0,20.5\n1,21\n",
+                                 "utf-8", [0, 1], [20.5, 21.0], "2 metadata line(s) before the header skipped"),
+    "German time column": ("zeit.csv", "Zeit;z0\ns;°C\n0;20,5\n1;21\n", "utf-8", [0, 1], [20.5, 21.0], None),
+    "Excel's trailing empty columns": ("excel.csv", "t,z0,,\n0,20.5,,\n1,21,,\n", "utf-8", [0, 1], [20.5, 21.0],
+                                       "2 empty trailing column(s) dropped"),
+    "UTF-16 ('Unicode text')": ("unicode.csv", "t\tz0\n0\t20.5\n1\t21\n", "utf-16", [0, 1], [20.5, 21.0],
+                                "UTF-16"),
+    "clock times across midnight": ("clock.csv", "time,z0\n23:59:59,20.5\n00:00:01.5,21\n", "utf-8", [0, 2.5],
+                                    [20.5, 21.0], "clock times converted to seconds after the first row (23:59:59)"),
 }
 
 
@@ -69,6 +78,17 @@ def test_columns_are_mapped_onto_outputs_and_the_others_ignored(tmp_path: Path) 
         read_lab_csv(path, OUT, columns={"TC1": "x5"})
     with pytest.raises(InputError, match="--column TC1=OUTPUT"):
         read_lab_csv(path, OUT)
+
+
+def test_a_time_column_of_any_name_is_mapped_onto_t(tmp_path: Path) -> None:
+    path = write(tmp_path, "elapsed.csv", "Messzeit,TC1\n0,20.5\n1,21\n")
+    lab = read_lab_csv(path, OUT, columns={"Messzeit": "t", "TC1": "z0"})
+    np.testing.assert_array_equal(lab.table.t, [0, 1])
+    with pytest.raises(InputError, match=r"the header must be 't,<face>,\.\.\.'"):
+        read_lab_csv(path, OUT, columns={"TC1": "z0"})
+    clock = write(tmp_path, "mixed.csv", "t,z0\n09:14:01,20.5\n5,21\n")
+    with pytest.raises(InputError, match=r"line 3: time '5' is not a clock time"):
+        read_lab_csv(clock, OUT)
 
 
 def test_stated_units_convert_and_a_conflict_is_refused(tmp_path: Path) -> None:

@@ -3,16 +3,22 @@
 A logger export is rarely the toolkit's own ``t,<face>,...`` file (:mod:`aromm.core.observables`).  This reader
 accepts what loggers and spreadsheets write, and says what it did:
 
-* **encodings**: UTF-8 (with or without the byte-order mark of spreadsheet exports), else latin-1 (a ``°``
-  written by a Windows logger); the encoding used is reported when it is not UTF-8;
-* **comment and metadata lines**: lines starting with ``#`` are skipped (anywhere in the file);
+* **encodings**: UTF-8 (with or without the byte-order mark of spreadsheet exports), UTF-16 (with its byte-order
+  mark: "Unicode text" from Excel), else latin-1 (a ``°`` written by a Windows logger); the encoding used is reported
+  when it is not UTF-8;
+* **comment and metadata lines**: lines starting with ``#`` are skipped (anywhere in the file), and so are the lines
+  before the header (``Datalogger: Agilent 34972A``), the header being the first line whose first column names the
+  time (reported);
 * **delimiter and decimal mark**: ``,``, ``;`` or a tab, found by :class:`csv.Sniffer` on the first lines, and a
   decimal comma (``20,5``) when the delimiter is not a comma;
 * **units**: a units row under the header (``s;°C;°C``) or a unit in the column name (``t (min)``, ``TC1 [K]``):
   times in ``ms``, ``s``, ``min``, ``h`` are converted to s, temperatures in ``K`` to °C, each conversion reported;
-* **column names**: the first column is the time (``t``, ``time``, ``temps``, ``elapsed``); the others are the
-  scene's outputs (faces, sensors) or are mapped onto them (``columns={"TC1": "z0"}``, ``--column TC1=z0``),
-  unmapped columns then being ignored (reported);
+* **column names**: the first column is the time (``t``, ``time``, ``temps``, ``zeit``, ``tiempo``, ``tempo``,
+  ``elapsed``, or any name mapped onto ``t``: ``--column Zeit=t``); the others are the scene's outputs (faces,
+  sensors) or are mapped onto them (``columns={"TC1": "z0"}``, ``--column TC1=z0``), unmapped columns then being
+  ignored (reported); empty trailing columns (a spreadsheet's ``,,``) are dropped (reported);
+* **clock times**: ``09:14:01`` (``hh:mm:ss``, fractions of seconds allowed) are converted to seconds after the
+  first row, across midnight (reported: the heating may have started at another moment, a clock offset);
 * **missing values**: an empty cell or ``NA``, ``N/A``, ``-``, ``null`` drops its row; the rows dropped are counted;
 * **physical checks** (:mod:`aromm.core.labchecks`): logger sentinels, values below absolute zero or outside a plausible
   range, a single outlier, are refused naming the file, line and column.
@@ -42,7 +48,8 @@ from aromm.core.system import FloatArray
 
 log = logging.getLogger(__name__)
 
-TIME_NAMES = ("t", "time", "temps", "elapsed", "elapsed time")
+TIME_NAMES = ("t", "time", "temps", "zeit", "tiempo", "tempo", "elapsed", "elapsed time")
+_CLOCK = re.compile(r"^(?P<h>\d{1,2}):(?P<m>\d{2}):(?P<s>\d{2}(?:[.,]\d+)?)$")
 #: Time units and their factor to seconds.
 TIME_UNITS = {"ms": 1e-3, "s": 1.0, "sec": 1.0, "min": 60.0, "h": 3600.0, "hr": 3600.0}
 #: Temperature spellings: every one means °C or K.
@@ -78,10 +85,59 @@ def _decode(path: Path, what: str) -> tuple[str, str]:
         raw = path.read_bytes()
     except OSError as err:
         raise InputError(f"{path}: cannot read the {what} ({err.strerror or err})") from None
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        try:
+            return raw.decode("utf-16"), "UTF-16"
+        except UnicodeDecodeError:
+            pass
     try:
         return raw.decode("utf-8-sig"), "utf-8"
     except UnicodeDecodeError:
         return raw.decode("latin-1"), "latin-1"
+
+
+def _header_row(rows: list[tuple[int, list[str]]], time_names: set[str], notes: list[str]) -> int:
+    """The index of the header among ``rows``: the first with a column after the time whose first cell names the
+    time; the rows before it are a logger's metadata (reported).  0 when none does (the header check then says
+    what a header must be)."""
+    for i, (_, cells) in enumerate(rows):
+        if len(cells) >= 2 and _split_name(cells[0])[0].lower() in time_names:
+            if i:
+                notes.append(f"{i} metadata line(s) before the header skipped (line(s) {rows[0][0]}–{rows[i - 1][0]})")
+            return i
+    return 0
+
+
+def _without_empty_tail(rows: list[tuple[int, list[str]]], notes: list[str]) -> list[tuple[int, list[str]]]:
+    """``rows`` without the trailing columns that are empty in the header and in every row (``,,``)."""
+    width = len(rows[0][1])
+    keep = width
+    while keep > 2 and all(len(cells) < keep or not cells[keep - 1] for _, cells in rows):
+        keep -= 1
+    if keep == width:
+        return rows
+    notes.append(f"{width - keep} empty trailing column(s) dropped")
+    return [(n, cells[:keep]) for n, cells in rows]
+
+
+def _clock_seconds(p: Path, body: list[tuple[int, list[str]]], notes: list[str]) -> list[tuple[int, list[str]]]:
+    """Clock times ``hh:mm:ss`` in the first column → seconds after the first row (a day added at each wrap)."""
+    if not body or not _CLOCK.match(body[0][1][0]):
+        return body
+    out, day, last, first = [], 0.0, -1.0, None
+    for line, cells in body:
+        m = _CLOCK.match(cells[0])
+        if m is None:
+            raise InputError(f"{p} line {line}: time {cells[0]!r} is not a clock time hh:mm:ss like the first row's")
+        clock = int(m["h"]) * 3600 + int(m["m"]) * 60 + float(m["s"].replace(",", "."))
+        if clock + day < last:
+            day += 86400.0
+        last = clock + day
+        first = last if first is None else first
+        out.append((line, [repr(last - first), *cells[1:]]))
+    notes.append(f"clock times converted to seconds after the first row ({body[0][1][0]}); if the heating started "
+                 "at another moment, identify the offset too (--unknown time_offset=LOW:HIGH)")
+    return out
 
 
 def _dialect(lines: list[str]) -> tuple[str, bool]:
@@ -168,11 +224,14 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
     if delimiter != "," or decimal_comma:
         notes.append(f"delimiter {'tab' if delimiter == chr(9) else repr(delimiter)}"
                      + (", decimal comma" if decimal_comma else ""))
+    time_names = set(TIME_NAMES) | {k.lower() for k, v in (columns or {}).items() if v in ("t", "time")}
+    columns = {k: v for k, v in (columns or {}).items() if v not in ("t", "time")} or None
+    rows = _without_empty_tail(rows[_header_row(rows, time_names, notes):], notes)
     header_line, header_cells = rows[0]
     split = [_split_name(c) for c in header_cells]
     names = [n for n, _ in split]
     units: list[str | None] = [u for _, u in split]
-    if len(names) < 2 or names[0].lower() not in TIME_NAMES:
+    if len(names) < 2 or names[0].lower() not in time_names:
         raise InputError(f"{p} line {header_line}: the header must be 't,<face>,...' (the time first, named "
                          f"{' or '.join(repr(n) for n in TIME_NAMES[:2])}, then one column per face or sensor), "
                          f"got {delimiter.join(header_cells)!r}")
@@ -199,7 +258,7 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
         raise InputError(f"{where_t}: the file says times are in {units[0]!r}, the option says {time_unit!r}")
     if factor != 1.0:
         notes.append(f"times converted from {t_unit} to s (× {factor:g})")
-    data, lines, dropped = _numbers(p, body, names, decimal_comma)
+    data, lines, dropped = _numbers(p, _clock_seconds(p, body, notes), names, decimal_comma)
     if dropped:
         shown = ", ".join(str(n) for n in dropped[:5]) + (", ..." if len(dropped) > 5 else "")
         notes.append(f"{len(dropped)} row(s) with missing values dropped (line(s) {shown})")
