@@ -20,7 +20,7 @@ from typing import TextIO
 ASCII = {"°": "deg", "×": "x", "−": "-", "–": "-", "—": "-", "‖": "||", "≤": "<=", "≥": ">=", "±": "+/-",
          "µ": "u", "μ": "u", "·": "*", "→": "->", "≈": "~", "…": "...", "’": "'", "‘": "'", "“": '"', "”": '"',
          "φ": "phi", "β": "beta", "δ": "delta", "λ": "lambda", "σ": "sigma", "τ": "tau", "ρ": "rho", "π": "pi",
-         "Σ": "Sum", "§": "Sec.", "\u0304": "bar", "\u0303": "~", "\u0302": "^"}
+         "Σ": "Sum", "§": "Sec.", "↔": "<->", "\u0304": "bar", "\u0303": "~", "\u0302": "^"}
 PROBE = "k̄ñÑ°C³²×−"  # what the commands print; a stream that encodes these needs no fallback
 
 

@@ -316,7 +316,7 @@ def _voxel_triple(r: TableReader, value: Any, key: str) -> tuple[float, float, f
     values = [value] * 3 if not isinstance(value, list | tuple | np.ndarray) else list(np.ravel(value))
     if len(values) != 3:
         raise r.fail(key, f"must be a number or three numbers [dx, dy, dz] in m, got {value!r}")
-    dx, dy, dz = (r.number(v, key, positive=True) for v in values)
+    dx, dy, dz = (r.number(v, key, positive=True, plausible="voxel_size") for v in values)
     return (dx, dy, dz)
 
 
@@ -345,11 +345,11 @@ def _phases(r: TableReader, data: Mapping[str, Any], present: set[int]) -> tuple
         elif isinstance(k_raw, list):
             if len(k_raw) != 3:
                 raise r.fail(f"{key}.k", "orthotropic k must be [kx, ky, kz]")
-            kx, ky, kz = (r.number(v, f"{key}.k", positive=True) for v in k_raw)
+            kx, ky, kz = (r.number(v, f"{key}.k", positive=True, plausible="k") for v in k_raw)
             k = (kx, ky, kz)
-        elif (k := r.number(k_raw, f"{key}.k")) < 0:
+        elif (k := r.number(k_raw, f"{key}.k", plausible="k")) < 0:
             raise r.fail(f"{key}.k", f"must be >= 0 (0: an insulating phase, with discretisation fv), got {k_raw!r}")
-        c = r.number(spec["c"], f"{key}.c", positive=True) if "c" in spec else None
+        c = r.number(spec["c"], f"{key}.c", positive=True, plausible="c") if "c" in spec else None
         q = None
         if name in sources:
             src = r.table(sources, f"source.{name}", ("q",), name)
@@ -382,7 +382,7 @@ def _boundary(r: TableReader, data: Mapping[str, Any]) -> tuple[FaceSpec, ...]:
         faces.append(FaceSpec(
             face,
             flux=_load(r, spec["flux"], f"{key}.flux") if "flux" in spec else None,
-            h=r.number(spec["h"], f"{key}.h", positive=True) if "h" in spec else None,
+            h=r.number(spec["h"], f"{key}.h", positive=True, plausible="h") if "h" in spec else None,
             T_ext=_load(r, spec.get("T_ext", 0.0), f"{key}.T_ext"),
             T=_load(r, spec["T"], f"{key}.T") if "T" in spec else None,
         ))

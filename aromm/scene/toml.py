@@ -9,6 +9,15 @@ from typing import Any
 
 from aromm.core.errors import InputError
 
+#: Plausible ranges of the scene's physical numbers (SI): a value outside is a unit slip or a typo, refused with the
+#: range and a familiar value.  (kind: (lowest, highest, unit, examples))
+PLAUSIBLE = {
+    "voxel_size": (1e-10, 10.0, "m", "1e-6 m for a micro-CT voxel"),
+    "k": (1e-5, 1e4, "W/(m K)", "0.026 for air, 400 for copper"),
+    "c": (10.0, 1e8, "J/(m³ K)", "the volumetric ρ c_p: 1.2e3 for air, 4.2e6 for water"),
+    "h": (1e-3, 1e7, "W/(m² K)", "5–25 for free convection in air"),
+}
+
 
 def where(path: Path | None) -> str:
     """Prefix naming a file in messages: ``"<file>: "``, or ``"scene: "`` for a scene built in Python."""
@@ -36,11 +45,18 @@ class TableReader:
                 raise self.fail(key, f"unknown key(s) {unknown}; allowed: {', '.join(allowed)}")
         return value
 
-    def number(self, value: Any, key: str, positive: bool = False) -> float:
+    def number(self, value: Any, key: str, positive: bool = False, plausible: str | None = None) -> float:
+        """A finite number (``positive``: > 0); ``plausible``: a kind of :data:`PLAUSIBLE`, whose range it must lie in
+        (0 and negative values are left to the caller: an insulating phase, a refusal naming the sign)."""
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
             raise self.fail(key, f"must be a finite number, got {value!r}")
         if positive and value <= 0:
             raise self.fail(key, f"must be > 0, got {value!r}")
+        if plausible is not None and value > 0:
+            low, high, unit, familiar = PLAUSIBLE[plausible]
+            if not low <= value <= high:
+                raise self.fail(key, f"{value:g} {unit} is outside the plausible range [{low:g}, {high:g}] {unit} "
+                                     f"({familiar}): a unit slip?")
         return float(value)
 
 
