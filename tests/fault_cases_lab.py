@@ -83,6 +83,10 @@ NEW: tuple[Case, ...] = (
                                            text("m.csv", rows(lambda t: f"{0.1 * t:g}", header="t,TC1\n")))),
     # impossible values and bad options refused, before any build
     Case("identify-csv-nan", (*IDM, *K), 2, ("line 6", "'nan' is not finite"), cell("nan")),
+    Case("identify-csv-all-zero", (*IDM, *K), 2, ("m.csv", "every measured temperature is 0 ", "nothing to identify"),
+         csv(rows(lambda t: "0,0"))),
+    Case("identify-measurements-from-a-device", (*ID[:3], "/dev/zero", *ID[4:], *K), 2,
+         ("/dev/zero", "not a regular file")),
     Case("identify-csv-inf", (*IDM, *K), 2, ("line 6", "'-inf' is not finite"), cell("-inf")),
     Case("identify-csv-below-absolute-zero", (*IDM, *K), 2, ("line 6", "below absolute zero"), cell("-300")),
     Case("identify-csv-negative-kelvin", (*IDM, *K), 2, ("line 3", "-5 K is below absolute zero"),

@@ -61,6 +61,7 @@ FLUX_UNITS = ("w/m2", "w/m²", "w m-2", "w/(m2)", "w/(m²)")
 MISSING = ("", "na", "n/a", "-", "--", "null", "none")
 KELVIN_OFFSET = 273.15
 SNIFF_LINES = 20
+MAX_BYTES = 1_000_000_000  #: largest CSV read (bytes): about ten million rows of a few columns
 _UNIT_IN_NAME = re.compile(r"^(?P<name>.*?)\s*[\(\[](?P<unit>[^\)\]]*)[\)\]]\s*$")
 
 
@@ -81,7 +82,15 @@ class LabTable:
 
 
 def _decode(path: Path, what: str) -> tuple[str, str]:
+    """The file's text and encoding; a folder, a device or a pipe (which may never end), or a file above
+    :data:`MAX_BYTES`, is refused before it is read."""
     try:
+        if path.exists() and not path.is_file():
+            raise InputError(f"{path}: the {what} is not a regular file (a folder, a device or a pipe); give a CSV "
+                             "file")
+        if path.is_file() and path.stat().st_size > MAX_BYTES:
+            raise InputError(f"{path}: the {what} is {path.stat().st_size / 1e9:.3g} GB, above the {MAX_BYTES / 1e9:g} "
+                             "GB a logger's CSV may take here (ten million rows); thin it out (every n-th row)")
         raw = path.read_bytes()
     except OSError as err:
         raise InputError(f"{path}: cannot read the {what} ({err.strerror or err})") from None
