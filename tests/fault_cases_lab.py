@@ -83,6 +83,8 @@ NEW: tuple[Case, ...] = (
                                            text("m.csv", rows(lambda t: f"{0.1 * t:g}", header="t,TC1\n")))),
     # impossible values and bad options refused, before any build
     Case("identify-csv-nan", (*IDM, *K), 2, ("line 6", "'nan' is not finite"), cell("nan")),
+    Case("identify-csv-fahrenheit", (*IDM, *K), 2, ("m.csv", "'z0'", "degrees Fahrenheit", "convert them"),
+         csv(rows(lambda t: f"{32 + 0.18 * t:g},{32 + 0.09 * t:g}"))),
     Case("identify-csv-all-zero", (*IDM, *K), 2, ("m.csv", "every measured temperature is 0 ", "nothing to identify"),
          csv(rows(lambda t: "0,0"))),
     Case("identify-measurements-from-a-device", (*ID[:3], "/dev/zero", *ID[4:], *K), 2,

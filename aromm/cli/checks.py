@@ -19,7 +19,7 @@ from aromm.core.cache import ENV_VAR, NpzCache
 from aromm.core.clock import TIME_OFFSET
 from aromm.core.errors import InputError
 from aromm.core.files import Input, check_folder
-from aromm.core.labchecks import PLAUSIBLE, kelvin_suspect
+from aromm.core.labchecks import PLAUSIBLE, fahrenheit_suspect, kelvin_suspect
 from aromm.core.labcsv import read_lab_csv
 from aromm.core.vocabulary import insulating, is_positive
 from aromm.scene.geometry import VoxelGeometry
@@ -141,6 +141,11 @@ def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
                                  f"kelvin, while {scene.path} starts at {scene.initial_T:g} °C: state the unit "
                                  "(a units row 's,K,...', or --temperature-unit K to convert, or --temperature-unit "
                                  "C if these really are °C)")
+            elif fahrenheit_suspect(series, scene.initial_T):
+                raise InputError(f"{path}, column {lab.columns[out]!r}: the values start near {float(series[0]):g}, "
+                                 f"that is {(float(series[0]) - 32) / 1.8:.3g} °C if they are degrees Fahrenheit, "
+                                 f"while {scene.path} starts at {scene.initial_T:g} °C: convert them to °C "
+                                 "((F − 32) / 1.8) and state the unit (a units row 's,°C,...')")
     if scene.time is not None:
         offset = bounds.get(TIME_OFFSET)
         if offset is not None and offset[1] - offset[0] > scene.time.end:

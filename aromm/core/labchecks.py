@@ -40,6 +40,7 @@ OVERFLOW = 1e30  # magnitudes from here on are overflow codes (9.9e37), never re
 SPIKE_RATIO = 20.0
 #: Unstated data whose mean lies this much closer to the scene's start in kelvin than in °C are called kelvin.
 KELVIN_MARGIN = 100.0
+FAHRENHEIT_MARGIN = 10.0  #: °C: how much closer to the Fahrenheit reading than to the initial temperature
 
 
 def _where(path: Path, line: int, column: str) -> str:
@@ -107,3 +108,15 @@ def kelvin_suspect(values: FloatArray, initial: float) -> bool:
     values lie near ``initial + 273.15`` and far from ``initial`` (by :data:`KELVIN_MARGIN` at least)."""
     first = float(np.median(np.asarray(values, dtype=float)[:5]))
     return abs(first - initial - 273.15) + KELVIN_MARGIN < abs(first - initial)
+
+
+def fahrenheit_suspect(values: FloatArray, initial: float) -> bool:
+    """Whether temperatures read as °C look like degrees Fahrenheit for a scene starting at ``initial`` °C: their
+    first values lie near ``1.8 initial + 32`` and far from ``initial`` (by :data:`FAHRENHEIT_MARGIN` at least).
+
+    >>> fahrenheit_suspect(np.array([68.1, 68.3]), 20.0), fahrenheit_suspect(np.array([20.1, 20.4]), 20.0)
+    (True, False)
+    """
+    first = float(np.median(np.asarray(values, dtype=float)[:5]))
+    return abs(first - (1.8 * initial + 32.0)) + FAHRENHEIT_MARGIN < abs(first - initial)
+
