@@ -49,7 +49,7 @@ import scipy.sparse as sp
 from aromm.core.anisotropy import PhaseTensor
 from aromm.core.errors import InputError
 from aromm.core.profiles import Profile
-from aromm.core.system import Coefficient, Dirichlet, FloatArray, Term
+from aromm.core.system import Affine, Coefficient, Dirichlet, FloatArray, Geometry, Term, ThermalSystem, TimeGrid
 
 FACES = ("x0", "x1", "y0", "y1", "z0", "z1")
 AXES = "xyz"
@@ -267,6 +267,25 @@ def boundary_mass(disc: FaceDiscretisation, faces: Sequence[str] = FACES) -> sp.
     for face in faces:
         total = total + disc.face_mass(face)
     return sp.csr_array(total)
+
+
+def system_of(disc: FaceDiscretisation, terms: Sequence[Term], dirichlet: Sequence[Dirichlet], *,
+              outputs: Sequence[str], parameters: Mapping[str, float], time: TimeGrid | None,
+              geometry: Geometry | None = None) -> ThermalSystem:
+    """The :class:`ThermalSystem` of a discretisation's terms: conduction and exchange into K, capacities into C,
+    loads into F, face means of ``outputs`` as its observation rows."""
+    return ThermalSystem(
+        n=disc.n,
+        conductance=Affine(tuple(t for t in terms if t.role in ("conduction", "exchange"))),
+        capacity=Affine(tuple(t for t in terms if t.role == "capacity")),
+        load=Affine(tuple(t for t in terms if t.role == "load")),
+        dirichlet=tuple(dirichlet),
+        observation=face_means(disc, outputs),
+        parameters=parameters,
+        time=time,
+        geometry=geometry,
+        boundary=boundary_mass(disc),
+    )
 
 
 def check_phases(phases: Sequence[PhaseSpec], labels_present: Mapping[int, object] | set[int]) -> None:

@@ -22,17 +22,16 @@ from collections.abc import Sequence
 import numpy as np
 
 from aromm.core.errors import InputError
-from aromm.core.system import Affine, ThermalSystem, TimeGrid
+from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import (
     FaceSpec,
     PhaseSpec,
-    boundary_mass,
     check_image,
-    face_means,
     face_terms,
     insulating,
     parameter_values,
     phase_terms,
+    system_of,
 )
 from aromm.fem.voxel_grid import VoxelGrid
 
@@ -79,18 +78,7 @@ def assemble_voxels(
         from aromm.fem.voxel_terms import MatrixFreeGrid  # the matrix-free terms sit on this module's grid
 
         disc = MatrixFreeGrid(grid)  # type: ignore[assignment]
-    volume = phase_terms(disc, phases, present, transient=transient)
     faces, dirichlet = face_terms(disc, boundary)
-    terms = volume + faces
-    return ThermalSystem(
-        n=grid.n,
-        conductance=Affine(tuple(t for t in terms if t.role in ("conduction", "exchange"))),
-        capacity=Affine(tuple(t for t in terms if t.role == "capacity")),
-        load=Affine(tuple(t for t in terms if t.role == "load")),
-        dirichlet=tuple(dirichlet),
-        observation=face_means(grid, outputs),
-        parameters=parameter_values([phases[i] for i in present], boundary, initial_T, transient),
-        time=time,
-        geometry=grid.geometry(labels),
-        boundary=boundary_mass(grid),
-    )
+    return system_of(grid, phase_terms(disc, phases, present, transient=transient) + faces, dirichlet,
+                     outputs=outputs, time=time, geometry=grid.geometry(labels),
+                     parameters=parameter_values([phases[i] for i in present], boundary, initial_T, transient))

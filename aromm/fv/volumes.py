@@ -25,18 +25,17 @@ import numpy.typing as npt
 import scipy.ndimage as ndi
 
 from aromm.core.errors import InputError
-from aromm.core.system import Affine, Coefficient, Term, ThermalSystem, TimeGrid
+from aromm.core.system import Coefficient, Term, ThermalSystem, TimeGrid
 from aromm.core.vocabulary import (
     FACES,
     FaceSpec,
     PhaseSpec,
-    boundary_mass,
     check_image,
-    face_means,
     face_terms,
     insulating,
     parameter_values,
     phase_terms,
+    system_of,
 )
 from aromm.fv.grid import AXES, VolumeGrid, phase_index
 
@@ -127,17 +126,7 @@ def assemble_volumes(
     if not present:
         raise InputError("finite volumes: no voxel conducts heat to a face with a fixed temperature or an exchange "
                          "(every phase insulating, or no percolating path)")
-    terms = (phase_terms(grid, phases, present, transient=time is not None) + _interface_terms(grid, phases, present))
     faces_terms, dirichlet = face_terms(grid, boundary)
-    terms += faces_terms
-    return ThermalSystem(
-        n=grid.n,
-        conductance=Affine(tuple(t for t in terms if t.role in ("conduction", "exchange"))),
-        capacity=Affine(tuple(t for t in terms if t.role == "capacity")),
-        load=Affine(tuple(t for t in terms if t.role == "load")),
-        dirichlet=tuple(dirichlet),
-        observation=face_means(grid, outputs),
-        parameters=parameter_values([phases[i] for i in present], boundary, initial_T, time is not None),
-        time=time,
-        boundary=boundary_mass(grid),
-    )
+    terms = phase_terms(grid, phases, present, transient=time is not None) + _interface_terms(grid, phases, present)
+    return system_of(grid, terms + faces_terms, dirichlet, outputs=outputs, time=time,
+                     parameters=parameter_values([phases[i] for i in present], boundary, initial_T, time is not None))
