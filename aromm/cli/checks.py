@@ -129,10 +129,10 @@ def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
         raise InputError(f"{path}: too few rows to identify the unknowns: {rows} row(s) × {cols} column(s) = "
                          f"{rows * cols} observation(s) for {len(bounds)} unknown(s) ({', '.join(bounds)}); at least "
                          f"{len(bounds) + 1} are needed (one more than the unknowns, for the residual variance)")
-    if all(float(np.ptp(series)) == 0.0 for series in data.mean_T.values()):
-        value = float(next(iter(data.mean_T.values()))[0])
-        raise InputError(f"{path}: every measured temperature is {value:g} °C, unchanged over {rows} rows: these data "
-                         "carry nothing to identify (an unplugged sensor? the wrong column?)")
+    values = np.concatenate([np.asarray(series, dtype=float) for series in data.mean_T.values()])
+    if float(np.ptp(values)) == 0.0:
+        raise InputError(f"{path}: every measured temperature is {float(values[0]):g} °C, in every column and all "
+                         f"{rows} rows: these data carry nothing to identify (an unplugged sensor? the wrong column?)")
     if not lab.temperature_stated:
         for out, series in data.mean_T.items():
             if kelvin_suspect(series, scene.initial_T):
