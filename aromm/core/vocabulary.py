@@ -288,6 +288,19 @@ def system_of(disc: FaceDiscretisation, terms: Sequence[Term], dirichlet: Sequen
     )
 
 
+def phase_index(labels: npt.NDArray[np.integer], phases: Sequence[PhaseSpec]) -> npt.NDArray[np.int64]:
+    """The position in ``phases`` of every voxel's phase (an array shaped like ``labels``); −1 where no phase has its
+    label.
+
+    >>> phase_index(np.array([[[3, 1, 3]]]), [PhaseSpec("a", 3, 1.0), PhaseSpec("b", 1, 2.0)]).tolist()
+    [[[0, 1, 0]]]
+    """
+    phase = np.full(np.shape(labels), -1, dtype=np.int64)
+    for i, ph in enumerate(phases):
+        phase[labels == ph.label] = i
+    return phase
+
+
 def check_phases(phases: Sequence[PhaseSpec], labels_present: Mapping[int, object] | set[int]) -> None:
     """Refuse image labels that belong to no phase (InputError naming them)."""
     known = {p.label for p in phases}

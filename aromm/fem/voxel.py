@@ -30,6 +30,7 @@ from aromm.core.vocabulary import (
     face_terms,
     insulating,
     parameter_values,
+    phase_index,
     phase_terms,
     system_of,
 )
@@ -66,10 +67,7 @@ def assemble_voxels(
     if cold := [ph.name for ph in phases if insulating(ph)]:
         raise InputError(f"phase {cold[0]!r}: k = 0 (insulating) needs the finite volumes (discretisation fv)")
     shape = (int(labels.shape[0]), int(labels.shape[1]), int(labels.shape[2]))
-    flat = labels.ravel(order="C")
-    phase = np.full(flat.size, -1, dtype=np.int64)
-    for i, ph in enumerate(phases):
-        phase[flat == ph.label] = i
+    phase = phase_index(labels, phases).ravel(order="C")
     grid = VoxelGrid(shape, (voxel_size[0], voxel_size[1], voxel_size[2]), phase)
     present = [i for i in range(len(phases)) if np.any(phase == i)]
     transient = time is not None

@@ -24,7 +24,6 @@ image (``labels[i, j, k]``, k fastest), then the face unknowns face by face.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -83,6 +82,7 @@ class VolumeGrid:
     _index: npt.NDArray[np.int64] = field(init=False, repr=False)
     _face_cells: dict[str, IntArray] = field(init=False, repr=False)
     _face_dofs: dict[str, IntArray] = field(init=False, repr=False)
+    _links: dict[int, Links] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         conducting = self.phase >= 0
@@ -90,7 +90,7 @@ class VolumeGrid:
         index = np.full(self.phase.shape, -1, dtype=np.int64)
         index[conducting] = np.arange(self.cells)
         self._index = index
-        self._face_cells, self._face_dofs = {}, {}
+        self._face_cells, self._face_dofs, self._links = {}, {}, {}
         start = self.cells
         for face in self.faces:
             axis, side = AXES.index(face[0]), (0 if face[1] == "0" else -1)
@@ -115,7 +115,13 @@ class VolumeGrid:
         return float(np.prod([v for a, v in enumerate(self.voxel_size) if a != axis]))
 
     def links(self, axis: int) -> Links:
-        """The links between face neighbours along ``axis`` (both conducting)."""
+        """The links between face neighbours along ``axis`` (both conducting), found once: every phase's and every
+        phase pair's operator selects from them."""
+        if axis not in self._links:
+            self._links[axis] = self._find_links(axis)
+        return self._links[axis]
+
+    def _find_links(self, axis: int) -> Links:
         lo = np.take(self._index, np.arange(self.phase.shape[axis] - 1), axis=axis).ravel()
         hi = np.take(self._index, np.arange(1, self.phase.shape[axis]), axis=axis).ravel()
         both = (lo >= 0) & (hi >= 0)
@@ -183,10 +189,3 @@ class VolumeGrid:
             raise ValueError(f"face {face!r} has no unknowns in this grid (faces: {self.faces})")
         return self._face_dofs[face]
 
-
-def phase_index(labels: npt.NDArray[np.integer], labels_of: Sequence[int]) -> npt.NDArray[np.int64]:
-    """Phase index (position in ``labels_of``) of every voxel; −1 where the label is not listed."""
-    phase = np.full(labels.shape, -1, dtype=np.int64)
-    for i, label in enumerate(labels_of):
-        phase[labels == label] = i
-    return phase

@@ -34,10 +34,11 @@ from aromm.core.vocabulary import (
     face_terms,
     insulating,
     parameter_values,
+    phase_index,
     phase_terms,
     system_of,
 )
-from aromm.fv.grid import AXES, VolumeGrid, phase_index
+from aromm.fv.grid import AXES, VolumeGrid
 
 log = logging.getLogger(__name__)
 
@@ -110,18 +111,18 @@ def assemble_volumes(
     ('K_a', 'K_b', 'K_a|b')
     """
     labels = np.asarray(labels)
-    voxel = (float(voxel_size[0]), float(voxel_size[1]), float(voxel_size[2])) if len(voxel_size) == 3 else ()
     check_image(labels, voxel_size, phases)
+    voxel = (float(voxel_size[0]), float(voxel_size[1]), float(voxel_size[2]))
     cold = [ph.name for ph in phases if insulating(ph)]
     if cold and time is not None:
         raise InputError(f"phase {cold[0]!r}: k = 0 (insulating) is for steady scenes (homogenize, rev, simulate "
                          "without [time]); a transient needs every phase to conduct")
-    phase = phase_index(labels, [ph.label for ph in phases])
+    phase = phase_index(labels, phases)
     phase[np.isin(labels, [ph.label for ph in phases if insulating(ph)])] = -1  # no unknown in an insulator
     if time is None:
         phase = _pruned(phase, boundary)
     faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
-    grid = VolumeGrid(phase, voxel, faces)  # type: ignore[arg-type]
+    grid = VolumeGrid(phase, voxel, faces)
     present = sorted(set(np.unique(grid.cell_phase).tolist()))
     if not present:
         raise InputError("finite volumes: no voxel conducts heat to a face with a fixed temperature or an exchange "

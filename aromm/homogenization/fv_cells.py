@@ -27,9 +27,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from aromm.core.system import FloatArray
-from aromm.core.vocabulary import FaceSpec, insulating
+from aromm.core.vocabulary import FaceSpec, insulating, phase_index
 from aromm.full.solve import reaction_heat_flow, steady_field
-from aromm.fv.grid import AXES, phase_index
+from aromm.fv.grid import AXES
 from aromm.fv.volumes import assemble_volumes, connected
 from aromm.linalg.direct import factorize, resolve_method
 from aromm.scene.geometry import VoxelGeometry
@@ -70,7 +70,7 @@ def _periodic(scene: Scene, method: str, rtol: float) -> FloatArray:
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
     k_of = np.array([p.k if isinstance(p.k, tuple) else (p.k,) * 3 for p in scene.phases], dtype=float)
-    phase = phase_index(np.asarray(image.labels), [p.label for p in scene.phases])
+    phase = phase_index(np.asarray(image.labels), scene.phases)
     cells = phase >= 0
     index = np.full(phase.shape, -1, dtype=np.int64)
     index[cells] = np.arange(int(cells.sum()))
