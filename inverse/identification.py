@@ -313,12 +313,13 @@ def identify(
     starts = np.cumsum([0] + [f.measured.size for f in fits])[:-1]  # rows of r: scenarios, then times × faces
     blocks = [s0 + np.arange(f.measured.size).reshape(f.measured.shape) for s0, f in zip(starts, fits, strict=True)]
     rise = np.concatenate([(f.fitted - y0).ravel() for f, y0 in zip(fits, starts0, strict=True)])
+    positive = [is_positive(n) for n in box.names]
     biases = {} if alternative is None else {
         "discretisation": discretisation_shift(alternative, measurements, box, fixed=fixed, start=u_best,
-                                              positive=[is_positive(n) for n in box.names])}
+                                              positive=positive)}
     uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
                              data_notes=offsets, scales=relative_scales(box, theta),
-                             positive=[is_positive(n) for n in box.names], model_error=model_error, model_rise=rise,
+                             positive=positive, model_error=model_error, model_rise=rise,
                              biases=biases,
                              **reduced_error([sc.model for sc in scenarios], dict(zip(box.names, theta, strict=True))))
     return Identification(

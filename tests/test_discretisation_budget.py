@@ -7,15 +7,21 @@ and a noise-only interval that misses the truth; re-fitted with the data's own d
 
 from __future__ import annotations
 
+import json
+
+import click
 import numpy as np
 import pytest
-from inverse_cases import BOX, PHASES, TRUTH, tracheids
+from inverse_cases import BOX, PHASES, TRUTH, tracheids, twin_case
 
+from aromm.cli import main
+from aromm.cli.checks import other_discretisation
 from aromm.core.system import TimeGrid
 from aromm.core.vocabulary import FaceSpec
 from aromm.fem import assemble_voxels
 from aromm.full.solve import FullModel
 from aromm.fv.volumes import assemble_volumes
+from aromm.scene.scene_file import scene_from_dict
 from inverse.identification import identify
 from inverse.measurements import simulate_measurements
 from inverse.uncertainty import BIASES, linearised
@@ -70,12 +76,6 @@ def test_the_reduced_model_shift_does_not_depend_on_the_units_of_a_parameter() -
 
 
 def test_identify_command_reports_the_discretisation_row(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
-    import json
-
-    from inverse_cases import twin_case
-
-    from aromm.cli import main
-
     scene, csv = twin_case(tmp_path)
     args = ["identify", str(scene), "--measurements", str(csv), "--unknown", "fibre.k=0.05:1", "--unknown",
             "fibre.c=1e5:1e7", "--model", "full", "--particles", "4", "--iterations", "1", "--json"]
@@ -85,3 +85,13 @@ def test_identify_command_reports_the_discretisation_row(tmp_path, capsys) -> No
     assert set(budget) == {"measurement noise", "discretisation"}
     assert out["model"]["discretisation_check"]["discretisation"] == "fv"
     assert budget["discretisation"]["fibre.k"] > 0
+
+
+def test_the_check_is_refused_before_any_build_where_the_other_discretisation_cannot_model_the_scene() -> None:
+    data = {"geometry": {"generator": "sphere_in_cube", "n": 4, "voxel_size": 1e-3},
+            "phases": {"solid": {"label": 0, "k": 0.0}, "pore": {"label": 1, "k": 1.0}},
+            "model": {"discretisation": "fv"}}
+    with pytest.raises(click.UsageError, match=r"q1 cannot model this scene: phases\.solid\.k: k = 0"):
+        other_discretisation(scene_from_dict(data), "scipy")
+    assert other_discretisation(scene_from_dict({**data, "phases": {"solid": {"label": 0, "k": 0.1},
+                                                                    "pore": {"label": 1, "k": 1.0}}}), "scipy") == "q1"

@@ -21,8 +21,8 @@ from aromm.core.errors import InputError
 from aromm.core.files import Input, check_folder
 from aromm.core.labchecks import PLAUSIBLE, fahrenheit_suspect, kelvin_suspect
 from aromm.core.labcsv import read_lab_csv
-from aromm.core.vocabulary import insulating, is_positive
-from aromm.scene.geometry import VoxelGeometry
+from aromm.core.vocabulary import is_positive
+from aromm.scene.model_section import refusal
 from aromm.scene.scene_file import Scene, scene_files
 from aromm.scene.sensors import output_names
 from inverse.identification import bounds_problem
@@ -170,15 +170,12 @@ def cache_folder(directory: Path | None, option: str = "--cache-dir") -> Path:
 
 
 def other_discretisation(scene: Scene, engine: str) -> str:
-    """The discretisation ``--discretisation-check`` compares with (q1 ↔ fv), refused where it has none."""
+    """The discretisation ``--discretisation-check`` compares with (q1 ↔ fv), refused where it cannot model the
+    scene (:func:`aromm.scene.model_section.refusal`) before any model is built."""
     if engine != "scipy":
         raise click.UsageError("--discretisation-check runs on the scipy engine (the petsc engine assembles q1 only)")
-    if not isinstance(scene.geometry, VoxelGeometry):
-        raise click.UsageError("--discretisation-check compares the voxel discretisations; this scene is a mesh")
-    if scene.sensors:
-        raise click.UsageError("--discretisation-check: point sensors sit on the q1 nodes, fv has face means only")
-    if cold := [ph.name for ph in scene.phases if insulating(ph)]:
-        raise click.UsageError(f"--discretisation-check: phase {cold[0]!r} is insulating (k = 0), which q1 cannot "
-                               "model")
-    return "fv" if scene.discretisation == "q1" else "q1"
-
+    other = "fv" if scene.discretisation == "q1" else "q1"
+    refused = refusal(other, scene.geometry, scene.phases, scene.sensors)
+    if refused is not None:
+        raise click.UsageError(f"--discretisation-check: {other} cannot model this scene: {refused[0]}: {refused[1]}")
+    return other

@@ -28,7 +28,7 @@ from aromm.microstructure.generators import GENERATORS
 from aromm.microstructure.segmentation import SegmentationReport, prepare_image
 from aromm.scene.contact_resistances import parse_interfaces
 from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
-from aromm.scene.model_section import parse_model, with_discretisation
+from aromm.scene.model_section import parse_model, refusal, with_discretisation
 from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.scene.toml import TableReader, where
@@ -132,9 +132,9 @@ def assemble(scene: Scene, matrix_free: bool = False) -> ThermalSystem:
     singular = singular_boundary(scene.boundary, scene.time)
     if singular:
         raise InputError(f"{scene.where}{singular}")
-    if scene.discretisation != "q1" and scene.sensors:
-        raise InputError(f"{scene.where}outputs: point sensors sit on the q1 nodes; with discretisation fv use face "
-                         "means")
+    refused = refusal(scene.discretisation, scene.geometry, scene.phases, scene.sensors)
+    if refused is not None:
+        raise InputError(f"{scene.where}{refused[0]}: {refused[1]}")
     voxels: dict[str, Any] = {"matrix_free": matrix_free, "discretisation": scene.discretisation}
     system = scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
                                      initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where,
@@ -224,7 +224,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
     reduction = parse_reduction(r, data, allowed)
     return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report,
-                 parse_model(r, data, geometry, phases))
+                 parse_model(r, data, geometry, phases, sensors))
 
 
 def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
