@@ -99,7 +99,7 @@ def _bound(rom: Any) -> dict[str, object]:
     ``error_bound_note`` saying why there is none (aromm.reduction.certificate)."""
     values = rom.error_bound() if hasattr(rom, "error_bound") else None
     if values is None:
-        why = rom.info.get("certificate", 'only Krylov models are certified: [reduction] method = "krylov"')
+        why = rom.info.get("certificate", "built without one (the petsc engine, or certify = false)")
         return {"error_bound": None, "error_bound_note": str(why)}
     return {"error_bound": dict(zip(rom.outputs, (float(v) for v in values), strict=True))}
 

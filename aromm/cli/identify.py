@@ -61,8 +61,8 @@ def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[st
     box = training_box(source.reduction.bounds, unknowns)
     rom = reduce(source, settings=source.reduction.updated(order=order, bounds=box), progress=tty, engine=engine)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene), "engine": str(rom.info.get("engine", engine))}
-    info.update({k: rom.info[k] for k in ("reference_error", "tolerance", "converged", "offline_seconds", "cached",
-                                          "error_bound", "certificate") if k in rom.info})
+    info.update({k: rom.info[k] for k in ("method", "reference_error", "tolerance", "converged", "offline_seconds",
+                                          "cached", "error_bound", "certificate") if k in rom.info})
     return rom, info
 
 
@@ -140,7 +140,8 @@ def _reduction_note(model: Mapping[str, object]) -> str:
     met = "" if "converged" not in model else (" (met its tolerance)" if str(model["converged"]) == "1"
                                                else " (above its tolerance)")
     bound = float(str(model.get("error_bound", "nan")))
-    certified = f", certified bound {bound:.2g} °C over its training grid" if math.isfinite(bound) else ""
+    where = "over its training grid" if model.get("method") == "krylov" else "at the scene's values"
+    certified = f", certified bound {bound:.2g} °C {where}" if math.isfinite(bound) else ""
     return f"; its estimated error {error:.2g} °C over its box{met} (an estimate, not a bound){certified}"
 
 

@@ -17,11 +17,12 @@ import numpy as np
 from aromm.core.cache import NpzCache
 from aromm.core.system import FloatArray, ThermalSystem
 from aromm.reduction import krylov
-from aromm.reduction.certificate import certify, error_bound, ladder
+from aromm.reduction.certificate import certify, error_bound
+from aromm.reduction.certified import certified, wanted, width
 from aromm.reduction.lifting import lift
 from aromm.reduction.model_key import system_key
 from aromm.reduction.rom import ReducedModel, from_arrays, one_blas_thread, to_arrays
-from aromm.reduction.scipy_engine import DIRECT_BELOW, SOLVERS, ScipyEngine
+from aromm.reduction.scipy_engine import SOLVERS, ScipyEngine
 
 WithFields = Callable[[ReducedModel, ThermalSystem, FloatArray, Mapping[str, float], str], ReducedModel]
 
@@ -51,7 +52,9 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     with one_blas_thread():  # small dense algebra dominates: threaded BLAS only fights for the shared cores
         rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress,
                                              bound=span_bound(engine, lifted, reductor, box))
-        rom, extra = certified(engine, lifted, rom, psi, reductor=reductor, box=box)
+        rom, extra = certified(engine, lifted, rom, psi, certify=reductor.certify, reference=krylov.centre(box),
+                               training=krylov.training_set(box, reductor.per_axis), rtol=reductor.rtol,
+                               tolerance=reductor.tolerance)
     info.update(extra)
     info.update({"offline_seconds": time.perf_counter() - start, "cached": 0, "key": key,
                  "lifted_faces": len(system.dirichlet)})
@@ -63,60 +66,17 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     return with_fields(rom, system, engine.to_numpy(psi), basis_values, solver) if fields else rom
 
 
-#: The certificate's offline matrix M (n × (inputs + outputs + terms · order)) is held whole: above this many bytes
-#: the model is returned without a bound (info says so).
-CERTIFY_BYTES = 2 * 1024 ** 3
-
-
-def _wanted(system: ThermalSystem, reductor: krylov.KrylovReductor, width: int) -> str | None:
-    """None when the model is to be certified, else why not."""
-    if not (system.n < DIRECT_BELOW if reductor.certify is None else reductor.certify):
-        return (f"not computed: {system.n} unknowns, it would cost about {len(ladder(*_grid(system)))} × {width} "
-                "shifted solves (ask with KrylovReductor(certify=True))")
-    if system.n * width * 8 > CERTIFY_BYTES:
-        return f"not computed: M of {system.n} × {width} would exceed {CERTIFY_BYTES} B"
-    return None
-
-
-def _width(engine: ScipyEngine, system: ThermalSystem, order: int) -> int:
-    terms = len(system.conductance.terms) + len(system.capacity.terms)
-    return int(engine.input_terms().shape[1]) + len(system.observation) + terms * order
-
-
 def span_bound(engine: ScipyEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
                box: krylov.Box) -> krylov.Bound | None:
     """The greedy's certified bound (:data:`aromm.reduction.krylov.Bound`) when the model is to be certified."""
-    if _wanted(system, reductor, _width(engine, system, 1)) is not None:
+    if wanted(system, reductor.certify, width(engine, system, 1)) is not None:
         return None
     training = krylov.training_set(box, reductor.per_axis)
 
     def bound(basis: FloatArray, model: ReducedModel) -> FloatArray:
-        if _wanted(system, reductor, _width(engine, system, basis.shape[1])) is not None:
+        if wanted(system, reductor.certify, width(engine, system, basis.shape[1])) is not None:
             return np.zeros(len(training))  # too large to certify: the estimate decides, as without a bound
         cert = certify(engine, system, basis, krylov.centre(box), reductor.rtol)
         return np.array([float(np.max(error_bound(model, cert, mu))) for mu in training])
 
     return bound
-
-
-def certified(engine: ScipyEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
-              reductor: krylov.KrylovReductor, box: krylov.Box) -> tuple[ReducedModel, krylov.Info]:
-    """The model with its certificate (:mod:`aromm.reduction.certificate`) and what info records of it: the worst
-    bound over the training set (``error_bound``, °C), the CPU seconds; without one when M would not fit."""
-    why = _wanted(system, reductor, _width(engine, system, rom.order))
-    if why is not None:
-        return rom, {"error_bound": float("nan"), "certificate": why}
-    start = time.process_time()
-    rom = replace(rom, certificate=certify(engine, system, psi, krylov.centre(box), reductor.rtol))
-    bounds = [rom.error_bound(mu) for mu in krylov.training_set(box, reductor.per_axis)]
-    worst = max(float(np.max(b)) for b in bounds if b is not None)
-    extra: krylov.Info = {"error_bound": worst, "certificate": "primal-dual contour bound",
-                          "certify_seconds": time.process_time() - start}
-    if worst > reductor.tolerance:  # the bound decides where there is one (issue 35, item 4)
-        extra["converged"] = 0
-    return rom, extra
-
-
-def _grid(system: ThermalSystem) -> tuple[float, float]:
-    assert system.time is not None
-    return system.time.end, system.time.dt

@@ -32,8 +32,8 @@ from aromm.scene.reduction_section import ReductionSettings
 
 log = logging.getLogger(__name__)
 
-ROM_VERSION = 6  # 6: the output time grid in the key; 5: one pipeline for every engine (histories, feedthrough and
-#                  lifted fixed temperatures since 4)
+ROM_VERSION = 7  # 7: certified modal models (an entry of 6 has none); 6: the output time grid in the key; 5: one
+#                  pipeline for every engine (histories, feedthrough and lifted fixed temperatures since 4)
 #: Relaxation reference case [Chavez2020, § 3.2]: initially at 30 °C, cooled on all faces (h in W/(m² K)).
 RELAXATION_T0 = 30.0
 RELAXATION_H = 20.0

@@ -37,6 +37,7 @@ from aromm.core.system import Affine, Coefficient, FloatArray, Term, ThermalSyst
 from aromm.linalg.eigensolvers import ProgressCallback
 from aromm.reduction import modal_pipeline
 from aromm.reduction.amalgam import AmalgamReductor
+from aromm.reduction.certified import certified
 from aromm.reduction.greedy import PodGreedy
 from aromm.reduction.krylov import KrylovReductor
 from aromm.reduction.lifting import lift, liftings
@@ -44,7 +45,7 @@ from aromm.reduction.modal_pipeline import ReferenceCase, default_modes, relaxat
 from aromm.reduction.pod import PodReductor
 from aromm.reduction.reductors import Reductor
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
-from aromm.reduction.scipy_engine import DIRECT_BELOW
+from aromm.reduction.scipy_engine import DIRECT_BELOW, SOLVERS, ScipyEngine
 from aromm.reduction.scipy_modal import ScipyModalEngine
 from aromm.scene.reduction_section import REDUCTION_METHODS, ReductionSettings
 from aromm.scene.scene_file import Scene, assemble
@@ -178,7 +179,8 @@ def reduce(
         start = time.perf_counter()
         rom, coefficients, basis = modal_pipeline.build(engine, settings, reductor, chosen)
         engine.close()
-        rom = replace(rom, info={**rom.info, "offline_seconds": time.perf_counter() - start,
+        rom, extra = _certified(system, rom, basis.vectors @ coefficients, settings)
+        rom = replace(rom, info={**rom.info, **extra, "offline_seconds": time.perf_counter() - start,
                                  "lifted_faces": len(original.dirichlet), "eigensolver": engine.eigensolver,
                                  "eigen_iterations": engine.eigen_iterations})
         _order_used(order, rom)
@@ -186,6 +188,16 @@ def reduce(
             store.save("rom", chosen.key, to_arrays(rom))
             store.save("reconstruction", chosen.key, {"coefficients": coefficients})
         return _with_fields(rom, original, basis.vectors @ coefficients, basis_values, solver) if fields else rom
+
+
+def _certified(system: ThermalSystem, rom: ReducedModel, psi: FloatArray,
+               settings: ReductionSettings) -> tuple[ReducedModel, dict[str, float | int | str]]:
+    """The modal model with its certificate (:mod:`aromm.reduction.certified`; by size unless ``settings.certify``),
+    at the basis values, its ``error_bound`` taken at the system's own values (a modal model has no training box)."""
+    values = {**system.parameters, **settings.basis}
+    engine = ScipyEngine(system, settings.solver if settings.solver in SOLVERS else "auto")
+    return certified(engine, system, rom, psi, certify=settings.certify, reference=values,
+                     training=[dict(system.parameters)], rtol=KrylovReductor.rtol)
 
 
 def _check_mode_count(settings: ReductionSettings, chosen: modal_pipeline.ModalPlan, n: int) -> None:

@@ -51,7 +51,8 @@ class ReductionSettings:
     upper), the identification box, over which the Krylov reduction trains (the modal methods do not use it);
     ``tolerance`` (°C): the Krylov reduction's greedy stops at this estimated error (None: the reductor's default,
     aromm.reduction.krylov.KrylovReductor; a Krylov-only option, so ``"auto"`` then picks the Krylov method);
-    ``certify``: attach the certified output error bound (None: below 20,000 unknowns; Krylov-only like ``tolerance``);
+    ``certify``: attach the certified output error bound (None: below 20,000 unknowns; every one-process method,
+    aromm.reduction.certified);
     ``solver`` (linear solves), ``eigensolver`` and ``basis_storage`` of the modal bases."""
 
     order: int = 200
@@ -98,11 +99,10 @@ class ReductionSettings:
                              f"{self.tolerance!r}")
         if self.certify not in (None, True, False):
             raise InputError(f"certify must be true, false or left out (by size), got {self.certify!r}")
-        for name in ("tolerance", "certify"):
-            if getattr(self, name) is not None and (self.method in ("aromm", "pod", "greedy")
-                                                     or (self.method == "auto" and modal)):
-                raise InputError(f"reduce: {name} belongs to method 'krylov', not to "
-                                 f"{'the modal options ' + ', '.join(modal) if modal else repr(self.method)}")
+        if self.tolerance is not None and (self.method in ("aromm", "pod", "greedy")
+                                           or (self.method == "auto" and modal)):
+            raise InputError("reduce: tolerance belongs to method 'krylov', not to "
+                             f"{'the modal options ' + ', '.join(modal) if modal else repr(self.method)}")
         if self.eigensolver not in EIGENSOLVERS:
             raise InputError(f"unknown eigensolver {self.eigensolver!r}; allowed: {', '.join(EIGENSOLVERS)}")
         if self.basis_storage not in BASIS_STORAGES:
@@ -120,7 +120,7 @@ class ReductionSettings:
         :data:`KRYLOV_ABOVE`."""
         if self.method != "auto":
             return self.method
-        if self.tolerance is not None or self.certify is not None:
+        if self.tolerance is not None:
             return "krylov"
         if self.modal_options() or references:
             return "aromm"

@@ -1,0 +1,72 @@
+"""Attach the certified output error bound (:mod:`aromm.reduction.certificate`) to a model built on one process.
+
+Both one-process builds end here: the Krylov reduction (:mod:`aromm.reduction.krylov_offline`, over its training box)
+and the modal methods (:mod:`aromm.reduction.offline`: amalgam, POD, greedy, whose basis Ψ = Φ A is a Galerkin basis
+of the lifted system like the Krylov one).  Whether a model is certified is :func:`wanted` (by size unless asked);
+the certificate's offline cost is one shifted solve per column of M and rung of the σ ladder.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from aromm.core.system import FloatArray, ThermalSystem
+from aromm.reduction.certificate import certify as certificate_of
+from aromm.reduction.certificate import ladder
+from aromm.reduction.rom import ReducedModel
+from aromm.reduction.scipy_engine import DIRECT_BELOW, ScipyEngine
+
+#: The certificate's offline matrix M (n × (inputs + outputs + terms · order)) is held whole: above this many bytes
+#: the model is returned without a bound (info says so).
+CERTIFY_BYTES = 2 * 1024 ** 3
+
+Info = dict[str, float | int | str]
+
+
+def width(engine: ScipyEngine, system: ThermalSystem, order: int) -> int:
+    """Columns of M for a basis of ``order`` vectors: inputs, outputs and every term applied to the basis."""
+    terms = len(system.conductance.terms) + len(system.capacity.terms)
+    return int(engine.input_terms().shape[1]) + len(system.observation) + terms * order
+
+
+def wanted(system: ThermalSystem, certify: bool | None, columns: int) -> str | None:
+    """None when the model is to be certified (``certify``, or by size when None: below
+    :data:`~aromm.reduction.scipy_engine.DIRECT_BELOW` unknowns), else why not."""
+    if system.time is None:
+        return "not computed: a steady model"
+    if not (system.n < DIRECT_BELOW if certify is None else certify):
+        return (f"not computed: {system.n} unknowns, it would cost about {len(ladder(*_grid(system)))} × {columns} "
+                "shifted solves (ask with [reduction] certify = true or aromm reduce --certify)")
+    if system.n * columns * 8 > CERTIFY_BYTES:
+        return f"not computed: M of {system.n} × {columns} would exceed {CERTIFY_BYTES} B"
+    return None
+
+
+def certified(engine: ScipyEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
+              certify: bool | None, reference: Mapping[str, float], training: Sequence[Mapping[str, float]],
+              rtol: float, tolerance: float | None = None) -> tuple[ReducedModel, Info]:
+    """``rom`` (Galerkin on the basis ``psi`` of the lifted ``system``) with its certificate at the reference values,
+    and what its info records: the worst bound over ``training`` (``error_bound``, °C), the CPU seconds, and
+    ``converged = 0`` when that bound exceeds ``tolerance`` (issue 35, item 4); without one when :func:`wanted` says
+    no (``certificate`` then says why)."""
+    why = wanted(system, certify, width(engine, system, rom.order))
+    if why is not None:
+        return rom, {"error_bound": float("nan"), "certificate": why}
+    start = time.process_time()
+    rom = replace(rom, certificate=certificate_of(engine, system, psi, reference, rtol))
+    bounds = [rom.error_bound(mu) for mu in training]
+    worst = max(float(np.max(b)) for b in bounds if b is not None)
+    info: Info = {"error_bound": worst, "certificate": "primal-dual contour bound",
+                  "certify_seconds": time.process_time() - start}
+    if tolerance is not None and worst > tolerance:
+        info["converged"] = 0
+    return rom, info
+
+
+def _grid(system: ThermalSystem) -> tuple[float, float]:
+    assert system.time is not None
+    return system.time.end, system.time.dt
