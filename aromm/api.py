@@ -28,7 +28,7 @@ import numpy.typing as npt
 from aromm.core.errors import InputError, ModelWarning
 from aromm.core.observables import Observables
 from aromm.core.system import FloatArray, ParamValues, ThermalSystem
-from aromm.engines import check_engine
+from aromm.engines import check_engine, is_root
 from aromm.full import solve
 from aromm.homogenization import properties
 from aromm.homogenization.properties import PROBE_BOUNDARIES, Fluxmetric, conductivity
@@ -44,15 +44,6 @@ from aromm.scene.scene_file import Scene, assemble
 RUN_OPTIONS = ("references", "cache", "progress", "eigen_progress", "fields")
 
 __all__ = ["default_boundary", "fluxmetric", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
-
-
-def is_root(engine: str) -> bool:
-    """True on the process that prints and writes: the only one for scipy, rank 0 for petsc."""
-    if engine != "petsc":
-        return True
-    from aromm.engines.petsc import runtime
-
-    return runtime.is_root(runtime.world())
 
 
 def simulate(system: ThermalSystem | Scene, values: ParamValues | None = None, times: npt.ArrayLike | None = None,

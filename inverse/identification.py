@@ -29,6 +29,7 @@ from aromm.core.vocabulary import is_positive
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, ModelInput, Scenario, scenarios_of
+from inverse.defaults import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
 from inverse.measurements import Measurements
 from inverse.residuals import offset_note
 from inverse.uncertainty import Uncertainty, linearised
@@ -36,9 +37,7 @@ from inverse.uncertainty import Uncertainty, linearised
 if TYPE_CHECKING:
     from inverse.posterior import Posterior
 
-DEFAULT_PARTICLES = 20
 CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
-DEFAULT_ITERATIONS = 30
 AT_BOUND = 1e-6  # normalised distance to a bound below which an estimate is reported as on it
 MAX_DECADES = 8  # widest search of a positive parameter: conductivities of solids and gases span 1e-3..1e3 W/(m K)
 
