@@ -106,8 +106,10 @@ def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[st
                    "from the estimates: the shift enters the error budget as 'discretisation' (the two bracket the "
                    "voxel geometry's value).")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
-              help="Also sample the posterior of the unknowns: N steps of an emcee ensemble started at the estimates "
-                   "(optional extra: pip install 'aromm[posterior]'); with --plot, a corner plot FILE_posterior.png.")
+              help="Also sample the posterior of the unknowns: N steps of each of the --walkers walkers of an emcee "
+                   "ensemble started at the estimates, so N × walkers model evaluations (N = 10000 with 32 walkers: "
+                   "320,000), of which the steps after the burn-in are the samples (optional extra: pip install "
+                   "'aromm[posterior]'); with --plot, a corner plot FILE_posterior.png.")
 @click.option("--walkers", type=click.IntRange(min=2), default=DEFAULT_WALKERS, show_default=True,
               help="Walkers of the --posterior ensemble (at least twice the number of sampled coordinates).")
 @click.option("--repeat", type=click.IntRange(min=1), default=None, metavar="N",
