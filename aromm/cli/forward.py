@@ -14,10 +14,12 @@ from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import (
     DIRECT_BYTES_PER_VOXEL,
     FORCE,
+    ORDER,
     REFINE,
     SEED,
     FiniteFloat,
     echo_json,
+    reduced_settings,
     refuse_order_with_full_model,
     write_extras,
 )
@@ -114,8 +116,7 @@ def _bound_line(bound: Mapping[str, object]) -> str:
 @SCENE
 @click.option("--model", type=click.Choice(["full", "reduced"]), default="full", show_default=True,
               help="full: finite elements; reduced: the AROMM reduced model [Chavez2020, § 3] (built or cached).")
-@click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
-              help="Reduced-model order ñ (with --model reduced).")
+@ORDER
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
 @click.option("--fields", "field_times", default=None, metavar="T1,T2,...",
@@ -129,7 +130,7 @@ def _bound_line(bound: Mapping[str, object]) -> str:
 @REFINE
 @JSON
 @FORCE
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field_times: str | None, scheme: str,
+def simulate_cmd(*, scene: Path, model: str, order: int | None, out: Path | None, field_times: str | None, scheme: str,
                  solver: str, engine: str, refine: int, as_json: bool, force: bool) -> None:
     """Simulate SCENE: face-mean and sensor temperatures over time (or at steady state).
 
@@ -157,7 +158,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
     progress = sys.stderr.isatty() and is_root(engine)
     bound: dict[str, object] = {}
     if model == "reduced":
-        rom = reduce(sc, settings=sc.reduction.updated(order=order, solver=solver),  # the scene: identify's key
+        rom = reduce(sc, settings=reduced_settings(sc, sc.reduction.updated(solver=solver), order, engine),
                      progress=progress, engine=engine, fields=times is not None)
         obs = rom.simulate()
         bound = _bound(rom)

@@ -21,10 +21,12 @@ from tqdm import tqdm
 from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import (
     FORCE,
+    ORDER,
     SEED,
     FiniteFloat,
     Interrupted,
     echo_json,
+    reduced_settings,
     refuse_order_with_full_model,
     write_extras,
 )
@@ -39,7 +41,7 @@ if TYPE_CHECKING:
     from inverse.repetitions import Problem
 
 
-def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[str, tuple[float, float]], *,
+def _model(scene: Path, source: Any, kind: str, order: int | None, unknowns: Mapping[str, tuple[float, float]], *,
            tty: bool, engine: str) -> tuple[ForwardModel, dict[str, object]]:
     """The forward model; a reduced one is trained over the scene's box joined with the unknowns' ranges
     (:func:`aromm.core.domain.training_box`): never asked outside its box."""
@@ -53,7 +55,8 @@ def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[st
     from aromm.api import reduce
 
     box = training_box(source.reduction.bounds, unknowns)
-    rom = reduce(source, settings=source.reduction.updated(order=order, bounds=box), progress=tty, engine=engine)
+    settings = reduced_settings(source, source.reduction.updated(bounds=box), order, engine)
+    rom = reduce(source, settings=settings, progress=tty, engine=engine)
     info = {"kind": "reduced", "order": rom.order, "scene": str(scene), "engine": str(rom.info.get("engine", engine))}
     info.update({k: rom.info[k] for k in ("reference_error", "tolerance", "converged", "offline_seconds", "cached",
                                           "error_bound", "certificate") if k in rom.info})
@@ -79,8 +82,7 @@ def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[st
               help="An unknown parameter and its search bounds (repeat), e.g. fibre.k=0.05:1.")
 @click.option("--model", "kind", type=click.Choice(["reduced", "full"]), default="reduced", show_default=True,
               help="Model evaluated by the optimiser: the reduced model (seconds) or the full one (hours).")
-@click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
-              help="Reduced-model order ñ (with --model reduced).")
+@ORDER
 @engine_cli.ENGINE
 @engine_cli.DISCRETISATION
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the particle swarm.")
@@ -126,7 +128,7 @@ def _model(scene: Path, source: Any, kind: str, order: int, unknowns: Mapping[st
 @FORCE
 def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ...], time_unit: str | None,
                  temperature_unit: str | None, plausible: str | None, unknowns: tuple[str, ...], kind: str,
-                 order: int, engine: str, seed: int,
+                 order: int | None, engine: str, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
                  resume: bool, noise_std: float | None, model_error: float, check_discretisation: bool,
                  posterior_steps: int | None, walkers: int,
