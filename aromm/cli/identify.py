@@ -107,6 +107,10 @@ def _model(scene: Path, source: Any, kind: str, order: int | None, unknowns: Map
               help="Re-fit with the same model in the other discretisation (q1 ↔ fv, built or cached like the first) "
                    "from the estimates: the shift enters the error budget as 'discretisation' (the two bracket the "
                    "voxel geometry's value).")
+@click.option("--segmentation-check", "check_segmentation", is_flag=True,
+              help="For a grey image thresholded once: re-fit with the same model on the image thresholded by "
+                   "another standard method (Li's for Otsu's, Otsu's for a given threshold; one more model built or "
+                   "cached): the shift enters the error budget as 'segmentation'.")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
               help="Also sample the posterior of the unknowns: N steps of each of the --walkers walkers of an emcee "
                    "ensemble started at the estimates, so N × walkers model evaluations (N = 10000 with 32 walkers: "
@@ -131,6 +135,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
                  order: int | None, engine: str, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
                  resume: bool, noise_std: float | None, model_error: float, check_discretisation: bool,
+                 check_segmentation: bool,
                  posterior_steps: int | None, walkers: int,
                  repeat: int | None, repeat_noise: float, farm: str, workers: int | None, force: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean and sensor temperatures.
@@ -191,14 +196,20 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
         checks.cache_folder(None)
     tty = sys.stderr.isatty()
     other = checks.other_discretisation(sc, engine) if check_discretisation else None
+    segmented = checks.other_segmentation(scene, sc, engine) if check_segmentation else None
     model, info = _model(scene, source, kind, order, bounds, tty=tty and is_root(engine), engine=engine)
     if not is_root(engine):
         return
-    alternative = None
+    alternatives = {}
     if other is not None:
-        alternative, alt_info = _model(scene, dataclasses.replace(source, discretisation=other), kind, order, bounds,
-                                       tty=tty, engine=engine)
+        alternatives["discretisation"], alt_info = _model(scene, dataclasses.replace(source, discretisation=other),
+                                                          kind, order, bounds, tty=tty, engine=engine)
         info["discretisation_check"] = {"discretisation": other, **alt_info}
+    if segmented is not None:
+        rethresholded, (method, threshold) = segmented
+        alternatives["segmentation"], alt_info = _model(scene, rethresholded, kind, order, bounds, tty=tty,
+                                                        engine=engine)
+        info["segmentation_check"] = {"method": method, "threshold": threshold, **alt_info}
     if repeat is not None:
         _repeated(Problem(model, data, bounds, repeat_noise, particles, iterations, info), repeat, seed,
                   Farm(farm, workers), as_json)
@@ -218,7 +229,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
         try:
             result = identify(model, data, bounds, seed=seed, particles=particles, iterations=iterations,
                               checkpoint=checkpoint, resume=resume, progress=report, description=info,
-                              noise_std=noise_std, model_error=model_error, alternative=alternative)
+                              noise_std=noise_std, model_error=model_error, alternatives=alternatives)
         except KeyboardInterrupt:
             saved = checkpoint is not None and checkpoint.exists()
             raise Interrupted(f"resume with --resume --checkpoint {checkpoint}" if saved else "") from None

@@ -61,7 +61,9 @@ def table(result: Identification) -> str:
 #: What to do when a source other than the noise makes most of an interval.
 REMEDIES = {"reduced model": "rebuild the model with a tighter [reduction] tolerance or a higher --order",
             "discretisation": "resolve the image finer (--refine 2 halves the gap, docs/method/finite_volumes.md)",
-            "stated model error": "refine the voxel model (--refine) to lower the discretisation error"}
+            "stated model error": "refine the voxel model (--refine) to lower the discretisation error",
+            "segmentation": "check the threshold against the histogram (aromm segment --plot), or scan finer to narrow "
+                            "the band of partial-volume voxels"}
 
 
 def _budget_lines(unc: Uncertainty) -> list[str]:
