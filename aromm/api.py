@@ -19,16 +19,18 @@ from __future__ import annotations
 
 import contextlib
 import warnings
+from collections.abc import Mapping
 from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from aromm.core.cache import NpzCache
 from aromm.core.errors import InputError, ModelWarning
 from aromm.core.observables import Observables
 from aromm.core.system import FloatArray, ParamValues, ThermalSystem
-from aromm.engines import check_engine
+from aromm.engines import check_engine, is_root
 from aromm.full import solve
 from aromm.homogenization import properties
 from aromm.homogenization.properties import PROBE_BOUNDARIES, Fluxmetric, conductivity
@@ -43,16 +45,8 @@ from aromm.scene.scene_file import Scene, assemble
 #: Options of :func:`reduce` that say where and how a build reports, not what it builds.
 RUN_OPTIONS = ("references", "cache", "progress", "eigen_progress", "fields")
 
-__all__ = ["default_boundary", "fluxmetric", "homogenize", "is_root", "mean_capacity", "reduce", "simulate"]
-
-
-def is_root(engine: str) -> bool:
-    """True on the process that prints and writes: the only one for scipy, rank 0 for petsc."""
-    if engine != "petsc":
-        return True
-    from aromm.engines.petsc import runtime
-
-    return runtime.is_root(runtime.world())
+__all__ = ["built_order", "default_boundary", "fluxmetric", "homogenize", "is_root", "mean_capacity", "reduce",
+           "simulate"]
 
 
 def simulate(system: ThermalSystem | Scene, values: ParamValues | None = None, times: npt.ArrayLike | None = None,
@@ -99,13 +93,34 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
     :class:`~aromm.core.errors.ModelWarning` that says the estimated error and why, whether built or cached."""
     engine = check_engine(engine)
     run = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
-    settings = (settings or ReductionSettings()).updated(order=order, **options)
-    settings = replace(settings, method=settings.method_for(_unknowns(system), references=bool(run.get("references"))))
+    settings = _resolved(system, (settings or ReductionSettings()).updated(order=order, **options), run)
     rom = _cached_or_built(system, settings, engine, run)
     note = tolerance_note(rom.info)
     if note is not None and is_root(engine):
         warnings.warn(note, ModelWarning, stacklevel=2)
     return rom
+
+
+def built_order(system: ThermalSystem | Scene, settings: ReductionSettings | None = None, *, engine: str = "scipy",
+                **run: Any) -> int | None:
+    """The order asked of the last reduced model built for ``system`` with ``settings`` whatever its order
+    (``aromm reduce --order 60`` then ``aromm identify``: identify asks for that model instead of building one at the
+    default order), or None when there is none in the cache; ``run`` as :func:`reduce` (``cache``, ``references``).
+    The petsc engine keeps no such record (None)."""
+    settings = _resolved(system, settings or ReductionSettings(), run)
+    family = _model_key(system, replace(settings, order=FAMILY), engine, run) if engine == "scipy" else None
+    store = resolve_cache(run.get("cache", True)) if family is not None else None
+    found = store.load("model-order", family) if store is not None and family is not None else None
+    return int(found["order"]) if found is not None else None
+
+
+#: The order that stands in the key of a model's family (every order of the same scene and settings).
+FAMILY = 0
+
+
+def _resolved(system: Any, settings: ReductionSettings, run: Mapping[str, Any]) -> ReductionSettings:
+    """``settings`` with ``method="auto"`` resolved by the system's size."""
+    return replace(settings, method=settings.method_for(_unknowns(system), references=bool(run.get("references"))))
 
 
 def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> ReducedModel:
@@ -129,7 +144,16 @@ def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run:
         rom = replace(rom, info={**rom.info, "engine": engine, "model_key": key})
         if root:
             store.save("rom", key, to_arrays(rom))
+            _remember_order(store, system, settings, engine, run)
     return rom
+
+
+def _remember_order(store: NpzCache, system: Any, settings: ReductionSettings, engine: str,
+                    run: dict[str, Any]) -> None:
+    """Record the order of the model just built for its family (:func:`built_order`)."""
+    family = _model_key(system, replace(settings, order=FAMILY), engine, run)
+    if family is not None:
+        store.save("model-order", family, {"order": np.array(settings.order)})
 
 
 def _model_key(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> str | None:

@@ -57,7 +57,8 @@ def sphere(n: int) -> np.ndarray:
 
 
 def sphere_table(sizes: tuple[int, ...]) -> None:
-    from aromm.homogenization.cell_problems import BOUNDARIES, effective_conductivity
+    from aromm.core.choices import BOUNDARIES
+    from aromm.homogenization.cell_problems import effective_conductivity
 
     print("\n1. sphere in a cube, κ = 10, exact 1.39573: error against n for each boundary condition")
     print(f"{'boundary':<12}{'n':>5}{'φ_n':>9}{'k_xx':>11}{'error %':>10}{'φ-corrected %':>15}{'n × corr. %':>13}"
@@ -85,7 +86,8 @@ def sphere_table(sizes: tuple[int, ...]) -> None:
 
 
 def laminate_table(sizes: tuple[int, ...]) -> None:
-    from aromm.homogenization.cell_problems import BOUNDARIES, effective_conductivity
+    from aromm.core.choices import BOUNDARIES
+    from aromm.homogenization.cell_problems import effective_conductivity
 
     print("\n2. laminate (layers normal to z, k 1 / 10, half and half): k_xx along the layers, exact 5.5")
     print(f"{'n':>5}" + "".join(f"{b + ' error %':>22}" for b in BOUNDARIES))

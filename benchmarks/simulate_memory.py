@@ -31,12 +31,12 @@ ROOT = Path(__file__).resolve().parents[1]
 PREVIOUS = """
 import resource, sys
 from pathlib import Path
-from aromm.cli.forward import _write_field
+from aromm.core.series import write_vtu
 from aromm.scene.scene_file import assemble, load_scene
 from aromm.full.solve import simulate
 system = assemble(load_scene(sys.argv[1]))
 obs = simulate(system, fields=True)
-_write_field(obs, system, Path(sys.argv[2]) / "field.vtu")
+write_vtu(Path(sys.argv[2]) / "field.vtu", system.geometry, obs.fields[-1])
 print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, system.n)
 """
 

@@ -29,6 +29,7 @@ from aromm.core.vocabulary import is_positive
 from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, ModelInput, Scenario, scenarios_of
+from inverse.defaults import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
 from inverse.measurements import Measurements
 from inverse.residuals import offset_note
 from inverse.uncertainty import Uncertainty, linearised
@@ -36,9 +37,7 @@ from inverse.uncertainty import Uncertainty, linearised
 if TYPE_CHECKING:
     from inverse.posterior import Posterior
 
-DEFAULT_PARTICLES = 20
 CHECKPOINT_FORMAT = 2  # 2: chained optimisers, swarm generator PCG64 (1: legacy MT19937 state)
-DEFAULT_ITERATIONS = 30
 AT_BOUND = 1e-6  # normalised distance to a bound below which an estimate is reported as on it
 MAX_DECADES = 8  # widest search of a positive parameter: conductivities of solids and gases span 1e-3..1e3 W/(m K)
 
@@ -216,7 +215,7 @@ def identify(
     description: Mapping[str, object] | None = None,
     noise_std: float | None = None,
     model_error: float = 0.0,
-    alternative: ModelInput | None = None,
+    alternatives: Mapping[str, ModelInput] | None = None,
 ) -> Identification:
     """Estimate ``unknowns`` (name → (lower, upper) bounds, SI units) from ``measurements``.
 
@@ -233,9 +232,11 @@ def identify(
     ``model_error``, a stated relative error of the model's temperature rise (e.g. 0.02 for the voxel model's
     discretisation error), widens the intervals (:func:`inverse.uncertainty.model_error_std`); intervals of
     positive parameters are on a log scale.
-    ``alternative`` is the same model in another discretisation (in aromm q1 ↔ fv, given like ``model``): the
-    least-squares refinement is re-run with it from the estimates, and the difference of the two estimates enters
-    the budget as ``"discretisation"`` (a bias, added linearly: :func:`discretisation_shift`).
+    ``alternatives`` are the same measurement model built otherwise, given like ``model``, by source of the budget
+    (:data:`inverse.uncertainty.BIAS_SOURCES`): ``"discretisation"`` another discretisation (in aromm q1 ↔ fv),
+    ``"segmentation"`` the grey image thresholded by another standard method.  The least-squares refinement is re-run
+    with each from the estimates, and the difference of the estimates enters the budget under its source (a bias,
+    added linearly: :func:`alternative_shift`).
     """
     if unknowns is None:
         raise InputError("unknowns are required, e.g. {'fibre.k': (0.05, 1.0), 'fibre.c': (1e5, 1e7)}")
@@ -314,9 +315,8 @@ def identify(
     blocks = [s0 + np.arange(f.measured.size).reshape(f.measured.shape) for s0, f in zip(starts, fits, strict=True)]
     rise = np.concatenate([(f.fitted - y0).ravel() for f, y0 in zip(fits, starts0, strict=True)])
     positive = [is_positive(n) for n in box.names]
-    biases = {} if alternative is None else {
-        "discretisation": discretisation_shift(alternative, measurements, box, fixed=fixed, start=u_best,
-                                              positive=positive)}
+    biases = {source: alternative_shift(other, measurements, box, fixed=fixed, start=u_best, positive=positive)
+              for source, other in (alternatives or {}).items()}
     uncertainty = linearised(box.names, theta, sensitivity, r, notes=notes, blocks=blocks, noise_std=noise_std,
                              data_notes=offsets, scales=relative_scales(box, theta),
                              positive=positive, model_error=model_error, model_rise=rise,
@@ -335,18 +335,19 @@ def identify(
     )
 
 
-def discretisation_shift(alternative: ModelInput, measurements: Measurements | None, box: opt.Box, *,
-                         fixed: Mapping[str, float] | None, start: FloatArray, positive: Sequence[bool]) -> FloatArray:
+def alternative_shift(alternative: ModelInput, measurements: Measurements | None, box: opt.Box, *,
+                      fixed: Mapping[str, float] | None, start: FloatArray, positive: Sequence[bool]) -> FloatArray:
     """``|θ_alt − θ̂|``: how far the estimates move when the least-squares refinement is re-run, from them, with
-    ``alternative`` (the same measurement model in the other discretisation); ``start`` the estimates in the
-    normalised coordinates of ``box``.  For a ``positive`` parameter, whose interval is taken on log θ
-    (:func:`inverse.uncertainty.domain_interval`), the shift is ``θ̂ |ln(θ_alt / θ̂)|``: the interval then reaches
-    θ_alt on either side.
+    ``alternative`` (the same measurement model built otherwise: another discretisation, another threshold of the
+    grey image); ``start`` the estimates in the normalised coordinates of ``box``.  For a ``positive`` parameter,
+    whose interval is taken on log θ (:func:`inverse.uncertainty.domain_interval`), the shift is
+    ``θ̂ |ln(θ_alt / θ̂)|``: the interval then reaches θ_alt on either side.
 
     On a voxel image the conforming elements (q1) overestimate the conductance of the voxel geometry and the
     two-point finite volumes (fv) underestimate it (docs/method/finite_volumes.md), so the two estimates bracket the
     one of the resolved geometry: the difference bounds the discretisation's share of the error (as far as the
-    bracket carries over from k̄ to the transient outputs, which is measured, not proven)."""
+    bracket carries over from k̄ to the transient outputs, which is measured, not proven).  Two standard thresholds
+    bracket no truth: their shift measures how much the choice of method moves the estimates, not a bound."""
     scenarios = scenarios_of(alternative, measurements, {*box.names, *(fixed or {})})
     criterion = LeastSquares(scenarios, box.names, fixed)
     moved = opt.refine(lambda u: criterion.residuals(box.to_physical(u)), start)

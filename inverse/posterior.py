@@ -39,6 +39,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, ModelInput, scenarios_of
+from inverse.defaults import DEFAULT_WALKERS
 from inverse.measurements import Measurements
 from inverse.uncertainty import Uncertainty
 
@@ -55,7 +56,6 @@ class Fitted(Protocol):
 
 NOISE = "noise_std"  # name of the sampled noise level (°C) among the posterior's coordinates
 LEVEL = 0.95
-DEFAULT_WALKERS = 32
 TAU_MULTIPLE = 50  # a retained chain shorter than this many autocorrelation times is reported
 BURN_TAUS = 3.0  # burn-in: this many autocorrelation times (at most half the chain)
 START_FRACTION = 1e-2  # initial spread (of the bound widths) when no linearised standard error is known

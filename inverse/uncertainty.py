@@ -271,7 +271,9 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
 
 #: Further bias sources of :func:`linearised` and what the interval then says of them.
 BIAS_SOURCES = {"discretisation": "the discretisation (the shift of the estimates to the other discretisation's, q1 "
-                                  "↔ fv, which bracket the voxel geometry's; added linearly)"}
+                                  "↔ fv, which bracket the voxel geometry's; added linearly)",
+                "segmentation": "the segmentation (the shift of the estimates to those on the grey image thresholded "
+                                "by another standard method, Otsu's ↔ Li's; added linearly)"}
 #: Sources of the budget that are biases (bounded, not random): added linearly, the others in quadrature.
 BIASES = frozenset({"reduced model", *BIAS_SOURCES})
 

@@ -40,7 +40,8 @@ def _model(assemble, n: int = 6) -> FullModel:  # type: ignore[no-untyped-def]
 def test_the_total_interval_covers_the_truth_of_the_other_discretisation(data_by, model_by) -> None:  # type: ignore[no-untyped-def]
     data = simulate_measurements(_model(data_by), TRUTH, noise=0.01, rng=np.random.default_rng(0))
     plain = identify(_model(model_by), data, UNKNOWNS, particles=8, iterations=4)
-    checked = identify(_model(model_by), data, UNKNOWNS, particles=8, iterations=4, alternative=_model(data_by))
+    checked = identify(_model(model_by), data, UNKNOWNS, particles=8, iterations=4,
+                       alternatives={"discretisation": _model(data_by)})
     noise = plain.uncertainty
     assert not noise.lower[0] <= TRUTH["fibre.k"] <= noise.upper[0]  # biased, and the noise alone does not say so
     total = checked.uncertainty
@@ -58,8 +59,8 @@ def test_bias_rows_add_linearly_and_unknown_sources_are_refused() -> None:
     assert "discretisation" in BIASES
     half = base.budget["measurement noise"] + np.array([0.5, 2e4])  # linearly, not in quadrature
     np.testing.assert_allclose(shifted.upper - shifted.lower, 2 * half, rtol=1e-12)
-    with pytest.raises(ValueError, match="unknown source 'segmentation'"):
-        linearised(["a", "b"], beta, x, r, biases={"segmentation": np.zeros(2)})
+    with pytest.raises(ValueError, match="unknown source 'representativeness'"):
+        linearised(["a", "b"], beta, x, r, biases={"representativeness": np.zeros(2)})
 
 
 def test_the_reduced_model_shift_does_not_depend_on_the_units_of_a_parameter() -> None:

@@ -68,7 +68,7 @@ def test_refused_before_any_assembly_on_the_shipped_scene_with_an_empty_cache(
 
     def assembled(*args: object, **kwargs: object) -> None:
         raise AssertionError("the scene was assembled before the input was checked")
-    monkeypatch.setattr("aromm.cli.identify.assemble", assembled)
+    monkeypatch.setattr("aromm.scene.scene_file.assemble", assembled)
     wall, cpu = time.perf_counter(), time.process_time()
     code = main(["identify", str(REPO / "data" / "scenes" / "wood_s1.toml"), "--measurements", str(csv),
                  "--unknown", unknown, "--unknown", "fibre.c=1e5:1e7"])

@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from aromm.cli.identify import aligned
+from aromm.cli.identify_report import aligned
 from inverse.uncertainty import domain_interval, linearised, model_error_std
 
 

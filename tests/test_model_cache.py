@@ -188,3 +188,37 @@ def test_simulate_finds_the_model_identify_built_and_identify_never_extrapolates
     assert sorted(cache.glob("rom-*.npz")) == models  # loaded, not rebuilt
     assert "extrapolates" not in identify("0.01:2")
     assert len(list(cache.glob("rom-*.npz"))) > len(models)  # a model over the union [0.01, 2]
+
+
+@pytest.mark.filterwarnings("ignore::aromm.core.errors.ModelWarning")
+@pytest.mark.parametrize("method", ["krylov", "aromm"])
+def test_without_order_simulate_and_identify_use_the_model_reduce_built(
+        method: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """``aromm reduce --order 12`` then ``simulate --model reduced`` and ``identify`` without ``--order``: both load
+    that model (no new cache entry, order 12), instead of building one at the default order 200 (issue 38, item 3);
+    an explicit other order builds its own."""
+    import json
+
+    from inverse_cases import twin_case
+
+    from aromm.cli import main
+
+    scene_path, csv = twin_case(tmp_path)
+    with scene_path.open("a", encoding="utf-8") as fh:
+        fh.write(f'\n[reduction]\nmethod = "{method}"\n'
+                 'bounds = { "fibre.k" = [0.05, 1.0], "fibre.c" = [1e5, 1e7] }\n' if method == "krylov" else
+                 f'\n[reduction]\nmethod = "{method}"\n')
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(cache))
+    assert main(["reduce", str(scene_path), "--order", "12", "--json"]) == 0
+    built = json.loads(capsys.readouterr().out)
+    models = sorted(cache.glob("rom-*.npz"))
+    assert main(["simulate", str(scene_path), "--model", "reduced", "--json"]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(scene_path), "--measurements", str(csv), "--unknown", "fibre.k=0.1:0.5",
+                 "--unknown", "fibre.c=1e6:1e7", "--particles", "6", "--iterations", "3", "--json"]) == 0
+    found = json.loads(capsys.readouterr().out)
+    assert sorted(cache.glob("rom-*.npz")) == models  # loaded, not rebuilt
+    assert found["model"]["order"] == built["order"] and found["model"]["cached"] == 1
+    assert main(["simulate", str(scene_path), "--model", "reduced", "--order", "8", "--json"]) == 0
+    assert len(list(cache.glob("rom-*.npz"))) > len(models)  # its own model

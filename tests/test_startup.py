@@ -37,8 +37,35 @@ def loaded(*argv: str) -> dict[str, object]:
 
 @pytest.mark.parametrize("argv", [("--version",), ("nosuchcommand",)])
 def test_the_group_alone_loads_no_wing(argv: tuple[str, ...]) -> None:
-    """``--help`` lists every command's summary, so it imports the command modules; these two need none."""
+    """Neither needs a command module."""
     result = loaded(*argv)
     assert result["code"] in (0, 2)
     heavy = [m for m in result["modules"] if m.startswith(HEAVY)]  # type: ignore[attr-defined]
+    assert heavy == [], heavy
+
+
+#: What a command's options may not load: the solvers and every numerical wing (the light modules of aromm.scene and
+#: inverse that hold the choices and defaults are allowed).
+WINGS = ("scipy", "matplotlib", "skfem", "pyamg", "aromm.api", "aromm.scene.scene_file", "aromm.reduction", "aromm.fem",
+         "aromm.fv", "aromm.homogenization", "aromm.dem", "aromm.bounds", "aromm.full", "inverse.identification",
+         "inverse.optimisers")
+COMMANDS = [("identify",), ("simulate",), ("homogenize",), ("measure",), ("reduce",), ("rev",), ("segment",),
+            ("bounds",), ("dem", "pack"), ("dem", "simulate")]
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=" ".join)
+def test_a_refused_option_loads_no_wing(command: tuple[str, ...]) -> None:
+    """A typo in an option is refused by click while it parses, before the command runs: the command's module is
+    imported for its options, and those come from light modules (aromm.core.choices, inverse.defaults), so the
+    refusal costs about 0.3 CPU s instead of 2–3 (issue 37, item 4: at most 1)."""
+    result = loaded(*command, "--no-such-option")
+    assert result["code"] == 2
+    heavy = [m for m in result["modules"] if m.startswith(WINGS)]  # type: ignore[attr-defined]
+    assert heavy == [], heavy
+
+
+def test_help_lists_every_command_without_the_wings() -> None:
+    result = loaded("--help")
+    assert result["code"] == 0
+    heavy = [m for m in result["modules"] if m.startswith(WINGS)]  # type: ignore[attr-defined]
     assert heavy == [], heavy

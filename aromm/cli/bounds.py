@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import click
 
-from aromm.bounds.domain import PHI_MAX_SC, checked
-from aromm.bounds.summary import MODEL_KEYS, ROLE, every_model, material
 from aromm.cli.common import echo_json
 
 
@@ -33,6 +31,9 @@ def bounds(*, phi: float, ratio: float, contact: float, cell_b: float | None, xi
     (B, C, D = 1/ratio); wall_1a and wall_1b solve two small finite-element problems with gmsh
     and scikit-fem (absent, null in JSON, for touching spheres B = 0).
     """
+    from aromm.bounds.domain import PHI_MAX_SC, checked
+    from aromm.bounds.summary import MODEL_KEYS, ROLE, every_model, material
+
     checked("--phi (filler volume fraction)", phi, 0.0, PHI_MAX_SC, low_open=True)
     checked("--ratio (lambda_f/lambda_m)", ratio, 0.0, low_open=True)
     checked("--contact (C = R_c lambda_m / a)", contact, 0.0)

@@ -22,8 +22,8 @@ from aromm.core.files import Input, check_folder
 from aromm.core.labchecks import PLAUSIBLE, fahrenheit_suspect, kelvin_suspect
 from aromm.core.labcsv import read_lab_csv
 from aromm.core.vocabulary import is_positive
-from aromm.scene.model_section import refusal
-from aromm.scene.scene_file import Scene, scene_files
+from aromm.scene.model_section import refusal, with_discretisation
+from aromm.scene.scene_file import Scene, read_toml, scene_files, scene_from_dict
 from aromm.scene.sensors import output_names
 from inverse.identification import bounds_problem
 from inverse.measurements import Measurements
@@ -179,3 +179,26 @@ def other_discretisation(scene: Scene, engine: str) -> str:
     if refused is not None:
         raise click.UsageError(f"--discretisation-check: {other} cannot model this scene: {refused[0]}: {refused[1]}")
     return other
+
+
+def other_segmentation(path: Path, scene: Scene, engine: str) -> tuple[Scene, tuple[str, float]]:
+    """The scene on its grey image thresholded by the other standard method (``--segmentation-check``: Li's for
+    Otsu's, Otsu's for a threshold given by hand; :data:`aromm.microstructure.segmentation.OTHER_METHOD`), everything
+    else as read, and (that method, its threshold); refused before any model is built where there is no such
+    threshold."""
+    if engine != "scipy":
+        raise click.UsageError("--segmentation-check runs on the scipy engine (the petsc engine reads label images)")
+    report = scene.segmentation
+    if report is None:
+        raise click.UsageError(f"--segmentation-check: {path} names a label image (no geometry.segment): nothing was "
+                               "thresholded, there is no segmentation error to estimate")
+    if report.other is None:
+        raise click.UsageError(f"--segmentation-check compares one threshold with another standard method's; {path} "
+                               f"has {len(report.thresholds)} thresholds ({report.method})")
+    data = read_toml(path)
+    geometry = dict(data["geometry"])
+    kept = {k: v for k, v in geometry["segment"].items() if k in ("denoise", "size", "sigma")}
+    geometry["segment"] = {**kept, "thresholds": [report.other[1]]}
+    rethresholded = scene_from_dict(with_discretisation({**data, "geometry": geometry}, scene.discretisation), path)
+    return rethresholded, report.other
+

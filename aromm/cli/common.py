@@ -26,6 +26,7 @@ from tqdm import tqdm
 from aromm.core.errors import InputError, NumericalError
 
 if TYPE_CHECKING:  # the scene module loads scipy and the wings: not for `aromm --version`
+    from aromm.scene.reduction_section import ReductionSettings
     from aromm.scene.scene_file import Scene
 
 # Peak memory per voxel of the direct (CHOLMOD) path, measured at 80³: 5.5 GB for 5.2e5 nodes (issue 12)
@@ -78,6 +79,23 @@ def refuse_order_with_full_model(model: str) -> None:
     ctx = click.get_current_context()
     if model == "full" and ctx.get_parameter_source("order") is click.core.ParameterSource.COMMANDLINE:
         raise click.UsageError("--order is the reduced model's order: it does not apply to --model full")
+
+
+#: ``--order`` of the commands that use a reduced model: by default the order of the model built before.
+ORDER = click.option("--order", type=click.IntRange(min=1), default=None,
+                     help="Reduced-model order ñ (with --model reduced). Default: the order of the model `aromm "
+                          "reduce` last built for this scene (same box and options), else 200.")
+
+
+def reduced_settings(source: Any, settings: ReductionSettings, order: int | None, engine: str) -> ReductionSettings:
+    """``settings`` at ``order``; when it is None, at the order of the model last built for ``source`` with these
+    settings (:func:`aromm.api.built_order`: ``aromm reduce --order 60`` then ``aromm identify`` use one model), else
+    at the settings' own."""
+    from aromm.api import built_order
+
+    if order is None:
+        order = built_order(source, settings, engine=engine) or settings.order
+    return settings.updated(order=order)
 
 
 class ExtraFailed(Exception):

@@ -2,7 +2,8 @@
 
 JSON shapes: calibrate -> ``{"C_t": ..., "Z": ...}`` (plus details), homogenize ->
 ``{"E": ...}`` (E = k_eff / k_matrix of the sphere inclusion of radius L/3), simulate ->
-``{"t": [...], "mean_T": {...}}`` like ``aromm simulate``.  Progress bars go to stderr.
+``{"t": [...], "mean_T": {...}}`` like ``aromm simulate``.  Progress bars go to stderr.  Each command imports the
+DEM modules when it runs, so a refused option loads none (tests/test_startup.py).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -18,17 +20,9 @@ from tqdm import tqdm
 from aromm.cli.common import FORCE, FiniteFloat, echo_json
 from aromm.cli.common import SEED as SEED_RANGE
 from aromm.core.errors import InputError
-from aromm.core.files import check_output
-from aromm.core.system import TimeGrid
-from aromm.core.vocabulary import FaceSpec
-from aromm.dem.calibration import calibrate as calibrate_ct
-from aromm.dem.calibration import inclusion_network, inclusion_ratio
-from aromm.dem.explicit import simulate_explicit
-from aromm.dem.neighbours import build_bonds
-from aromm.dem.network import Network
-from aromm.dem.packing import PACKING as PACKING_FILE
-from aromm.dem.packing import Packing, load_packing, pack_spheres
-from aromm.full.solve import simulate as simulate_implicit
+
+if TYPE_CHECKING:
+    from aromm.dem.packing import Packing
 
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
 PARTICLES = click.option("--particles", type=click.IntRange(min=50), default=10000, show_default=True,
@@ -45,6 +39,8 @@ QUIET = click.option("--quiet", is_flag=True, help="No progress bar.")
 
 def _pack(particles: int, seed: int, quiet: bool, **options: float) -> Packing:
     """pack_spheres with a progress bar (largest overlap) on stderr."""
+    from aromm.dem.packing import pack_spheres
+
     bar = tqdm(desc="packing", file=sys.stderr, disable=quiet or not sys.stderr.isatty(), leave=False)
 
     def report(it: int, overlap: float) -> None:
@@ -59,6 +55,8 @@ def _pack(particles: int, seed: int, quiet: bool, **options: float) -> Packing:
 
 def _packing(path: Path | None, particles: int, seed: int, box: float, quiet: bool) -> Packing:
     """The periodic packing saved at ``path`` (scaled to ``box``) or a new one of ``particles`` spheres."""
+    from aromm.dem.packing import load_packing
+
     if path is None:
         return _pack(particles, seed, quiet, box=box)
     if not path.exists():
@@ -89,6 +87,9 @@ def dem() -> None:
 def pack(*, particles: int, seed: int, phi: float, cv: float, box: float, out: Path, as_json: bool,
          quiet: bool, force: bool) -> None:
     """Make a periodic dense random packing (FIRE relaxation) and save it as .npz."""
+    from aromm.core.files import check_output
+    from aromm.dem.packing import PACKING as PACKING_FILE
+
     check_output(out, PACKING_FILE, force=force)
     start = time.perf_counter()
     packing = _pack(particles, seed, quiet, phi=phi, cv=cv, box=box)
@@ -117,6 +118,8 @@ def pack(*, particles: int, seed: int, phi: float, cv: float, box: float, out: P
 def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, boundary: str,
               as_json: bool, quiet: bool) -> None:
     """C_t such that the network conducts like the continuum [Hassan2019, eq. 7-8]."""
+    from aromm.dem.calibration import calibrate as calibrate_ct
+
     packing = _packing(packing_path, particles, seed, 0.1, quiet)
     cal = calibrate_ct(packing, z, radius=radius, boundary=boundary)  # type: ignore[arg-type]
     if as_json:
@@ -145,6 +148,8 @@ def calibrate(*, particles: int, seed: int, packing_path: Path | None, z: float,
 def homogenize(*, particles: int, seed: int, packing_path: Path | None, z: float, radius: str, ratio: float,
                axes: str, boundary: str, as_json: bool, quiet: bool) -> None:
     """E = k_eff / k_matrix of a sphere inclusion of radius L/3 centred in the cube [Hassan2019, § 3.2]."""
+    from aromm.dem.calibration import inclusion_network, inclusion_ratio
+
     packing = _packing(packing_path, particles, seed, 0.1, quiet)
     net = inclusion_network(packing, z, radius=radius, boundary=boundary)  # type: ignore[arg-type]
     res = inclusion_ratio(net, ratio, axes)
@@ -188,6 +193,14 @@ def simulate(*, particles: int, seed: int, packing_path: Path | None, z: float, 
              length: float, k: float, rho: float, cp: float, times: str, scheme: str, dt: float | None,
              bins: int, as_json: bool, quiet: bool) -> None:
     """Slab transient of [Hassan2019, § 3.1]: T(y=0) = 25 °C, T(y=L) = 100 °C, T0 = 25 °C, sides adiabatic."""
+    from aromm.core.system import TimeGrid
+    from aromm.core.vocabulary import FaceSpec
+    from aromm.dem.calibration import calibrate as calibrate_ct
+    from aromm.dem.explicit import simulate_explicit
+    from aromm.dem.neighbours import build_bonds
+    from aromm.dem.network import Network
+    from aromm.full.solve import simulate as simulate_implicit
+
     try:
         t_out = np.array([float(s) for s in times.split(",") if s.strip()])
     except ValueError:

@@ -9,17 +9,17 @@ only rank 0 prints and writes.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from aromm.api import is_root
 from aromm.cli.common import DIRECT_BYTES_PER_VOXEL, refine_scene
+from aromm.core.choices import DISCRETISATIONS, METHODS
 from aromm.core.errors import InputError
-from aromm.engines import ENGINES, PETSC_SOLVERS, check_engine, check_solver
-from aromm.linalg.direct import METHODS
-from aromm.scene.model_section import DISCRETISATIONS
-from aromm.scene.scene_file import Scene, load_scene
+from aromm.engines import ENGINES, PETSC_SOLVERS, check_engine, check_solver, is_root
+
+if TYPE_CHECKING:
+    from aromm.scene.scene_file import Scene
 
 ENGINE = click.option("--engine", type=click.Choice(ENGINES), default="scipy", show_default=True,
                       help="scipy: one process; petsc: PETSc/SLEPc under `mpiexec -n P` (rank 0 prints and writes).")
@@ -65,12 +65,16 @@ def load(path: Path, engine: str, refine: int = 1, bytes_per_voxel: float = DIRE
         from aromm.engines.petsc.problem import load_problem
 
         return load_problem(path, runtime.world())
+    from aromm.scene.scene_file import load_scene
+
     return refine_scene(load_scene(path, discretisation()), refine, bytes_per_voxel)
 
 
 def outline(source: Any) -> Scene:
     """The Scene that the checks of a command read (phases, faces, time grid, outputs, box): the scene itself on
     the scipy engine, the petsc problem's outline (no image held: :meth:`VoxelProblem.outline`) on petsc."""
+    from aromm.scene.scene_file import Scene
+
     return source if isinstance(source, Scene) else source.outline()
 
 

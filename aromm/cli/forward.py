@@ -5,35 +5,31 @@ from __future__ import annotations
 import sys
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 import numpy as np
 
-from aromm.api import default_boundary, fluxmetric, homogenize, is_root, mean_capacity, reduce, simulate
-from aromm.cli import checks
 from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import (
     DIRECT_BYTES_PER_VOXEL,
     FORCE,
+    ORDER,
     REFINE,
     SEED,
     FiniteFloat,
     echo_json,
+    reduced_settings,
     refuse_order_with_full_model,
     write_extras,
 )
+from aromm.core.choices import BOUNDARIES, DEFAULT_RTOL, METHODS
 from aromm.core.errors import InputError
 from aromm.core.files import OutputKind, check_folder, check_output, signed
-from aromm.core.observables import TIME_SERIES, Observables, write_csv
-from aromm.core.series import series_file, write_series, write_vtu
-from aromm.homogenization.cell_problems import CellResult, effective_conductivity
-from aromm.homogenization.properties import BOUNDARIES
-from aromm.homogenization.synthetic import homogeneous_measurements
-from aromm.linalg.direct import DEFAULT_RTOL, METHODS
-from aromm.scene.geometry import VoxelGeometry
-from aromm.scene.scene_file import REFINE_BYTES_PER_VOXEL, assemble
-from inverse.measurements import save_measurements
+from aromm.engines import is_root
+
+if TYPE_CHECKING:
+    from aromm.core.observables import Observables
 
 SCENE = click.argument("scene", type=click.Path(path_type=Path))
 JSON = click.option("--json", "as_json", is_flag=True, help="JSON on stdout instead of a table.")
@@ -63,6 +59,10 @@ def _check_out(out: Path, scene: Path, outputs: tuple[str, ...], *, field: bool,
                force: bool) -> tuple[Path, Path]:
     """The files ``--out`` gets (observables.csv, field.vtu, ``series`` × field_<i>.vtu + field.pvd), checked
     before the simulation."""
+    from aromm.cli import checks
+    from aromm.core.observables import TIME_SERIES
+    from aromm.core.series import series_file
+
     if not outputs:
         raise InputError(f"--out: {scene} has no [outputs] mean_T (nor sensors): nothing to write; list faces to "
                          "observe")
@@ -116,8 +116,7 @@ def _bound_line(bound: Mapping[str, object]) -> str:
 @SCENE
 @click.option("--model", type=click.Choice(["full", "reduced"]), default="full", show_default=True,
               help="full: finite elements; reduced: the AROMM reduced model [Chavez2020, § 3] (built or cached).")
-@click.option("--order", type=click.IntRange(min=1), default=200, show_default=True,
-              help="Reduced-model order ñ (with --model reduced).")
+@ORDER
 @click.option("--out", type=click.Path(path_type=Path), default=None,
               help="Folder for observables.csv and field.vtu (final field, full model, scipy engine).")
 @click.option("--fields", "field_times", default=None, metavar="T1,T2,...",
@@ -131,12 +130,18 @@ def _bound_line(bound: Mapping[str, object]) -> str:
 @REFINE
 @JSON
 @FORCE
-def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field_times: str | None, scheme: str,
+def simulate_cmd(*, scene: Path, model: str, order: int | None, out: Path | None, field_times: str | None, scheme: str,
                  solver: str, engine: str, refine: int, as_json: bool, force: bool) -> None:
     """Simulate SCENE: face-mean and sensor temperatures over time (or at steady state).
 
     The table (or JSON) is printed first; with --out, observables.csv is written next and the fields (field.vtu,
     or the --fields series) last, as extras: if only a field fails, the exit code is 3."""
+    from aromm.api import reduce, simulate
+    from aromm.cli import checks
+    from aromm.core.observables import write_csv
+    from aromm.core.series import write_series, write_vtu
+    from aromm.scene.scene_file import assemble
+
     refuse_order_with_full_model(model)
     times = parse_times(field_times)
     if times is not None and (model != "reduced" or out is None or engine != "scipy"):
@@ -153,7 +158,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int, out: Path | None, field
     progress = sys.stderr.isatty() and is_root(engine)
     bound: dict[str, object] = {}
     if model == "reduced":
-        rom = reduce(sc, settings=sc.reduction.updated(order=order, solver=solver),  # the scene: identify's key
+        rom = reduce(sc, settings=reduced_settings(sc, sc.reduction.updated(solver=solver), order, engine),
                      progress=progress, engine=engine, fields=times is not None)
         obs = rom.simulate()
         bound = _bound(rom)
@@ -201,6 +206,11 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     Solvers: mg (geometric multigrid CG, matrix-free, ~200 B/voxel; the default above 20³ voxels), cholmod and
     splu (direct), amg (pyamg + CG); with the petsc engine gamg or mumps.
     """
+    from aromm.api import default_boundary, homogenize, mean_capacity
+    from aromm.homogenization.cell_problems import CellResult, effective_conductivity
+    from aromm.scene.geometry import VoxelGeometry
+    from aromm.scene.scene_file import REFINE_BYTES_PER_VOXEL
+
     solver = engine_cli.resolve(engine, solver)
     direct = solver in ("cholmod", "splu")
     sc = engine_cli.load(scene, engine, refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
@@ -253,6 +263,12 @@ def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: flo
 
     With --engine petsc (under `mpiexec -n P`) the ranks compute k̄ and c̄ of the image by boxes; rank 0 then
     simulates the homogeneous twin (one element across each unloaded axis: small) and writes the file."""
+    from aromm.api import fluxmetric, homogenize, mean_capacity
+    from aromm.cli import checks
+    from aromm.core.observables import TIME_SERIES
+    from aromm.homogenization.synthetic import homogeneous_measurements
+    from inverse.measurements import save_measurements
+
     solver = engine_cli.resolve(engine, solver)
     source = engine_cli.load(scene, engine)
     sc = engine_cli.outline(source)

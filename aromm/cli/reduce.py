@@ -8,13 +8,11 @@ from pathlib import Path
 
 import click
 
-from aromm.api import is_root, reduce
-from aromm.cli import checks
 from aromm.cli import engine_options as engine_cli
 from aromm.cli.common import REFINE, FiniteFloat, echo_json
-from aromm.core.cache import NpzCache
-from aromm.linalg.eigensolvers import EIGENSOLVERS
-from aromm.reduction.offline import METHODS as REDUCTIONS
+from aromm.core.choices import EIGENSOLVERS
+from aromm.engines import is_root
+from aromm.scene.reduction_section import REDUCTION_METHODS as REDUCTIONS
 
 
 @click.command("reduce")
@@ -57,6 +55,10 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None
     """Build the reduced model of SCENE (bases and reduced models are cached: a second run is instant).
 
     With --engine petsc run it under `mpiexec -n P`: every rank assembles its box of the image."""
+    from aromm.api import reduce
+    from aromm.cli import checks
+    from aromm.core.cache import NpzCache
+
     solver = engine_cli.resolve(engine, solver)
     if not no_cache:
         checks.cache_folder(cache_dir)

@@ -6,16 +6,11 @@ from pathlib import Path
 
 import click
 
-from aromm.cli.checks import scene_inputs
 from aromm.cli.common import FORCE, FiniteFloat, echo_json, write_extras
 from aromm.cli.engine_options import DISCRETISATION, discretisation
 from aromm.cli.forward import JSON, KTOL, SCENE
+from aromm.core.choices import DEFAULT_RTOL, METHODS, REV_TOLERANCE
 from aromm.core.errors import InputError
-from aromm.homogenization.representative import DEFAULT_TOLERANCE, rev, save_rev_plot
-from aromm.linalg.direct import DEFAULT_RTOL, METHODS
-from aromm.microstructure.segmentation import save_histogram
-from aromm.scene.scene_file import load_scene
-from inverse.plotting import check_plot
 
 
 @click.command("segment")
@@ -30,6 +25,11 @@ def segment_cmd(scene: Path, *, plot: Path | None, force: bool, as_json: bool) -
     The scene's crop, down-sampling and denoising are applied as every other command applies them
     (aromm.microstructure.segmentation); the phases' volume fractions follow from the labels.
     """
+    from aromm.cli.checks import scene_inputs
+    from aromm.microstructure.segmentation import save_histogram
+    from aromm.scene.scene_file import load_scene
+    from inverse.plotting import check_plot
+
     if plot is not None:
         check_plot(plot, inputs=scene_inputs(scene), force=force)
     sc = load_scene(scene)
@@ -63,7 +63,7 @@ def _edges(text: str | None) -> list[int] | None:
 @click.option("--positions", type=click.IntRange(min=1), default=9, show_default=True,
               help="Sub-volumes per edge: the centred cube, the 8 corners, then a 3×3×3 grid of origins.")
 @click.option("--tolerance", type=FiniteFloat(min=0.0, max=1.0, min_open=True, max_open=True),
-              default=DEFAULT_TOLERANCE, show_default=True,
+              default=REV_TOLERANCE, show_default=True,
               help="Relative spread (std/mean of k̄ over positions; max − min over boundary conditions) that makes "
                    "a volume representative.")
 @click.option("--solver", type=click.Choice(METHODS), default="auto", show_default=True,
@@ -88,6 +88,11 @@ def rev_cmd(scene: Path, *, edges: str | None, positions: int, tolerance: float,
     spread between
     boundary conditions of the largest cube is reported too: above the tolerance, the volume is not representative.
     """
+    from aromm.cli.checks import scene_inputs
+    from aromm.homogenization.representative import rev, save_rev_plot
+    from aromm.scene.scene_file import load_scene
+    from inverse.plotting import check_plot
+
     chosen = _edges(edges)
     if plot is not None:
         check_plot(plot, inputs=scene_inputs(scene), force=force)

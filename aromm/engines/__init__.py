@@ -18,6 +18,15 @@ from aromm.core.errors import InputError
 
 ENGINES = ("scipy", "petsc")
 
+
+def is_root(engine: str) -> bool:
+    """True on the process that prints and writes: the only one for scipy, rank 0 for petsc."""
+    if engine != "petsc":
+        return True
+    from aromm.engines.petsc import runtime
+
+    return runtime.is_root(runtime.world())
+
 #: What to do when petsc4py is missing (README "Running on a cluster").
 INSTALL_HINT = (
     "the petsc engine needs petsc4py, slepc4py and mpi4py: on Debian 12 `apt-get install python3-petsc4py "

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from aromm.core.choices import BOUNDARIES
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from aromm.homogenization.accuracy import arithmetic_bound, harmonic_bound, periodic_energy_tolerances
@@ -50,7 +51,6 @@ from aromm.linalg.multigrid.pcg import MultigridSolver, pinned
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
 
-BOUNDARIES = ("periodic", "flux", "temperature")
 SOLVERS = METHODS
 MG_CROSSOVER_VOXELS = 20**3  # multigrid beats CHOLMOD and pyamg SA from 16³–24³ on (homogenize_peers.py)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k

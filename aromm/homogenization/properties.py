@@ -26,12 +26,13 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from aromm.core.choices import BOUNDARIES
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.profiles import Profile
 from aromm.core.system import FloatArray, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec, held, opposite
 from aromm.full.solve import reaction_heat_flow, steady_field
-from aromm.homogenization.cell_problems import BOUNDARIES, PROBE_FLUX, effective_conductivity
+from aromm.homogenization.cell_problems import PROBE_FLUX, effective_conductivity
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene, assemble
 

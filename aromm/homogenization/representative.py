@@ -32,10 +32,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aromm.core.choices import BOUNDARIES, REV_TOLERANCE
 from aromm.core.errors import InputError
 from aromm.core.files import save_figure
 from aromm.core.system import FloatArray
-from aromm.homogenization.cell_problems import BOUNDARIES, effective_conductivity
+from aromm.homogenization.cell_problems import effective_conductivity
 from aromm.homogenization.properties import mean_capacity
 from aromm.linalg.direct import DEFAULT_RTOL
 from aromm.scene.geometry import VoxelGeometry
@@ -45,7 +46,6 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 log = logging.getLogger(__name__)
-DEFAULT_TOLERANCE = 0.02  # relative spread of k̄ (2 %)
 DEFAULT_FRACTIONS = (1 / 8, 1 / 4, 3 / 8, 1 / 2, 3 / 4, 1.0)  # default edges, as fractions of the smallest side
 MIN_EDGE = 4  # voxels: below, a sub-volume holds too few voxels of each phase to mean anything
 
@@ -176,7 +176,7 @@ def sub_scene(scene: Scene, origin: Sequence[int], edge: int) -> Scene:
 
 
 def rev(scene: Scene, edges: Sequence[int] | None = None, *, positions: int = 9,
-        tolerance: float = DEFAULT_TOLERANCE, method: str = "auto", rtol: float = DEFAULT_RTOL,
+        tolerance: float = REV_TOLERANCE, method: str = "auto", rtol: float = DEFAULT_RTOL,
         ktol: float | None = None, boundaries: bool = True) -> RevStudy:
     """REV study of the scene's voxel image (module docstring).
 

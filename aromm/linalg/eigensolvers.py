@@ -37,13 +37,13 @@ import scipy.sparse as sp
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
+from aromm.core.choices import EIGENSOLVERS
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
 from aromm.linalg.block_multigrid import BlockMultigrid
 
 log = logging.getLogger(__name__)
 
-EIGENSOLVERS = ("auto", "arpack", "lobpcg")
 #: ``"auto"`` uses LOBPCG for eigenproblems with more unknowns than this, ARPACK + a sparse factorisation below.
 #: A memory crossover, not a speed one (benchmarks/reduce_scaling.py, wood VERs, Ñ = 320, 2026-11-30): ARPACK +
 #: CHOLMOD was faster at every size measured (CPU s 19 / 72 / 263 / 1051 at 24³ / 32³ / 46³ / 64³ against

@@ -29,13 +29,12 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from aromm.core.choices import DEFAULT_RTOL, METHODS
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
 from aromm.linalg.orderings import nested_dissection
 
 Method = Literal["auto", "cholmod", "splu", "amg", "mg"]
-METHODS = ("auto", "cholmod", "splu", "amg", "mg")
-DEFAULT_RTOL = 1e-8
 
 
 def cholmod_available() -> bool:

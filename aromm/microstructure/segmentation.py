@@ -12,6 +12,12 @@ A scene's ``[geometry]`` may name a grey image (8-, 16-bit or float; any format 
   :func:`skimage.filters.median`) or ``denoise = "gaussian"`` (standard deviation ``sigma`` voxels,
   :func:`skimage.filters.gaussian`).
 
+With one threshold, the report also gives another standard method's threshold on the same (denoised) image: Li's
+minimum cross-entropy [Li1993] for Otsu's, Otsu's for a threshold given by hand (:data:`OTHER_METHOD`).  The
+difference is no bound of the threshold's error, but a measure of how much the choice of a standard method moves it;
+``aromm identify --segmentation-check`` re-fits on the image thresholded there (the "segmentation" row of the error
+budget, docs/method/uncertainty.md).
+
 Before the segmentation, ``crop = [[x0, x1], [y0, y1], [z0, z1]]`` keeps the voxels x0 ≤ i < x1 (indices of the
 stored image) and ``downsample = f`` averages f³ blocks (:func:`skimage.transform.downscale_local_mean`; a label
 image takes the most frequent label of each block); the voxel edge becomes f times the scan's.  What was done is
@@ -40,6 +46,8 @@ METHODS = ("thresholds", "otsu", "multiotsu")
 DENOISERS = ("median", "gaussian")
 SEGMENT_KEYS = ("thresholds", "method", "classes", "denoise", "size", "sigma")
 HISTOGRAM_BINS = 256
+#: For one threshold, the standard method whose threshold the report gives beside it (module docstring).
+OTHER_METHOD = {"otsu": "li", "thresholds": "otsu"}
 #: A refusal naming a key: ``fail("geometry.crop", "what is allowed")`` (aromm.scene.toml.TableReader.fail).
 Fail = Callable[[str, str], InputError]
 
@@ -75,11 +83,14 @@ class SegmentationReport:
     dtype: str
     shape: tuple[int, int, int]
     denoise: str | None = None
+    other: tuple[str, float] | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (without the histogram)."""
+        """JSON-ready summary (without the histogram); ``other``: another standard method's threshold, for one
+        threshold (module docstring)."""
+        other = None if self.other is None else {"method": self.other[0], "threshold": self.other[1]}
         return {"method": self.method, "thresholds": list(self.thresholds), "fractions": list(self.fractions),
-                "dtype": self.dtype, "shape": list(self.shape), "denoise": self.denoise}
+                "dtype": self.dtype, "shape": list(self.shape), "denoise": self.denoise, "other": other}
 
     def __str__(self) -> str:
         shape = "×".join(map(str, self.shape))
@@ -88,6 +99,8 @@ class SegmentationReport:
                  "thresholds (grey levels): " + ", ".join(f"{t:.6g}" for t in self.thresholds),
                  "label  volume fraction"]
         lines += [f"{i:5d}  {f:.4f}" for i, f in enumerate(self.fractions)]
+        if self.other is not None:
+            lines.append(f"{self.other[0]}'s threshold on the same image: {self.other[1]:.6g}")
         return "\n".join(lines)
 
 
@@ -181,8 +194,20 @@ def segment(grey: npt.ArrayLike, spec: Segmentation, bins: int = HISTOGRAM_BINS)
     nx, ny, nz = image.shape
     report = SegmentationReport(spec.method, tuple(float(t) for t in thresholds),
                                 tuple(float(f) for f in fractions), counts.astype(np.int64), edges.astype(np.float64),
-                                str(image.dtype), (int(nx), int(ny), int(nz)), spec.denoise)
+                                str(image.dtype), (int(nx), int(ny), int(nz)), spec.denoise,
+                                _other(smooth, spec.method, thresholds.size))
     return as_labels(labels), report
+
+
+def _other(smooth: npt.NDArray[Any], method: str, count: int) -> tuple[str, float] | None:
+    """(method, threshold) of :data:`OTHER_METHOD` on the denoised image, for one threshold of a non-uniform image."""
+    from skimage import filters
+
+    other = OTHER_METHOD.get(method)
+    if other is None or count != 1 or np.ptp(smooth) == 0:
+        return None
+    found = filters.threshold_li(smooth) if other == "li" else filters.threshold_otsu(smooth)
+    return other, float(found)
 
 
 def crop(image: npt.NDArray[Any], box: Any, key: str = "geometry.crop", fail: Fail = _fail) -> npt.NDArray[Any]:

@@ -10,12 +10,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from aromm.core.choices import DISCRETISATIONS
 from aromm.core.vocabulary import PhaseSpec, insulating
 from aromm.scene.geometry import SceneGeometry, VoxelGeometry
 from aromm.scene.sensors import Sensor
 from aromm.scene.toml import TableReader
-
-DISCRETISATIONS = ("q1", "fv")
 
 
 def with_discretisation(data: Mapping[str, Any], discretisation: str | None) -> Mapping[str, Any]:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field, fields, replace
 from numbers import Integral
 from typing import Any
 
+from aromm.core.choices import EIGENSOLVERS
 from aromm.core.errors import InputError
 from aromm.scene.toml import TableReader
 
@@ -35,7 +36,6 @@ ALIASES = {"basis_values": "basis", "reference_values": "reference"}
 #: Options that only the modal methods use (the Krylov reduction refuses them; ``"auto"`` then picks the amalgam).
 #: ``reference`` is modal too, but a scene states it for its amalgam: the Krylov reduction leaves it aside.
 MODAL_OPTIONS = ("modes", "n_dirichlet", "n_steklov", "relaxation", "corrections", "eigensolver", "basis_storage")
-EIGENSOLVERS = ("auto", "arpack", "lobpcg")
 BASIS_STORAGES = ("float64", "float32")
 
 

@@ -40,11 +40,11 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
+from aromm.core.choices import EIGENSOLVERS
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
 from aromm.engines.petsc import convert, linear, runtime
 from aromm.engines.petsc.layout import RowLayout
-from aromm.linalg.eigensolvers import EIGENSOLVERS
 from aromm.reduction.modal_bases import ORTHOGONALITY_TOL, RESIDUAL_TOL
 
 #: SLEPc's relative residual tolerance for converged eigenpairs (ARPACK in aromm.reduction.modal_bases works to machine
