@@ -175,7 +175,7 @@ def fail_plot_write(mp: pytest.MonkeyPatch) -> None:
 
 def ctrl_c_after_two_steps(mp: pytest.MonkeyPatch) -> None:
     """Ctrl-C during the second swarm iteration (the checkpoint of the first is on disk)."""
-    import aromm.cli.identify as command
+    import inverse.identification as command  # the command imports identify from there when it runs
 
     real = command.identify
 
