@@ -13,8 +13,9 @@ Public API::
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from aromm.core import lazy
 
 #: Where each public name lives: imported on first use (PEP 562), so ``import aromm`` and ``aromm --version`` do not
 #: load scipy, the solvers and every wing (``python -X importtime -c "import aromm"``; tests/test_startup.py).
@@ -41,12 +42,7 @@ if TYPE_CHECKING:
     from aromm.scene.scene_file import Scene, assemble, load_scene
 
 
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'aromm' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name]), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy.exports(__name__, _EXPORTS)
 
 
 __all__ = [
@@ -70,6 +66,3 @@ __all__ = [
 ]
 __version__ = "0.1.0"
 
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_EXPORTS})

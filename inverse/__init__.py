@@ -13,8 +13,9 @@ defaults, the farms) for a command's options does not load the optimisers and sc
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from aromm.core import lazy
 
 #: Where each public name lives.
 _EXPORTS = {
@@ -31,16 +32,7 @@ if TYPE_CHECKING:
     from inverse.uncertainty import IdentifiabilityWarning, ResidualWarning, Uncertainty, UncertaintyWarning
 
 
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'inverse' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name]), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_EXPORTS})
+__getattr__, __dir__ = lazy.exports(__name__, _EXPORTS)
 
 
 __all__ = [
