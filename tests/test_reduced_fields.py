@@ -138,3 +138,26 @@ def test_fields_with_fixed_temperatures_hold_them_and_converge_to_the_full_model
         assert field_err <= 10 * np.abs(obs.as_array() - exact_out).max()
         errors.append(field_err)
     assert errors[1] < errors[0] / 100 and errors[1] < 1e-4  # K, on a 75 K difference
+
+
+def test_a_cached_krylov_model_keeps_its_fields(tmp_path: Path) -> None:
+    """The second build of a Krylov model asked for fields loads Ψ from the cache (the kind was unknown to the cache
+    and the load raised KeyError): same basis, same fields."""
+    import warnings
+
+    from aromm.core.system import TimeGrid
+    from aromm.core.vocabulary import FaceSpec, PhaseSpec
+    from aromm.fem import assemble_voxels
+    from aromm.reduction.offline import reduce
+
+    labels = (np.random.default_rng(2).random((5,) * 3) < 0.4).astype(int)
+    phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
+    system = assemble_voxels(labels, (5e-6,) * 3, phases, [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)],
+                             time=TimeGrid(2.0, 0.05), outputs=["z0", "z1"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        built, cached = (reduce(system, order=8, method="krylov", bounds={"fibre.k": (0.1, 1.0)}, cache=tmp_path,
+                                fields=True) for _ in range(2))
+    assert built.info["cached"] == 0 and cached.info["cached"] == 1
+    assert built.basis is not None and cached.basis is not None
+    np.testing.assert_array_equal(cached.basis, built.basis)

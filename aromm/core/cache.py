@@ -45,6 +45,7 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
             ("capacity.names", "conductance.names")),
     "reconstruction": ("the coefficients of the reduced basis Ψ on the detailed basis, for temperature fields "
                        "(aromm.reduction.offline)", ("coefficients",)),
+    "krylov-basis": ("the Krylov model's basis Ψ, for temperature fields (aromm.reduction.krylov_offline)", ("psi",)),
     "model-order": ("the order of the model last built for a scene and its settings, whatever the order asked "
                     "(aromm.api.built_order)", ("order",)),
 }
