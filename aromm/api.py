@@ -144,6 +144,7 @@ def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run:
         rom = replace(rom, info={**rom.info, "engine": engine, "model_key": key})
         if root:
             store.save("rom", key, to_arrays(rom))
+        if root and engine == "scipy":  # the petsc key is collective: rank 0 alone would wait for the others
             _remember_order(store, system, settings, engine, run)
     return rom
 
