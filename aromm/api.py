@@ -108,7 +108,7 @@ def built_order(system: ThermalSystem | Scene, settings: ReductionSettings | Non
     default order), or None when there is none in the cache; ``run`` as :func:`reduce` (``cache``, ``references``).
     The petsc engine keeps no such record (None)."""
     settings = _resolved(system, settings or ReductionSettings(), run)
-    family = _model_key(system, replace(settings, order=FAMILY), engine, run) if engine == "scipy" else None
+    family = _family_key(system, settings, engine, run)
     store = resolve_cache(run.get("cache", True)) if family is not None else None
     found = store.load("model-order", family) if store is not None and family is not None else None
     return int(found["order"]) if found is not None else None
@@ -144,7 +144,6 @@ def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run:
         rom = replace(rom, info={**rom.info, "engine": engine, "model_key": key})
         if root:
             store.save("rom", key, to_arrays(rom))
-        if root and engine == "scipy":  # the petsc key is collective: rank 0 alone would wait for the others
             _remember_order(store, system, settings, engine, run)
     return rom
 
@@ -152,9 +151,15 @@ def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run:
 def _remember_order(store: NpzCache, system: Any, settings: ReductionSettings, engine: str,
                     run: dict[str, Any]) -> None:
     """Record the order of the model just built for its family (:func:`built_order`)."""
-    family = _model_key(system, replace(settings, order=FAMILY), engine, run)
+    family = _family_key(system, settings, engine, run)
     if family is not None:
         store.save("model-order", family, {"order": np.array(settings.order)})
+
+
+def _family_key(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> str | None:
+    """The key of every order's model for ``system`` and ``settings`` (:func:`_model_key` at order :data:`FAMILY`), or
+    None: the petsc engine keeps no order record (its key is collective over the ranks, and rank 0 alone writes)."""
+    return _model_key(system, replace(settings, order=FAMILY), engine, run) if engine == "scipy" else None
 
 
 def _model_key(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> str | None:
