@@ -232,6 +232,8 @@ CASES: tuple[Case, ...] = (
          (scene_with("bad.toml", "T_ext = 0.0", "T_ext = -500.0"),)),
     Case("simulate-negative-dt", ("simulate", "bad.toml"), 2, ("bad.toml", "time.dt", "> 0"),
          (scene_with("bad.toml", "dt = 1.0", "dt = -1.0"),)),
+    Case("simulate-time-end-word", ("simulate", "bad.toml"), 2, ("bad.toml", "time.end", "number of seconds", "auto"),
+         (scene_with("bad.toml", "end = 20.0", "end = 'soon'"),)),
     Case("simulate-too-many-steps", ("simulate", "bad.toml"), 2, ("bad.toml", "time steps", "allowed"),
          (scene_with("bad.toml", "dt = 1.0", "dt = 1e-9"),)),
     Case("simulate-singular-steady", ("simulate", "bad.toml"), 2, ("bad.toml", "boundary", "T"),

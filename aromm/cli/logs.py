@@ -5,7 +5,8 @@ The library reports through :mod:`logging` (loggers ``aromm.*`` and ``inverse.*`
 per 10 % of the pairs of each eigen-solve, the cache entries used, the conversions of a laboratory CSV).  The
 command line sends those records to stderr as ``aromm: [  12.3 s] message`` (elapsed wall time since the command
 started): every INFO record when stderr is not a terminal; on a terminal, where the bars show the progress,
-only the notes of the CSV reader (:mod:`aromm.core.labcsv`) and warnings.
+only the notes of the CSV reader (:mod:`aromm.core.labcsv`), an automatic time grid's reason
+(:mod:`aromm.scene.time_section`) and warnings.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 LOGGERS = ("aromm", "inverse")
-NOTES = "aromm.core.labcsv"  # always shown: what the reader converted or dropped
+NOTES = ("aromm.core.labcsv", "aromm.scene.time_section")  # always shown: what the reader converted or dropped, an
+# automatic time grid
 
 
 class Elapsed(logging.Formatter):

@@ -21,7 +21,7 @@ from aromm.core.errors import InputError
 from aromm.core.labchecks import ABSOLUTE_ZERO
 from aromm.core.labcsv import read_lab_csv
 from aromm.core.profiles import Profile
-from aromm.core.resources import MAX_TIME_STEPS, available_memory
+from aromm.core.resources import available_memory
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
 from aromm.microstructure.generators import GENERATORS
@@ -31,6 +31,7 @@ from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, Vo
 from aromm.scene.model_section import parse_model, refusal, with_discretisation
 from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
+from aromm.scene.time_section import AutoTime, auto_grid, parse_time
 from aromm.scene.toml import TableReader, where
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction",
@@ -207,7 +208,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     boundary = _boundary(r, data)
     initial = r.table(data, "initial", ("T",))
     initial_T = _celsius(r, r.number(initial.get("T", 0.0), "initial.T"), "initial.T")
-    time = _time(r, data)
+    time = parse_time(r, data)
     varying = [f.face for f in boundary if f.varies]
     if varying and time is None:
         raise r.fail(f"boundary.{varying[0]}", "a history (CSV file) needs a transient scene: add [time] end and dt")
@@ -215,6 +216,12 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
         for ph in phases:
             if ph.c is None:
                 raise r.fail(f"phases.{ph.name}.c", "a transient scene ([time]) needs every phase's capacity c")
+    if isinstance(time, AutoTime):
+        if image is not None:
+            raise r.fail("time.end", '"auto" needs the whole image (its volume fractions): give end and dt in s, as '
+                                     "a run on the scipy engine logs them")
+        time = auto_grid(time, geometry.volume_fractions(phases), phases, boundary, geometry.size,
+                               path=path)[0]
     outputs, sensors = _outputs(r, data, geometry)
     singular = singular_boundary(boundary, time)
     if singular and ("boundary" in data or outputs or sensors):  # without either, a material for `aromm homogenize`
@@ -415,22 +422,6 @@ def _load(r: TableReader, value: Any, key: str) -> Load:
         raise r.fail(key, f"{file}: a history has two columns t,<value>, got {', '.join(('t', *table.outputs))}")
     values = np.asarray(next(iter(table.mean_T.values())), dtype=float)
     return Profile(tuple(np.asarray(table.t, dtype=float).tolist()), tuple(values.tolist()), source=str(file))
-
-
-def _time(r: TableReader, data: Mapping[str, Any]) -> TimeGrid | None:
-    if "time" not in data:
-        return None
-    t = r.table(data, "time", ("end", "dt"))
-    if "end" not in t or "dt" not in t:
-        raise r.fail("time", "needs end and dt (s)")
-    dt = r.number(t["dt"], "time.dt", positive=True)
-    end = r.number(t["end"], "time.end", positive=True)
-    if end < dt:
-        raise r.fail("time.end", f"end ({end:g} s) must be at least dt ({dt:g} s)")
-    if end / dt > MAX_TIME_STEPS:
-        raise r.fail("time", f"end / dt = {end:g} s / {dt:g} s = {end / dt:.3g} time steps, more than the "
-                             f"{MAX_TIME_STEPS:.0e} allowed; raise dt or lower end")
-    return TimeGrid(end, dt)
 
 
 def _outputs(r: TableReader, data: Mapping[str, Any],
