@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.stats as st
+from scipy.special import ndtr
 
 from aromm.core.system import FloatArray
 
@@ -92,13 +92,13 @@ def diagnose(series: Sequence[FloatArray]) -> ResidualDiagnostics:
     pairs = sum(max(r.size - 1, 0) for r in rs)
     rho = lagged / ss if ss > 0 else math.nan
     dw = diffs / ss if ss > 0 else math.nan
-    rho_p = float(2.0 * st.norm.sf(abs(rho) * math.sqrt(pairs))) if ss > 0 and pairs > 0 else math.nan
+    rho_p = float(2.0 * ndtr(-abs(rho) * math.sqrt(pairs))) if ss > 0 and pairs > 0 else math.nan
     counts = [_runs(r) for r in rs]
     runs = sum(c[0] for c in counts)
     mean = sum(c[1] for c in counts)
     var = sum(c[2] for c in counts)
     z = (runs - mean) / math.sqrt(var) if var > 0 else math.nan
-    runs_p = float(2.0 * st.norm.sf(abs(z))) if math.isfinite(z) else math.nan
+    runs_p = float(2.0 * ndtr(-abs(z))) if math.isfinite(z) else math.nan
     systematic = bool((math.isfinite(runs_p) and runs_p < ALPHA) or (math.isfinite(rho_p) and rho_p < ALPHA))
     return ResidualDiagnostics(rho, dw, runs, mean, z, runs_p, rho_p, len(rs), systematic)
 

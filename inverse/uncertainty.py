@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
-import scipy.stats as st
+from scipy.special import chdtr, chdtrc, ndtri, stdtrit
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
@@ -211,7 +211,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                 window = hac.bandwidth(g)
                 sandwich = bread @ hac.long_run(g, window) @ bread * (n_obs / dof)  # small-sample factor N/(N−p)
                 se_hac[live] = np.sqrt(np.clip(np.diag(sandwich), 0.0, None)) * scale
-    t_q = float(st.t.ppf(0.5 + level / 2, dof)) if dof > 0 else math.inf
+    t_q = float(stdtrit(dof, 0.5 + level / 2)) if dof > 0 else math.inf
     diagnostics = diagnose([r[b[:, f]] for b in blocks for f in range(b.shape[1])])
     residual_notes = list(data_notes)
     if diagnostics.systematic:
@@ -224,7 +224,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     noise_p = math.nan
     if noise_std is not None and dof > 0:
         q = dof * s2 / noise_std**2
-        noise_p = float(min(1.0, 2.0 * min(st.chi2.cdf(q, dof), st.chi2.sf(q, dof))))
+        noise_p = float(min(1.0, 2.0 * min(chdtr(dof, q), chdtrc(dof, q))))
         ratio = math.sqrt(s2) / noise_std
         if noise_p < NOISE_ALPHA and ratio > 1:
             residual_notes.append(
@@ -251,7 +251,7 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     pos = np.zeros(p, dtype=bool) if positive is None else np.asarray(positive, dtype=bool) & (beta > 0)
     lower, upper = domain_interval(beta, budget_total(budget), pos)
     lower_hac, upper_hac = domain_interval(
-        beta, float(st.norm.ppf(0.5 + level / 2)) * np.sqrt(se_hac**2 + se_model**2) + bias + sum(extra.values()), pos)
+        beta, float(ndtri(0.5 + level / 2)) * np.sqrt(se_hac**2 + se_model**2) + bias + sum(extra.values()), pos)
     sources = ["measurement noise (residual variance s²)"]
     if np.any(np.isfinite(se_hac)):
         sources.append("correlated residuals (the HAC interval only)")

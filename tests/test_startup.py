@@ -69,3 +69,20 @@ def test_help_lists_every_command_without_the_wings() -> None:
     assert result["code"] == 0
     heavy = [m for m in result["modules"] if m.startswith(WINGS)]  # type: ignore[attr-defined]
     assert heavy == [], heavy
+
+
+#: What a warm identification on a voxel scene does not need (issue 37, item 4): scipy.stats (the residual tests and
+#: the intervals use scipy.special), scikit-fem (mesh scenes), scipy.ndimage (cutting an insulating phase's isolated
+#: voxels), matplotlib (--plot).
+NOT_FOR_IDENTIFY = ("scipy.stats", "skfem", "scipy.ndimage", "matplotlib")
+IDENTIFY_PATH = ("aromm.cli.identify", "aromm.cli.identify_report", "aromm.api", "aromm.scene.scene_file",
+                 "inverse.identification", "inverse.uncertainty", "inverse.residuals", "aromm.reduction.rom")
+
+
+def test_the_identify_path_imports_only_what_it_uses() -> None:
+    probe = f"import importlib, json, sys\nfor m in {IDENTIFY_PATH!r}: importlib.import_module(m)\n" \
+            "print(json.dumps(sorted(sys.modules)))"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, check=True)
+    extra = [m for m in json.loads(run.stdout) if m.startswith(NOT_FOR_IDENTIFY)]
+    assert extra == [], extra

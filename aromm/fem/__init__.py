@@ -5,7 +5,8 @@
 * :mod:`aromm.fem.mesh`: Lagrange simplices (P1/P2) on a conforming mesh, with contact resistance.
 """
 
-from aromm.fem.mesh import assemble_mesh
+from typing import Any
+
 from aromm.fem.voxel import assemble_voxels
 from aromm.fem.voxel_grid import VoxelGrid, connectivity, element_matrices, face_mass, node_points, scatter
 
@@ -19,3 +20,12 @@ __all__ = [
     "node_points",
     "scatter",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """``assemble_mesh`` is imported on first use: scikit-fem (≈ 0.2 CPU s) is for mesh scenes only."""
+    if name == "assemble_mesh":
+        from aromm.fem.mesh import assemble_mesh
+
+        return assemble_mesh
+    raise AttributeError(f"module 'aromm.fem' has no attribute {name!r}")

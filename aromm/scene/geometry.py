@@ -15,7 +15,6 @@ import numpy as np
 from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
-from aromm.fem.mesh import assemble_mesh
 from aromm.fem.voxel import assemble_voxels
 from aromm.fv.volumes import assemble_volumes
 
@@ -112,6 +111,8 @@ class MeshGeometry:
                  interfaces: Mapping[tuple[str, str], float], time: TimeGrid | None, initial_T: float,
                  outputs: Sequence[str], where: str = "") -> ThermalSystem:
         resistances = {f"{a}|{b}": r for (a, b), r in interfaces.items()}
+        from aromm.fem.mesh import assemble_mesh  # scikit-fem: only for a mesh scene
+
         return assemble_mesh(self.mesh, phases, boundary, interfaces=resistances, time=time, initial_T=initial_T,
                              outputs=outputs, order=self.order)
 

@@ -12,7 +12,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize as so
 
 from aromm.core.system import FloatArray
 from inverse.optimisers.interface import Outcome, Problem, State, Step
@@ -29,6 +28,8 @@ class DifferentialEvolution:
 
     def run(self, problem: Problem, start: FloatArray | None, rng: np.random.Generator, *,
             state: State | None = None, callback: Callable[[Step], None] | None = None) -> Outcome:
+        import scipy.optimize as so  # only for this optimiser (≈ 0.13 CPU s of every identify otherwise)
+
         generation = 0
 
         def report(intermediate_result: so.OptimizeResult) -> None:  # scipy passes the result by this name
