@@ -35,7 +35,8 @@ from aromm.full import solve
 from aromm.homogenization import properties
 from aromm.homogenization.properties import PROBE_BOUNDARIES, Fluxmetric, conductivity
 from aromm.reduction import offline
-from aromm.reduction.krylov import KrylovReductor, tolerance_note
+from aromm.reduction.certified import tolerance_note
+from aromm.reduction.krylov import KrylovReductor
 from aromm.reduction.model_key import model_key, scene_physics_key
 from aromm.reduction.offline import resolve_cache
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays

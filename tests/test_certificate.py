@@ -140,3 +140,36 @@ def test_bound_holds_on_the_modal_models(method: str, faces: str) -> None:
             assert bound is not None and np.all(bound >= actual), (order, mu, bound, actual)
             if faces == "flux":
                 assert np.all(bound <= 100 * actual), (order, mu, bound / actual)
+
+
+def test_the_span_ledger_gives_the_certificates_certify_computes() -> None:
+    """aromm.reduction.certificate_gram: a basis grown in two steps, and a compressed model on it, get the Gram
+    matrices and the bound that certify() computes from scratch on the same bases; the compressed model's floor
+    is never below its own (it counts the span's columns).  Tolerance: the Gram entries come from direct solves
+    to the relative residual rtol, each entry then carries about rtol · ‖M‖² of error."""
+    from aromm.reduction.certificate import certify, error_bound
+    from aromm.reduction.certificate_gram import GramLedger
+    from aromm.reduction.scipy_engine import ScipyEngine
+
+    system = lift(body([FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)]), {"fibre.k": 0.3, "fibre.c": 4e6},
+                  "splu")
+    engine = ScipyEngine(system, "splu")
+    reference, rtol = {"fibre.k": 0.55, "fibre.c": 5.5e6}, 1e-10
+    rng = np.random.default_rng(5)
+    basis, _ = engine.orthonormalise(None, rng.standard_normal((system.n, 5)), reference, 1e-10)
+    ledger = GramLedger(engine, system, reference, rtol)
+    ledger.extend(basis)
+    basis, _ = engine.orthonormalise(basis, rng.standard_normal((system.n, 4)), reference, 1e-10)
+    ledger.extend(basis)
+    w = np.linalg.qr(rng.standard_normal((basis.shape[1], 3)))[0]
+    for coefficients, psi in ((None, basis), (w, basis @ w)):
+        direct = certify(engine, system, psi, reference, rtol)
+        kept = ledger.certificate(coefficients)
+        scale = np.abs(direct.grams).max()
+        np.testing.assert_allclose(kept.grams, direct.grams, rtol=0, atol=100 * rtol * scale)
+        np.testing.assert_allclose(kept.vtu, direct.vtu, rtol=1e-12, atol=1e-12 * np.abs(direct.vtu).max())
+        assert ledger.solves == len(ledger.sigmas) * ledger.grams.shape[1]  # every column solved once
+        model = engine.project(psi)
+        for mu in INSIDE:
+            ours, theirs = error_bound(model, kept, mu), error_bound(model, direct, mu)
+            assert np.all(ours >= theirs * (1 - 1e-6)) and np.all(ours <= theirs * 1.5), (mu, ours, theirs)

@@ -75,22 +75,36 @@ class CertifyingEngine(Protocol):
 class Certificate:
     """Offline data of the bound (module docstring) for one model: ``theta`` the conductance-then-capacity terms'
     coefficients at the reference μ̂, ``sigmas`` the ladder (1/s), ``grams`` one ``MᵀN̂_σ⁻¹M`` per σ, ``vtu`` = ΨᵀU
-    (r × p), ``loads`` the number of load columns of U (the initial-state columns follow)."""
+    (r × p), ``loads`` the number of load columns of U (the initial-state columns follow).  The rounding floor of
+    the quadratic forms takes the columns' norms from ``scales`` (per σ; default √diag of ``grams``) and counts
+    ``summands`` terms in its sums (default the columns): a certificate whose Gram matrices were formed from a larger
+    one's (:mod:`aromm.reduction.certificate_gram`) carries that one's."""
 
     theta: FloatArray
     sigmas: FloatArray
     grams: FloatArray
     vtu: FloatArray
     loads: int
+    scales: FloatArray | None = None
+    summands: int | None = None
 
     def arrays(self) -> dict[str, np.ndarray]:
+        extra = {} if self.scales is None else {"scales": self.scales, "summands": np.array(self.summands)}
         return {"theta": self.theta, "sigmas": self.sigmas, "grams": self.grams, "vtu": self.vtu,
-                "loads": np.array(self.loads)}
+                "loads": np.array(self.loads), **extra}
 
     @classmethod
     def from_arrays(cls, data: Mapping[str, np.ndarray]) -> Certificate:
         theta, sigmas, grams, vtu = (np.asarray(data[k], dtype=float) for k in ("theta", "sigmas", "grams", "vtu"))
-        return cls(theta, sigmas, grams, vtu, int(data["loads"]))
+        scales = np.asarray(data["scales"], dtype=float) if "scales" in data else None
+        return cls(theta, sigmas, grams, vtu, int(data["loads"]), scales,
+                   int(data["summands"]) if "summands" in data else None)
+
+    def floor_terms(self) -> tuple[FloatArray, int]:
+        """The columns' norms per σ and the number of summands of the rounding floor (class docstring)."""
+        scales = np.sqrt(np.maximum(np.diagonal(self.grams, axis1=1, axis2=2), 0.0)) if self.scales is None \
+            else self.scales
+        return scales, self.grams.shape[1] if self.summands is None else self.summands
 
 
 def contour(end: float, first: float, gap: float | None = None) -> tuple[npt.NDArray[np.complex128], FloatArray]:
@@ -199,7 +213,7 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     span = cert.sigmas[upper] - cert.sigmas[lower]
     share = np.where(span > 0, (cert.sigmas[upper] - sig) / np.where(span > 0, span, 1.0), 1.0)
 
-    diags = np.sqrt(np.maximum(np.diagonal(cert.grams, axis1=1, axis2=2), 0.0))
+    diags, summands = cert.floor_terms()
 
     def norm(c: npt.NDArray[np.complex128]) -> FloatArray:
         square, floor = np.zeros(s.size), np.zeros(s.size)
@@ -207,7 +221,7 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
             weight = np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
             at = weight > 0
             square[at] += weight[at] * np.einsum("ki,ki->k", c[at].conj(), c[at] @ g).real
-            floor[at] += weight[at] * 8 * c.shape[1] * np.finfo(float).eps * (np.abs(c[at]) @ diags[j]) ** 2
+            floor[at] += weight[at] * 8 * summands * np.finfo(float).eps * (np.abs(c[at]) @ diags[j]) ** 2
         return np.sqrt(np.maximum(square, 0.0) + floor)
 
     o = len(names)

@@ -8,6 +8,7 @@ the certificate's offline cost is one shifted solve per column of M and rung of 
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
@@ -15,8 +16,8 @@ from dataclasses import replace
 import numpy as np
 
 from aromm.core.system import FloatArray, ThermalSystem
+from aromm.reduction.certificate import Certificate, ladder
 from aromm.reduction.certificate import certify as certificate_of
-from aromm.reduction.certificate import ladder
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import DIRECT_BELOW, ScipyEngine
 
@@ -48,16 +49,20 @@ def wanted(system: ThermalSystem, certify: bool | None, columns: int) -> str | N
 
 def certified(engine: ScipyEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
               certify: bool | None, reference: Mapping[str, float], training: Sequence[Mapping[str, float]],
-              rtol: float, tolerance: float | None = None) -> tuple[ReducedModel, Info]:
+              rtol: float, tolerance: float | None = None,
+              certificate: Certificate | None = None) -> tuple[ReducedModel, Info]:
     """``rom`` (Galerkin on the basis ``psi`` of the lifted ``system``) with its certificate at the reference values,
     and what its info records: the worst bound over ``training`` (``error_bound``, °C), the CPU seconds, and
     ``converged = 0`` when that bound exceeds ``tolerance`` (issue 35, item 4); without one when :func:`wanted` says
-    no (``certificate`` then says why)."""
+    no (``certificate`` then says why).  A ``certificate`` given (a Krylov build's, formed from its span's Gram
+    matrices: :mod:`aromm.reduction.certificate_gram`) is used instead of one computed here."""
     why = wanted(system, certify, width(engine, system, rom.order))
     if why is not None:
         return rom, {"error_bound": float("nan"), "certificate": why}
     start = time.process_time()
-    rom = replace(rom, certificate=certificate_of(engine, system, psi, reference, rtol))
+    if certificate is None:
+        certificate = certificate_of(engine, system, psi, reference, rtol)
+    rom = replace(rom, certificate=certificate)
     bounds = [rom.error_bound(mu) for mu in training]
     worst = max(float(np.max(b)) for b in bounds if b is not None)
     info: Info = {"error_bound": worst, "certificate": "primal-dual contour bound",
@@ -70,3 +75,24 @@ def certified(engine: ScipyEngine, system: ThermalSystem, rom: ReducedModel, psi
 def _grid(system: ThermalSystem) -> tuple[float, float]:
     assert system.time is not None
     return system.time.end, system.time.dt
+
+
+def tolerance_note(info: Mapping[str, float | int | str]) -> str | None:
+    """Why a Krylov model missed its tolerance (``info["converged"]`` 0; by estimate or certified bound), else None."""
+    if info.get("method") != "krylov" or int(info.get("converged", 1)) == 1:
+        return None
+    tol = float(info.get("tolerance", float("nan")))
+    loss = float(info.get("compression_loss", 0.0))
+    estimate = float(info.get("reference_error", float("nan")))
+    bound = float(info.get("error_bound", float("nan")))
+    if loss > tol / 2:
+        why = f"the compression to order {info.get('order')} lost {loss:.2g} °C (ask for a higher order)"
+    elif estimate > tol or not math.isfinite(bound):
+        why = (f"the greedy stopped after {info.get('krylov_points')} points with an estimated "
+               f"{float(info.get('krylov_estimate', float('nan'))):.2g} °C (raise max_points, or narrow the box)")
+    else:
+        return (f"the Krylov reduced model did not meet its tolerance {tol:.2g} °C by its certified bound: "
+                f"{bound:.2g} °C at worst over its training grid, although its own estimate is {estimate:.2g} °C "
+                "(the bound has run 3-65x the actual error; raise max_points or narrow the box to lower it)")
+    return (f"the Krylov reduced model did not meet its tolerance {tol:.2g} °C: estimated error "
+            f"{estimate:.2g} °C ({why}); an estimate, not a bound")

@@ -40,11 +40,11 @@ from __future__ import annotations
 
 import itertools
 import logging
-import math
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -71,8 +71,14 @@ ESTIMATE_SAFETY = 10.0
 INDICATOR_REFINEMENT = 3
 
 Box = tuple[tuple[str, float, float], ...]
-#: The certified bound of a span's Galerkin model (basis, model) at every training point (°C, max over outputs).
-Bound = Callable[[Block, ReducedModel], FloatArray]
+
+
+class Bound(Protocol):
+    """The certified bound of a span's Galerkin model (basis, model) at every training point (°C, max over outputs);
+    told the span and the compression's coefficients before the span's buffer is overwritten."""
+
+    def __call__(self, basis: Block, model: ReducedModel) -> FloatArray: ...
+    def compressed(self, basis: Block, coefficients: FloatArray) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -370,27 +376,6 @@ def converged(span: Span, reductor: KrylovReductor, compression_loss: float) -> 
     return stopped and compression_loss <= reductor.tolerance / 2
 
 
-def tolerance_note(info: Mapping[str, float | int | str]) -> str | None:
-    """Why a Krylov model missed its tolerance (``info["converged"]`` 0; by estimate or certified bound), else None."""
-    if info.get("method") != "krylov" or int(info.get("converged", 1)) == 1:
-        return None
-    tol = float(info.get("tolerance", float("nan")))
-    loss = float(info.get("compression_loss", 0.0))
-    estimate = float(info.get("reference_error", float("nan")))
-    bound = float(info.get("error_bound", float("nan")))
-    if loss > tol / 2:
-        why = f"the compression to order {info.get('order')} lost {loss:.2g} °C (ask for a higher order)"
-    elif estimate > tol or not math.isfinite(bound):
-        why = (f"the greedy stopped after {info.get('krylov_points')} points with an estimated "
-               f"{float(info.get('krylov_estimate', float('nan'))):.2g} °C (raise max_points, or narrow the box)")
-    else:
-        return (f"the Krylov reduced model did not meet its tolerance {tol:.2g} °C by its certified bound: "
-                f"{bound:.2g} °C at worst over its training grid, although its own estimate is {estimate:.2g} °C "
-                "(the bound has run 3-65x the actual error; raise max_points or narrow the box to lower it)")
-    return (f"the Krylov reduced model did not meet its tolerance {tol:.2g} °C: estimated error "
-            f"{estimate:.2g} °C ({why}); an estimate, not a bound")
-
-
 def _check_outputs(engine: ReductionEngine, names: tuple[str, ...]) -> None:
     """The reduction is output-aware: refuse a system without outputs or whose outputs are all on fixed temperatures
     (after lifting their rows vanish on the free unknowns: they are known, there is nothing to reduce for)."""
@@ -447,4 +432,6 @@ def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: Krylo
     info["converged"] = int(converged(span, reductor, float(info["compression_loss"])))
     log.info("krylov: span %d columns at %d points, order %d, compression loss %.3g °C", span.model.order,
              len(span.points), rom.order, info["compression_loss"])
+    if bound is not None:
+        bound.compressed(span.basis, coefficients)
     return rom, engine.combine(span.basis, coefficients, consume=True), info

@@ -17,7 +17,8 @@ import numpy as np
 from aromm.core.cache import NpzCache
 from aromm.core.system import FloatArray, ThermalSystem
 from aromm.reduction import krylov
-from aromm.reduction.certificate import certify, error_bound
+from aromm.reduction.certificate import Certificate, error_bound
+from aromm.reduction.certificate_gram import GramLedger
 from aromm.reduction.certified import certified, wanted, width
 from aromm.reduction.lifting import lift
 from aromm.reduction.model_key import system_key
@@ -50,11 +51,11 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     lifted = lift(system, basis_values, solver)
     engine = ScipyEngine(lifted, linear)
     with one_blas_thread():  # small dense algebra dominates: threaded BLAS only fights for the shared cores
-        rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress,
-                                             bound=span_bound(engine, lifted, reductor, box))
+        bound = span_bound(engine, lifted, reductor, box)
+        rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress, bound=bound)
         rom, extra = certified(engine, lifted, rom, psi, certify=reductor.certify, reference=krylov.centre(box),
                                training=krylov.training_set(box, reductor.per_axis), rtol=reductor.rtol,
-                               tolerance=reductor.tolerance)
+                               tolerance=reductor.tolerance, certificate=bound.final if bound else None)
     info.update(extra)
     info.update({"offline_seconds": time.perf_counter() - start, "cached": 0, "key": key,
                  "lifted_faces": len(system.dirichlet)})
@@ -66,17 +67,37 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     return with_fields(rom, system, engine.to_numpy(psi), basis_values, solver) if fields else rom
 
 
+class SpanBound:
+    """The greedy's certified bound (:class:`aromm.reduction.krylov.Bound`) over the training set, from Gram matrices
+    kept along the growing span (:class:`~aromm.reduction.certificate_gram.GramLedger`); ``final`` is the compressed
+    model's certificate once :meth:`compressed` has been told its coefficients."""
+
+    def __init__(self, engine: ScipyEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
+                 box: krylov.Box) -> None:
+        self.engine, self.system, self.reductor = engine, system, reductor
+        self.training = krylov.training_set(box, reductor.per_axis)
+        self.ledger = GramLedger(engine, system, krylov.centre(box), reductor.rtol)
+        self.final: Certificate | None = None
+
+    def _too_large(self, columns: int) -> bool:
+        return wanted(self.system, self.reductor.certify, width(self.engine, self.system, columns)) is not None
+
+    def __call__(self, basis: FloatArray, model: ReducedModel) -> FloatArray:
+        if self._too_large(basis.shape[1]):
+            return np.zeros(len(self.training))  # too large to certify: the estimate decides, as without a bound
+        self.ledger.extend(basis)
+        cert = self.ledger.certificate()
+        return np.array([float(np.max(error_bound(model, cert, mu))) for mu in self.training])
+
+    def compressed(self, basis: FloatArray, coefficients: FloatArray) -> None:
+        if not self._too_large(basis.shape[1]):
+            self.ledger.extend(basis)
+            self.final = self.ledger.certificate(coefficients)
+
+
 def span_bound(engine: ScipyEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
-               box: krylov.Box) -> krylov.Bound | None:
-    """The greedy's certified bound (:data:`aromm.reduction.krylov.Bound`) when the model is to be certified."""
+               box: krylov.Box) -> SpanBound | None:
+    """The greedy's certified bound when the model is to be certified."""
     if wanted(system, reductor.certify, width(engine, system, 1)) is not None:
         return None
-    training = krylov.training_set(box, reductor.per_axis)
-
-    def bound(basis: FloatArray, model: ReducedModel) -> FloatArray:
-        if wanted(system, reductor.certify, width(engine, system, basis.shape[1])) is not None:
-            return np.zeros(len(training))  # too large to certify: the estimate decides, as without a bound
-        cert = certify(engine, system, basis, krylov.centre(box), reductor.rtol)
-        return np.array([float(np.max(error_bound(model, cert, mu))) for mu in training])
-
-    return bound
+    return SpanBound(engine, system, reductor, box)
