@@ -182,17 +182,30 @@ def refine_scene(scene: Scene, refine: int, bytes_per_voxel: float = DIRECT_BYTE
     return scene.refined(refine, bytes_per_voxel=bytes_per_voxel)
 
 
-def _default(obj: Any) -> Any:
+def strict_json(obj: Any) -> Any:
+    """``obj`` with numpy arrays and scalars as lists and numbers, and every NaN or infinity as None: JSON has no
+    such numbers (Python writes ``NaN``, which jq, JavaScript and most parsers refuse), so a value that is not
+    there (a bound not computed, a p-value without data) is ``null``.
+
+    >>> strict_json({"a": float("nan"), "b": [1.0, np.inf], "c": np.array([0.5, np.nan])})
+    {'a': None, 'b': [1.0, None], 'c': [0.5, None]}
+    """
+    if isinstance(obj, dict):
+        return {k: strict_json(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [strict_json(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return obj.tolist()
+        return strict_json(obj.tolist())
     if isinstance(obj, np.generic):
-        return obj.item()
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+        return strict_json(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
 
 
 def echo_json(payload: Any) -> None:
-    """Write one JSON document on stdout (numpy arrays and scalars converted)."""
-    click.echo(json.dumps(payload, default=_default, indent=None))
+    """Write one strict JSON document on stdout (:func:`strict_json`)."""
+    click.echo(json.dumps(strict_json(payload), indent=None, allow_nan=False))
 
 
 def progress(items: Iterable[T], total: int | None = None, desc: str = "", quiet: bool = False) -> Iterator[T]:

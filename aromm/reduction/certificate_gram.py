@@ -11,7 +11,11 @@ greedy only appends columns to V, and every later basis is a combination of the 
   matrices ``Tᵀ G T`` and ``ΨᵀU = Wᵀ VᵀU``: its certificate costs no solve at all.
 
 So a certified Krylov build costs one solve per column of the final span's M and rung, instead of one per column of
-every certified M.  Rounding: ``Tᵀ G T`` is formed from the span's entries, so the floor of the bound's quadratic forms
+every certified M.  The solves' residuals R correct the Gram matrices to second order
+(:func:`~aromm.reduction.certificate.riesz`); between old and new columns that takes ``Ẑ_oldᵀ R₊``, so the ledger
+keeps ``Z = N̂_σ⁻¹ M`` of every column in float32 (the correction is itself ≈ 1e-11 of the entries: float32 loses
+nothing that matters), ``n × columns × 4`` bytes per rung.  Rounding: ``Tᵀ G T`` is formed from the span's
+entries, so the floor of the bound's quadratic forms
 (:func:`aromm.reduction.certificate.error_bound`) takes its column norms as ``|T|ᵀ √diag G`` (an upper bound of
 ``‖M T e_k‖`` by the triangle inequality) and counts the span's columns in its sums.
 """
@@ -25,7 +29,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from aromm.core.system import FloatArray, ThermalSystem
-from aromm.reduction.certificate import Certificate, CertifyingEngine, ladder
+from aromm.reduction.certificate import Certificate, CertifyingEngine, ladder, riesz
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +50,8 @@ class GramLedger:
         self.u = engine.input_terms()
         self.head = engine.join([self.u, engine.output_block()])
         self.loads = len(system.load.terms)
-        self.terms = len(terms)
+        self.terms, self.conductances = len(terms), len(system.conductance.terms)
+        self.riesz: list[list[FloatArray]] = [[] for _ in self.sigmas]  # N̂_σ⁻¹ M per rung, float32, by extension
         self.width = 0  # basis columns accounted for
         self.grams = np.zeros((len(self.sigmas), 0, 0))  # in arrival order: the head, then each extension's block
         self.labels: list[tuple[int, int]] = []  # per Gram column: (-1, j) the head's j-th, (t, k) A_t times V[:, k]
@@ -70,13 +75,15 @@ class GramLedger:
             labels = [(-1, j) for j in range(int(self.head.shape[1]))] + labels
         grown = []
         for j, sigma in enumerate(self.sigmas):
-            z = eng.shifted_solve(self.reference, float(sigma), fresh, self.rtol)
-            corner = eng.dot(fresh, z)
+            z, r = riesz(eng, self.reference, float(sigma), fresh, self.rtol, theta=self.theta,
+                         conductances=self.conductances)
+            corner = eng.dot(fresh, z) + eng.dot(r, z)
             if old is None:
                 grown.append((corner + corner.T) / 2)
-                continue
-            side = eng.dot(self._arrival(old), z)
-            grown.append(np.block([[self.grams[j], side], [side.T, (corner + corner.T) / 2]]))
+            else:  # M_oldᵀ N̂⁻¹ M₊ = M_oldᵀ Z₊ + Ẑ_oldᵀ R₊ (module docstring)
+                side = eng.dot(self._arrival(old), z) + np.vstack([b.T @ r.astype(np.float32) for b in self.riesz[j]])
+                grown.append(np.block([[self.grams[j], side], [side.T, (corner + corner.T) / 2]]))
+            self.riesz[j].append(z.astype(np.float32))
         self.solves += int(fresh.shape[1]) * len(self.sigmas)
         self.grams, self.labels, self.width = np.stack(grown), self.labels + labels, width
         self.vtu = eng.dot(basis, self.u)
