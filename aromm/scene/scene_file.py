@@ -11,9 +11,8 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import meshio
 import numpy as np
 
 from aromm.core.anisotropy import FIBRE_KEYS, phase_tensor
@@ -33,6 +32,9 @@ from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.scene.time_section import AutoTime, auto_grid, parse_time
 from aromm.scene.toml import TableReader, where
+
+if TYPE_CHECKING:  # meshio (≈ 0.06 CPU s) is read for mesh scenes only
+    import meshio
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction",
             "model")
@@ -304,6 +306,8 @@ def _input_file(r: TableReader, geo: dict[str, Any], key: str, allowed: tuple[st
 
 def _mesh(r: TableReader, geo: dict[str, Any], path: Path | None) -> tuple[meshio.Mesh, int]:
     """A conforming tetrahedral mesh (any format meshio reads; coordinates in m, phases by cell tag)."""
+    import meshio
+
     file = _input_file(r, geo, "mesh", ("mesh", "order"), path)
     try:
         mesh = meshio.read(file)
