@@ -284,6 +284,9 @@ CASES: tuple[Case, ...] = (
     Case("measure-steady-scene", ("measure", "steady.toml", "--homogeneous", "--out", "m.csv"), 2,
          ("steady.toml", "[time]", "end and dt")),
     # identify
+    Case("identify-representativeness-without-phase-unknown", (*ID, "--unknown", "z1.h=1:50",
+                                                                "--representativeness-check"), 2,
+         ("--representativeness-check", "<phase>.k", "--unknown")),
     Case("identify-checkpoint-is-measurements", (*ID, *K, "--checkpoint", "y.csv"), 2,
          ("--checkpoint", "y.csv", "measurement file", "not even with --force")),
     Case("identify-checkpoint-foreign", (*ID, *K, "--checkpoint", "notes.npz"), 2,

@@ -7,6 +7,8 @@ refused option or ``--help`` loads no solver; the command imports what it runs w
 from __future__ import annotations
 
 import dataclasses
+import logging
+import math
 import sys
 import time
 import warnings
@@ -35,9 +37,12 @@ from aromm.engines import is_root
 from inverse.defaults import DEFAULT_ITERATIONS, DEFAULT_PARTICLES, DEFAULT_WALKERS
 from inverse.farm import FARMS, Farm
 
+log = logging.getLogger(__name__)
+
 if TYPE_CHECKING:
     from aromm.core.forward_model import ForwardModel
-    from inverse.identification import Progress
+    from aromm.scene.scene_file import Scene
+    from inverse.identification import Identification, Progress
     from inverse.repetitions import Problem
 
 
@@ -111,6 +116,11 @@ def _model(scene: Path, source: Any, kind: str, order: int | None, unknowns: Map
               help="For a grey image thresholded once: re-fit with the same model on the image thresholded by "
                    "another standard method (Li's for Otsu's, Otsu's for a given threshold; one more model built or "
                    "cached): the shift enters the error budget as 'segmentation'.")
+@click.option("--representativeness-check", "check_representativeness", is_flag=True,
+              help="Estimate how far a sample's k̄ and c̄ may be from the image's (the spread of its eight octants' "
+                   "k̄ along the loaded axis and c̄, scaled to the whole image) and add the resulting spread of the "
+                   "unknown phase conductivities and capacities to the error budget as 'representativeness' (in "
+                   "quadrature; a voxel scene; 8 + 2 per unknown conductivity cell problems at the estimates).")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
               help="Also sample the posterior of the unknowns: N steps of each of the --walkers walkers of an emcee "
                    "ensemble started at the estimates, so N × walkers model evaluations (N = 10000 with 32 walkers: "
@@ -135,7 +145,7 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
                  order: int | None, engine: str, seed: int,
                  particles: int, iterations: int, as_json: bool, plot: Path | None, checkpoint: Path | None,
                  resume: bool, noise_std: float | None, model_error: float, check_discretisation: bool,
-                 check_segmentation: bool,
+                 check_segmentation: bool, check_representativeness: bool,
                  posterior_steps: int | None, walkers: int,
                  repeat: int | None, repeat_noise: float, farm: str, workers: int | None, force: bool) -> None:
     """Estimate phase properties of SCENE's material from measured face-mean and sensor temperatures.
@@ -171,6 +181,8 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     source = engine_cli.load(scene, engine)
     sc = engine_cli.outline(source)
     bounds = checks.unknowns(unknowns, sc)
+    if check_representativeness:
+        _check_representativeness(sc, bounds, engine)
     reading = checks.ReadOptions(checks.parse_columns(columns), time_unit, temperature_unit,
                                  checks.parse_range(plausible, "--plausible", PLAUSIBLE))
     data = checks.measurements(measurements_path, sc, kind, bounds, reading)
@@ -239,6 +251,8 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
             post = sample_posterior(model, data, bounds, steps=posterior_steps, walkers=walkers, noise_std=noise_std,
                                     start=result, rng=np.random.default_rng(seed), progress=tty)
             result = dataclasses.replace(result, posterior=post)
+    if check_representativeness:
+        result = _representativeness(result, sc)
     for w in caught:
         click.echo(f"aromm: warning: {w.message}", err=True)
     if as_json:
@@ -257,6 +271,36 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
             posterior = result.posterior
             extras.append(("corner plot", lambda: save_posterior_plot(posterior, corner, result.uncertainty)))
         write_extras(*extras)
+
+
+def _check_representativeness(scene: Scene, bounds: Mapping[str, Any], engine: str) -> None:
+    """Refuse ``--representativeness-check`` before any work where it cannot run."""
+    from aromm.scene.geometry import VoxelGeometry
+
+    phases = {ph.name for ph in scene.phases}
+    if engine == "petsc" or not isinstance(scene.geometry, VoxelGeometry):
+        raise click.UsageError("--representativeness-check halves a voxel image held whole: a voxel scene on the "
+                               "scipy engine")
+    if not any(name.endswith((".k", ".c")) and name[:-2] in phases for name in bounds):
+        raise click.BadParameter("maps the spread of k̄ and c̄ onto unknown phase conductivities or capacities: "
+                                 "give a <phase>.k or <phase>.c among the --unknown",
+                                 param_hint="--representativeness-check")
+
+
+def _representativeness(result: Identification, scene: Scene) -> Identification:
+    """``--representativeness-check``: the octants' spread at the estimates (aromm.homogenization.representativeness)
+    added to the budget, and recorded in the result's model description."""
+    from aromm.core.vocabulary import loaded_axis
+    from aromm.homogenization.representativeness import half_widths, representativeness
+    from inverse.uncertainty import with_spread
+
+    unc = result.uncertainty
+    rep = representativeness(scene, dict(result.estimates), loaded_axis(scene.boundary, scene.size))
+    log.info("representativeness: octants' k̄ spread %.3g (image %.3g), c̄ %.3g (image %.3g)",
+             rep.spread_k * math.sqrt(8), rep.spread_k, rep.spread_c * math.sqrt(8), rep.spread_c)
+    uncertainty = with_spread(unc, "representativeness", half_widths(rep, unc.names, unc.estimates))
+    return dataclasses.replace(result, uncertainty=uncertainty,
+                               model={**result.model, "representativeness_check": rep.as_dict()})
 
 
 def _repeated(problem: Problem, repeat: int, seed: int, farm: Farm, as_json: bool) -> None:

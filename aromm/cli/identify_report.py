@@ -63,7 +63,8 @@ REMEDIES = {"reduced model": "rebuild the model with a tighter [reduction] toler
             "discretisation": "resolve the image finer (--refine 2 halves the gap, docs/method/finite_volumes.md)",
             "stated model error": "refine the voxel model (--refine) to lower the discretisation error",
             "segmentation": "check the threshold against the histogram (aromm segment --plot), or scan finer to narrow "
-                            "the band of partial-volume voxels"}
+                            "the band of partial-volume voxels",
+            "representativeness": "image a larger volume of the sample (aromm rev shows the spread against the size)"}
 
 
 def _budget_lines(unc: Uncertainty) -> list[str]:

@@ -338,3 +338,14 @@ def singular_boundary(boundary: Sequence[FaceSpec], time: object | None) -> str 
     return ("[boundary]: a steady scene needs at least one face with a fixed temperature T or an exchange "
             f"coefficient h; {faces}, so the temperature level is undetermined (singular conductance). "
             "Add e.g. [boundary.z1] with h = 20.0 (and T_ext) or T = 0.0, or a [time] section for a transient")
+
+
+def loaded_axis(boundary: Sequence[FaceSpec], size: tuple[float, float, float]) -> int:
+    """The axis (0, 1, 2) along which the faces with a condition load the sample: the longest such axis, or the
+    longest axis when no face has one.
+
+    >>> loaded_axis([FaceSpec("z0", flux=1.0), FaceSpec("z1", h=5.0)], (1.0, 1.0, 0.5))
+    2
+    """
+    axes = sorted({face.axis for face in boundary}) or [0, 1, 2]
+    return max(axes, key=lambda a: size[a])

@@ -27,7 +27,7 @@ insulating phase (k = 0) makes ``k_⊥ = 0``; no end is then long enough for eve
 refused for ``end``.  ``dt`` is rounded to two significant digits and ``end`` to a whole number of steps; the rule
 and its numbers are logged (the command line always shows them).
 
->>> from aromm.core.vocabulary import FaceSpec, PhaseSpec
+>>> from aromm.core.vocabulary import FaceSpec, PhaseSpec, loaded_axis
 >>> phases = (PhaseSpec("a", 0, 1.0, 1e6), PhaseSpec("b", 1, 1.0, 1e6))
 >>> grid, why = auto_grid(AutoTime(), {"a": 0.5, "b": 0.5}, phases, (FaceSpec("z0", flux=1.0),), (0.01, 0.01, 0.01))
 >>> grid.end, grid.dt
@@ -45,7 +45,7 @@ from typing import Any
 from aromm.core.errors import InputError
 from aromm.core.resources import MAX_TIME_STEPS
 from aromm.core.system import TimeGrid
-from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.core.vocabulary import FaceSpec, PhaseSpec, loaded_axis
 from aromm.scene.toml import TableReader
 
 log = logging.getLogger(__name__)
@@ -117,8 +117,7 @@ def time_scales(fractions: Mapping[str, float], phases: Sequence[PhaseSpec], bou
     >>> fast, slow, tau  # along y: 4e6 × 0.02² / 2, and 4e6 × 0.01 × 0.02 × 0.01 / (10 × 0.01 × 0.01)
     (800.0, 800.0, 8000.0)
     """
-    axes = sorted({face.axis for face in boundary}) or [0, 1, 2]
-    axis = max(axes, key=lambda a: size[a])
+    axis = loaded_axis(boundary, size)
     length = size[axis]
     present = [ph for ph in phases if fractions.get(ph.name, 0.0) > 0.0]
     conductivity = {ph.name: _along(ph, axis) for ph in present}

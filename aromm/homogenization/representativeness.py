@@ -1,0 +1,130 @@
+"""How far a sample's k̄ and c̄ may be from the image's: the representativeness row of an identification's budget.
+
+An identification fits phase properties so that the image's model reproduces measurements on a sample.  When the
+image is not representative of that sample, the sample's effective conductivity k̄ along the loaded axis differs
+from the image's by a relative δ_k (and its mean capacity c̄ by δ_c), and the fitted phase properties absorb it.  The
+spread of δ is estimated from the image itself [Kanit2003]: the apparent k̄ of its eight octants (fixed temperatures
+on the two faces normal to the axis, the others adiabatic, as a measurement) and their c̄ = Σ φ_i c_i have relative
+standard deviations s_k, s_c; volumes larger than the integral range average independent parts, so the variance
+falls as 1/V and the image's own spread is ``s / √8``.
+
+The shift of the estimates follows to first order from the fit's own structure: the outputs' change caused by a
+relative change δ_k of k̄ is exactly what scaling the unknown phase conductivities together by ``δ_k / S_k`` causes,
+``S_k = Σ_j ∂ln k̄/∂ln k_j`` over the unknown conductivities (k̄ is homogeneous of degree 1 in the phase
+conductivities), so least squares moves each of them by ``δ_k/S_k`` relatively, and nothing else; likewise the
+unknown capacities by ``δ_c/S_c``, ``S_c = Σ_j φ_j c_j / c̄``.  The 95 % half-widths are 1.96 times those, from
+s_k/√8 and s_c/√8.  ∂ln k̄/∂ln k_j is a central difference of the whole image's k̄ (two more cell problems per
+unknown conductivity).  What it leaves out: a spread of the other parameters' effects (h, a clock offset), and an
+integral range comparable to an octant (then s/√8 underestimates; ``aromm rev`` shows the trend with size).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
+from aromm.homogenization.cell_problems import effective_conductivity
+from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.scene_file import Scene
+
+#: Relative step of the central differences of k̄ in the phase conductivities.
+STEP = 1e-3
+#: Two-sided 95 % factor of a normal spread.
+Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True)
+class Representativeness:
+    """The octants' relative spreads of k̄ along ``axis`` and of c̄ (std / mean, ddof 1), the image's (``/√8``), and
+    each unknown's relative 95 % half-width (``half``, by parameter name)."""
+
+    axis: int
+    octant_k: FloatArray
+    octant_c: FloatArray | None
+    spread_k: float
+    spread_c: float
+    half: Mapping[str, float]
+
+    def as_dict(self) -> dict[str, object]:
+        return {"axis": "xyz"[self.axis], "octant_k": self.octant_k.tolist(),
+                "octant_c": None if self.octant_c is None else self.octant_c.tolist(),
+                "spread_k": self.spread_k, "spread_c": self.spread_c, "relative_half_width": dict(self.half)}
+
+
+def octants(scene: Scene) -> list[Scene]:
+    """The eight sub-scenes of a voxel image halved along each axis (a half of an odd side drops its last voxel)."""
+    geometry = scene.geometry
+    if not isinstance(geometry, VoxelGeometry):
+        raise InputError(f"{scene.where}representativeness: a mesh scene has no octants of voxels")
+    labels = np.asarray(geometry.labels)
+    if min(labels.shape) < 4:
+        raise InputError(f"{scene.where}representativeness: the image ({'×'.join(map(str, labels.shape))} voxels) "
+                         "is too small to halve (at least 4 voxels per side)")
+    halves = [(slice(0, n // 2), slice(n // 2, 2 * (n // 2))) for n in labels.shape]
+    return [replace(scene, geometry=VoxelGeometry(labels[a, b, c], geometry.voxel_size), sensors=())
+            for a in halves[0] for b in halves[1] for c in halves[2]]
+
+
+def with_values(scene: Scene, values: Mapping[str, float]) -> Scene:
+    """``scene`` with the phase conductivities and capacities of ``values`` (``"<phase>.k"``, ``"<phase>.c"``)."""
+    phases = tuple(replace(ph, k=float(values.get(f"{ph.name}.k", ph.k)),  # type: ignore[arg-type]
+                           c=values.get(f"{ph.name}.c", ph.c)) if not ph.orthotropic and ph.tensor is None else ph
+                   for ph in scene.phases)
+    return replace(scene, phases=phases)
+
+
+def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
+                       method: str = "auto") -> Representativeness:
+    """The module docstring's spreads and relative half-widths for the unknowns ``estimates`` (name → value) of an
+    identification on ``scene`` loaded along ``axis``.
+
+    >>> from aromm.core.vocabulary import PhaseSpec
+    >>> labels = np.zeros((4, 4, 4), dtype=int); labels[:2] = 1  # two halves across x, loaded along z
+    >>> s = Scene(VoxelGeometry(labels, (1e-3,) * 3), (PhaseSpec("a", 0, 1.0, 1e6), PhaseSpec("b", 1, 3.0, 1e6)))
+    >>> r = representativeness(s, {"a.k": 1.0}, axis=2, method="splu")
+    >>> sorted(np.round(r.octant_k, 9).tolist())  # homogeneous octants: each phase's own k
+    [1.0, 1.0, 1.0, 1.0, 3.0, 3.0, 3.0, 3.0]
+    >>> round(r.half["a.k"] / (1.96 * r.spread_k * 4.0), 2)  # k̄ = (k_a + k_b)/2: ∂ln k̄/∂ln k_a = 1/4
+    1.0
+    """
+    unknown_k = [n for n in estimates if n.endswith(".k") and n[:-2] in {ph.name for ph in scene.phases}]
+    unknown_c = [n for n in estimates if n.endswith(".c") and n[:-2] in {ph.name for ph in scene.phases}]
+    if not unknown_k and not unknown_c:
+        raise InputError("representativeness: it maps the spread of k̄ and c̄ onto unknown phase conductivities or "
+                         "capacities (<phase>.k, <phase>.c); none is among the unknowns")
+    base = with_values(scene, estimates)
+
+    def k_bar(s: Scene) -> float:
+        return float(effective_conductivity(s, "temperature", method).k[axis, axis])
+
+    parts = octants(base)
+    octant_k = np.array([k_bar(p) for p in parts])
+    spread_k = float(octant_k.std(ddof=1) / octant_k.mean()) / math.sqrt(len(parts))
+    fractions = [p.volume_fractions() for p in parts]
+    capacities = all(ph.c is not None for ph in base.phases)
+    octant_c = np.array([sum(f[ph.name] * float(ph.c or 0.0) for ph in base.phases) for f in fractions]) \
+        if capacities else None
+    spread_c = float(octant_c.std(ddof=1) / octant_c.mean()) / math.sqrt(len(parts)) if octant_c is not None else 0.0
+    half: dict[str, float] = {}
+    if unknown_k:
+        slope = 0.0
+        for name in unknown_k:
+            up, down = ({**estimates, name: estimates[name] * (1 + sign * STEP)} for sign in (1, -1))
+            slope += (math.log(k_bar(with_values(base, up))) - math.log(k_bar(with_values(base, down)))) / (
+                math.log1p(STEP) - math.log1p(-STEP))
+        half.update({name: Z95 * spread_k / slope if slope > 0 else math.inf for name in unknown_k})
+    if unknown_c:
+        c_bar = sum(base.volume_fractions()[ph.name] * float(ph.c or 0.0) for ph in base.phases)
+        share = sum(base.volume_fractions()[n[:-2]] * estimates[n] for n in unknown_c) / c_bar if c_bar else 0.0
+        half.update({name: Z95 * spread_c / share if share > 0 else math.inf for name in unknown_c})
+    return Representativeness(axis, octant_k, octant_c, spread_k, spread_c, half)
+
+
+def half_widths(rep: Representativeness, names: Sequence[str], estimates: FloatArray) -> FloatArray:
+    """The 95 % half-widths in the estimates' units, in the order of ``names`` (0 for the other unknowns)."""
+    return np.array([rep.half.get(n, 0.0) * abs(float(v)) for n, v in zip(names, estimates, strict=True)])
