@@ -45,5 +45,8 @@ def cli() -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit code."""
+    from aromm.cli.allocator import tune_allocator
+
+    tune_allocator()
     with fallback_streams(), command_logs():
         return run_guarded(cli, argv if argv is not None else sys.argv[1:])
