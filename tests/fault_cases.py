@@ -287,6 +287,8 @@ CASES: tuple[Case, ...] = (
     Case("identify-representativeness-without-phase-unknown", (*ID, "--unknown", "z1.h=1:50",
                                                                 "--representativeness-check"), 2,
          ("--representativeness-check", "<phase>.k", "--unknown")),
+    Case("identify-repeat-with-representativeness", (*ID, *K, "--repeat", "2", "--representativeness-check"), 2,
+         ("--repeat", "--representativeness-check")),
     Case("identify-checkpoint-is-measurements", (*ID, *K, "--checkpoint", "y.csv"), 2,
          ("--checkpoint", "y.csv", "measurement file", "not even with --force")),
     Case("identify-checkpoint-foreign", (*ID, *K, "--checkpoint", "notes.npz"), 2,
