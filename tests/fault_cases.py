@@ -289,6 +289,8 @@ CASES: tuple[Case, ...] = (
          ("--representativeness-check", "<phase>.k", "--unknown")),
     Case("identify-repeat-with-representativeness", (*ID, *K, "--repeat", "2", "--representativeness-check"), 2,
          ("--repeat", "--representativeness-check")),
+    Case("identify-repeat-with-discretisation-check", (*ID, *K, "--repeat", "2", "--discretisation-check"), 2,
+         ("--repeat", "--discretisation-check")),
     Case("identify-checkpoint-is-measurements", (*ID, *K, "--checkpoint", "y.csv"), 2,
          ("--checkpoint", "y.csv", "measurement file", "not even with --force")),
     Case("identify-checkpoint-foreign", (*ID, *K, "--checkpoint", "notes.npz"), 2,

@@ -170,9 +170,9 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
                                "identification runs on the scipy engine")
     engine_cli.resolve(engine, "auto")
     if repeat is not None and (checkpoint is not None or posterior_steps is not None or plot is not None
-                               or check_representativeness):
+                               or check_representativeness or check_discretisation or check_segmentation):
         raise click.UsageError("--repeat runs independent identifications: without --checkpoint, --posterior, --plot, "
-                               "--representativeness-check")
+                               "--discretisation-check, --segmentation-check, --representativeness-check")
     if farm == "mpi" and engine == "petsc":
         raise click.UsageError("--farm mpi runs under mpi4py.futures, --engine petsc under plain mpiexec: build the "
                                "model first (`aromm reduce --engine petsc`; identify finds it in the cache)")
