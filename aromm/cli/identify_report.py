@@ -41,7 +41,9 @@ def table(result: Identification) -> str:
     lines.append("the intervals include: " + "; ".join(unc.error_sources)
                  + ("" if unc.model_error or "discretisation" in unc.budget else
                     "; not the discretisation error of the voxel model (--discretisation-check re-fits with the other "
-                    "discretisation, q1 ↔ fv; or state it with --model-error)"))
+                    "discretisation, q1 ↔ fv; or state it with --model-error)")
+                 + ("" if "representativeness" in unc.budget else
+                    "; not how far the sample may be from the image (--representativeness-check)"))
     lines.append(f"criterion J = {result.criterion:.4g} °C² (eq. 12), residual std {unc.residual_std:.3g} °C, "
                  f"{result.evaluations} evaluations, {result.seconds:.1f} s")
     lines.append(f"residuals: {unc.residuals.describe()}: "
