@@ -120,7 +120,8 @@ def _model(scene: Path, source: Any, kind: str, order: int | None, unknowns: Map
               help="Estimate how far a sample's k̄ and c̄ may be from the image's (the spread of its eight octants' "
                    "k̄ along the loaded axis and c̄, scaled to the whole image) and add the resulting spread of the "
                    "unknown phase conductivities and capacities to the error budget as 'representativeness' (in "
-                   "quadrature; a voxel scene; 8 + 2 per unknown conductivity cell problems at the estimates).")
+                   "quadrature; a voxel scene; 8 octants, 64 quarter blocks and 2 per unknown conductivity cell "
+                   "problems at the estimates).")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
               help="Also sample the posterior of the unknowns: N steps of each of the --walkers walkers of an emcee "
                    "ensemble started at the estimates, so N × walkers model evaluations (N = 10000 with 32 walkers: "
@@ -298,8 +299,9 @@ def _representativeness(result: Identification, scene: Scene) -> Identification:
 
     unc = result.uncertainty
     rep = representativeness(scene, dict(result.estimates), loaded_axis(scene.boundary, scene.size))
-    log.info("representativeness: octants' k̄ spread %.3g (image %.3g), c̄ %.3g (image %.3g)",
-             rep.spread_k * math.sqrt(8), rep.spread_k, rep.spread_c * math.sqrt(8), rep.spread_c)
+    decay = f"{rep.decay:.3g} measured" if rep.decay is not None else f"{math.sqrt(8):.3g} assumed"
+    log.info("representativeness: octants' k̄ spread %.3g, the image's %.3g (decay %s per eightfold volume); c̄ %.3g",
+             float(np.std(rep.octant_k, ddof=1) / np.mean(rep.octant_k)), rep.spread_k, decay, rep.spread_c)
     uncertainty = with_spread(unc, "representativeness", half_widths(rep, unc.names, unc.estimates))
     return dataclasses.replace(result, uncertainty=uncertainty,
                                model={**result.model, "representativeness_check": rep.as_dict()})

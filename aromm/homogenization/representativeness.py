@@ -5,8 +5,11 @@ image is not representative of that sample, the sample's effective conductivity 
 from the image's by a relative δ_k (and its mean capacity c̄ by δ_c), and the fitted phase properties absorb it.  The
 spread of δ is estimated from the image itself [Kanit2003]: the apparent k̄ of its eight octants (fixed temperatures
 on the two faces normal to the axis, the others adiabatic, as a measurement) and their c̄ = Σ φ_i c_i have relative
-standard deviations s_k, s_c; volumes larger than the integral range average independent parts, so the variance
-falls as 1/V and the image's own spread is ``s / √8``.
+standard deviations s_k, s_c.  Volumes larger than the integral range average independent parts, so the variance
+falls as 1/V at most, and the image's own spread is ``s / d`` with the decay d per eightfold volume measured between
+the 64 sub-volumes of a quarter edge and the octants, ``d = s_quarter / s_octant`` clipped to [1, √8]: √8 (the 1/V
+law) once the octants exceed the integral range, 1 (no decay: the image is one heterogeneity) when the spread does
+not fall with size.  Below 12 voxels a side there are no quarters to measure and √8 is assumed (said in ``decay``).
 
 The shift of the estimates follows to first order from the fit's own structure: the outputs' change caused by a
 relative change δ_k of k̄ is exactly what scaling the unknown phase conductivities together by ``δ_k / S_k`` causes,
@@ -40,8 +43,8 @@ Z95 = 1.959963984540054
 
 @dataclass(frozen=True)
 class Representativeness:
-    """The octants' relative spreads of k̄ along ``axis`` and of c̄ (std / mean, ddof 1), the image's (``/√8``), and
-    each unknown's relative 95 % half-width (``half``, by parameter name)."""
+    """The octants' k̄ along ``axis`` and c̄, the image's relative spreads of both (the octants' std / mean, ddof 1,
+    over the decay d), each unknown's relative 95 % half-width (``half``, by parameter name) and d."""
 
     axis: int
     octant_k: FloatArray
@@ -49,25 +52,32 @@ class Representativeness:
     spread_k: float
     spread_c: float
     half: Mapping[str, float]
+    decay: float | None = None  # measured d of the module docstring (None: √8 assumed)
 
     def as_dict(self) -> dict[str, object]:
         return {"axis": "xyz"[self.axis], "octant_k": self.octant_k.tolist(),
                 "octant_c": None if self.octant_c is None else self.octant_c.tolist(),
-                "spread_k": self.spread_k, "spread_c": self.spread_c, "relative_half_width": dict(self.half)}
+                "spread_k": self.spread_k, "spread_c": self.spread_c, "decay": self.decay,
+                "relative_half_width": dict(self.half)}
 
 
-def octants(scene: Scene) -> list[Scene]:
-    """The eight sub-scenes of a voxel image halved along each axis (a half of an odd side drops its last voxel)."""
+#: Smallest side (voxels) of a sub-volume.
+MIN_SIDE = 2
+
+
+def blocks(scene: Scene, parts: int = 2) -> list[Scene]:
+    """The ``parts³`` sub-scenes of a voxel image cut into ``parts`` equal blocks along each axis (the remainder of
+    a side that ``parts`` does not divide is dropped); 2 gives the octants."""
     geometry = scene.geometry
     if not isinstance(geometry, VoxelGeometry):
         raise InputError(f"{scene.where}representativeness: a mesh scene has no octants of voxels")
     labels = np.asarray(geometry.labels)
-    if min(labels.shape) < 4:
+    if min(labels.shape) < parts * MIN_SIDE:
         raise InputError(f"{scene.where}representativeness: the image ({'×'.join(map(str, labels.shape))} voxels) "
-                         "is too small to halve (at least 4 voxels per side)")
-    halves = [(slice(0, n // 2), slice(n // 2, 2 * (n // 2))) for n in labels.shape]
+                         f"is too small to cut in {parts} (at least {parts * MIN_SIDE} voxels per side)")
+    cuts = [[slice(i * (n // parts), (i + 1) * (n // parts)) for i in range(parts)] for n in labels.shape]
     return [replace(scene, geometry=VoxelGeometry(labels[a, b, c], geometry.voxel_size), sensors=())
-            for a in halves[0] for b in halves[1] for c in halves[2]]
+            for a in cuts[0] for b in cuts[1] for c in cuts[2]]
 
 
 def with_values(scene: Scene, values: Mapping[str, float]) -> Scene:
@@ -102,14 +112,19 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
     def k_bar(s: Scene) -> float:
         return float(effective_conductivity(s, "temperature", method).k[axis, axis])
 
-    parts = octants(base)
+    parts = blocks(base)
     octant_k = np.array([k_bar(p) for p in parts])
-    spread_k = float(octant_k.std(ddof=1) / octant_k.mean()) / math.sqrt(len(parts))
+    quarters = blocks(base, 4) if min(np.shape(base.geometry.labels)) >= 6 * MIN_SIDE else None  # type: ignore[union-attr]
+    decay = None
+    if quarters is not None:
+        quarter_k = np.array([k_bar(p) for p in quarters])
+        decay = float(np.clip(_spread(quarter_k) / max(_spread(octant_k), np.finfo(float).tiny), 1.0, math.sqrt(8)))
+    spread_k = _spread(octant_k) / (decay or math.sqrt(8))
     fractions = [p.volume_fractions() for p in parts]
     capacities = all(ph.c is not None for ph in base.phases)
     octant_c = np.array([sum(f[ph.name] * float(ph.c or 0.0) for ph in base.phases) for f in fractions]) \
         if capacities else None
-    spread_c = float(octant_c.std(ddof=1) / octant_c.mean()) / math.sqrt(len(parts)) if octant_c is not None else 0.0
+    spread_c = _spread(octant_c) / (decay or math.sqrt(8)) if octant_c is not None else 0.0
     half: dict[str, float] = {}
     if unknown_k:
         slope = 0.0
@@ -122,7 +137,12 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
         c_bar = sum(base.volume_fractions()[ph.name] * float(ph.c or 0.0) for ph in base.phases)
         share = sum(base.volume_fractions()[n[:-2]] * estimates[n] for n in unknown_c) / c_bar if c_bar else 0.0
         half.update({name: Z95 * spread_c / share if share > 0 else math.inf for name in unknown_c})
-    return Representativeness(axis, octant_k, octant_c, spread_k, spread_c, half)
+    return Representativeness(axis, octant_k, octant_c, spread_k, spread_c, half, decay)
+
+
+def _spread(values: FloatArray) -> float:
+    """std / mean (ddof 1) of positive values; 0 for a constant set."""
+    return float(np.std(values, ddof=1) / np.mean(values))
 
 
 def half_widths(rep: Representativeness, names: Sequence[str], estimates: FloatArray) -> FloatArray:
