@@ -136,6 +136,22 @@ def test_a_straight_channel_in_an_insulator_conducts_its_area_fraction_only() ->
         assert np.diag(k) == pytest.approx([0.0, 0.0, 2.0 * 4 / 36], rel=_floor(1.0, 10), abs=_floor(1.0, 10) * 2.0)
 
 
+def test_a_direction_without_a_path_between_its_faces_gives_exactly_zero(caplog: pytest.LogCaptureFixture) -> None:
+    """An insulating layer across z, with conductors on both sides touching the fixed faces: no heat can go from z0 to
+    z1, so k_zz = 0 exactly (a solve gave 2e-15 of rounding before), said in the log; along the layer 7 of 8 slices
+    conduct: k_xx = k_yy = 7/8 (the laminate, exact in finite volumes)."""
+    labels = np.zeros((8, 8, 8), dtype=int)
+    labels[:, :, 4] = 1
+    phases = (PhaseSpec("solid", 0, 1.0), PhaseSpec("pore", 1, 0.0))
+    with caplog.at_level(logging.INFO, logger="aromm.homogenization.fv_cells"):
+        k = effective_conductivity(_scene(labels, phases, (1e-3,) * 3), "temperature", "splu").k
+    assert k[2, 2] == 0.0 and "no conducting path along z" in caplog.text
+    assert np.diag(k)[:2] == pytest.approx([7 / 8, 7 / 8], rel=_floor(1.0, 8))
+    labels[2, 2, 4] = 0  # one conducting voxel through the layer: a path, a positive k_zz
+    k = effective_conductivity(_scene(labels, phases, (1e-3,) * 3), "temperature", "splu").k
+    assert k[2, 2] > 0.0
+
+
 def test_an_isolated_cluster_is_left_out_and_said_in_the_log(caplog: pytest.LogCaptureFixture) -> None:
     labels = np.zeros((6, 6, 10), dtype=int)
     labels[2:4, 2:4, :] = 1

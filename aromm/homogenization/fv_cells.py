@@ -12,7 +12,8 @@ PuMA and OpenImpala.
   ``k_ij |Ω| = (D T̃_i + s_i)ᵀ W (D T̃_j + s_j)``, the energy form (its algebraic error is quadratic in the solve's).
   Each connected cluster's constant is pinned at one of its voxels.
 
-An insulating phase (``k = 0``) carries no unknown; a direction without a percolating path gives ``k = 0``.
+An insulating phase (``k = 0``) carries no unknown; a direction without a percolating path gives ``k = 0`` exactly
+(with fixed temperatures: no conducting cluster touches both faces; said in the log), not an error.
 Solvers: the direct methods of :mod:`aromm.linalg.direct`, or ``amg`` (pyamg CG, to the relative residual
 ``rtol``) — ``auto`` and ``mg`` take ``amg``
 from :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on.
@@ -20,6 +21,7 @@ from :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on.
 
 from __future__ import annotations
 
+import logging
 import time
 
 import numpy as np
@@ -34,6 +36,8 @@ from aromm.fv.volumes import assemble_volumes, connected
 from aromm.linalg.direct import factorize, resolve_method
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
+
+log = logging.getLogger(__name__)
 
 
 def fv_method(method: str, voxels: int, crossover: int) -> str:
@@ -51,9 +55,12 @@ def _probe(scene: Scene, axis: int, boundary: str, method: str, rtol: float) -> 
     name = AXES[axis]
     hot = FaceSpec(f"{name}0", T=1.0) if boundary == "temperature" else FaceSpec(f"{name}0", flux=1.0)
     faces = (hot, FaceSpec(f"{name}1", T=0.0))
-    conducting = np.isin(image.labels, [p.label for p in scene.phases if not insulating(p)])
-    if not connected(np.where(conducting, 0, -1), [f.face for f in faces if f.T is not None]).any():
-        return 0.0  # no conducting path reaches a fixed face: no heat flows
+    conducting = np.where(np.isin(image.labels, [p.label for p in scene.phases if not insulating(p)]), 0, -1)
+    fixed = [f.face for f in faces if f.T is not None]
+    reach = [connected(conducting, [face]) for face in (f"{name}0", f"{name}1")]
+    if not connected(conducting, fixed).any() or (boundary == "temperature" and not (reach[0] & reach[1]).any()):
+        log.info("homogenisation: no conducting path along %s between its faces: k̄_%s = 0", name, name * 2)
+        return 0.0  # no heat flows from one face to the other (exactly; a solve would give rounding)
     system = assemble_volumes(image.labels, image.voxel_size, scene.phases, faces, outputs=[f.face for f in faces])
     field = steady_field(system, method=method, rtol=rtol)
     size = image.size
