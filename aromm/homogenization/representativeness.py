@@ -107,6 +107,11 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
     if not unknown_k and not unknown_c:
         raise InputError("representativeness: it maps the spread of k̄ and c̄ onto unknown phase conductivities or "
                          "capacities (<phase>.k, <phase>.c); none is among the unknowns")
+    tensors = [n for n in unknown_k if any(ph.name == n[:-2] and (ph.orthotropic or ph.tensor is not None)
+                                           for ph in scene.phases)]
+    if tensors:
+        raise InputError(f"representativeness: {tensors[0]} is an anisotropic phase's conductivity; the check scales "
+                         "isotropic phase conductivities only")
     base = with_values(scene, estimates)
 
     def k_bar(s: Scene) -> float:
