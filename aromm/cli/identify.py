@@ -285,8 +285,9 @@ def _check_representativeness(scene: Scene, bounds: Mapping[str, Any], engine: s
         raise click.UsageError("--representativeness-check halves a voxel image held whole: a voxel scene on the "
                                "scipy engine")
     tensors = [f"{ph.name}.k" for ph in scene.phases if ph.orthotropic or ph.tensor is not None]
-    if any(name in tensors for name in bounds):
-        raise click.BadParameter(f"scales isotropic phase conductivities only: {tensors[0]} is anisotropic",
+    anisotropic = [name for name in bounds if name in tensors]
+    if anisotropic:
+        raise click.BadParameter(f"scales isotropic phase conductivities only: {anisotropic[0]} is anisotropic",
                                  param_hint="--representativeness-check")
     if not any(name.endswith((".k", ".c")) and name[:-2] in phases for name in bounds):
         raise click.BadParameter("maps the spread of k̄ and c̄ onto unknown phase conductivities or capacities: "
