@@ -86,6 +86,9 @@ def test_a_time_column_of_any_name_is_mapped_onto_t(tmp_path: Path) -> None:
     np.testing.assert_array_equal(lab.table.t, [0, 1])
     with pytest.raises(InputError, match=r"the header must be 't,<face>,\.\.\.'"):
         read_lab_csv(path, OUT, columns={"TC1": "z0"})
+    plain = write(tmp_path, "plain_t.csv", "t,TC1\n0,20.5\n1,21\n")  # a mapping of a time column it does not have
+    with pytest.raises(InputError, match=r"--column Messzeit=t: the time column is 't', not 'Messzeit'"):
+        read_lab_csv(plain, OUT, columns={"Messzeit": "t", "TC1": "z0"})
     clock = write(tmp_path, "mixed.csv", "t,z0\n09:14:01,20.5\n5,21\n")
     with pytest.raises(InputError, match=r"line 3: time '5' is not a clock time"):
         read_lab_csv(clock, OUT)

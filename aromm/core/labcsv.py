@@ -233,7 +233,8 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
     if delimiter != "," or decimal_comma:
         notes.append(f"delimiter {'tab' if delimiter == chr(9) else repr(delimiter)}"
                      + (", decimal comma" if decimal_comma else ""))
-    time_names = set(TIME_NAMES) | {k.lower() for k, v in (columns or {}).items() if v in ("t", "time")}
+    time_columns = [k for k, v in (columns or {}).items() if v in ("t", "time")]
+    time_names = set(TIME_NAMES) | {k.lower() for k in time_columns}
     columns = {k: v for k, v in (columns or {}).items() if v not in ("t", "time")} or None
     rows = _without_empty_tail(rows[_header_row(rows, time_names, notes):], notes)
     header_line, header_cells = rows[0]
@@ -244,6 +245,9 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
         raise InputError(f"{p} line {header_line}: the header must be 't,<face>,...' (the time first, named "
                          f"{' or '.join(repr(n) for n in TIME_NAMES[:2])}, then one column per face or sensor), "
                          f"got {delimiter.join(header_cells)!r}")
+    if time_columns and names[0].lower() not in {k.lower() for k in time_columns}:
+        raise InputError(f"{p} line {header_line}: --column {time_columns[0]}=t: the time column is {names[0]!r}, "
+                         f"not {time_columns[0]!r}; its columns: {', '.join(names)}")
     body = rows[1:]
     if body and not any(_is_number(c, decimal_comma) for c in body[0][1]) and len(body[0][1]) == len(names):
         unit_line, unit_cells = body[0]
