@@ -17,6 +17,7 @@ import pytest
 from aromm.api import simulate
 from aromm.cli import main
 from aromm.core.errors import InputError
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.scene.scene_file import Scene, assemble, scene_from_dict
 from aromm.scene.time_section import AUTO_PER_DIFFUSION, AUTO_STEPS, time_scales
 
@@ -108,3 +109,14 @@ def test_the_cli_shows_the_rule_and_its_numbers(tmp_path: Path, capsys: pytest.C
     assert main(["simulate", str(tmp_path / "scene.toml")]) == 0
     err = capsys.readouterr().err
     assert "[time] auto: end = " in err and "t_D = c̄ L²/k" in err, err
+
+
+def test_an_anisotropic_phase_enters_by_its_smallest_and_largest_principal_values() -> None:
+    """The component of a tensor along any axis lies between its principal values: the lower Wiener bound takes the
+    smallest, the upper one the largest, so the grid holds whatever the tensor's axes."""
+    from aromm.core.anisotropy import PhaseTensor
+    from aromm.scene.time_section import time_scales
+
+    fibre = PhaseSpec("fibre", 0, 4.0, 1e6, tensor=PhaseTensor("fibre", (4.0, 1.0), ((1.0, 0.0, 0.0),)))
+    (fast, slow), _, _ = time_scales({"fibre": 1.0}, (fibre,), (FaceSpec("z0", T=1.0),), (1.0, 1.0, 1.0))
+    assert (fast, slow) == (1e6 / 4.0, 1e6 / 1.0)
