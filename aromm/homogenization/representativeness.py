@@ -132,6 +132,9 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
     spread_c = _spread(octant_c) / (decay or math.sqrt(8)) if octant_c is not None else 0.0
     half: dict[str, float] = {}
     if unknown_k:
+        if k_bar(base) <= 0:
+            raise InputError(f"{scene.where}representativeness: the image has no conducting path along "
+                             f"{'xyz'[axis]} at the estimates (k̄ = 0): its conductivities cannot be scaled")
         slope = 0.0
         for name in unknown_k:
             up, down = ({**estimates, name: estimates[name] * (1 + sign * STEP)} for sign in (1, -1))
@@ -146,8 +149,9 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
 
 
 def _spread(values: FloatArray) -> float:
-    """std / mean (ddof 1) of positive values; 0 for a constant set."""
-    return float(np.std(values, ddof=1) / np.mean(values))
+    """std / mean (ddof 1) of values ≥ 0; 0 for a constant set (all 0 included)."""
+    mean = float(np.mean(values))
+    return float(np.std(values, ddof=1)) / mean if mean > 0 else 0.0
 
 
 def half_widths(rep: Representativeness, names: Sequence[str], estimates: FloatArray) -> FloatArray:
