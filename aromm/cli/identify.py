@@ -120,8 +120,8 @@ def _model(scene: Path, source: Any, kind: str, order: int | None, unknowns: Map
               help="Estimate how far a sample's k̄ and c̄ may be from the image's (the spread of its eight octants' "
                    "k̄ along the loaded axis and c̄, scaled to the whole image) and add the resulting spread of the "
                    "unknown phase conductivities and capacities to the error budget as 'representativeness' (in "
-                   "quadrature; a voxel scene; 8 octants, 64 quarter blocks and 2 per unknown conductivity cell "
-                   "problems at the estimates).")
+                   "quadrature; a voxel scene; cell problems at the estimates: 8 octants, 64 quarter blocks, the whole "
+                   "image and 2 per unknown conductivity).")
 @click.option("--posterior", "posterior_steps", type=click.IntRange(min=2), default=None, metavar="N",
               help="Also sample the posterior of the unknowns: N steps of each of the --walkers walkers of an emcee "
                    "ensemble started at the estimates, so N × walkers model evaluations (N = 10000 with 32 walkers: "
