@@ -278,21 +278,16 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
 
 def _check_representativeness(scene: Scene, bounds: Mapping[str, Any], engine: str) -> None:
     """Refuse ``--representativeness-check`` before any work where it cannot run."""
+    from aromm.homogenization.representativeness import phase_unknowns
     from aromm.scene.geometry import VoxelGeometry
 
-    phases = {ph.name for ph in scene.phases}
     if engine == "petsc" or not isinstance(scene.geometry, VoxelGeometry):
         raise click.UsageError("--representativeness-check halves a voxel image held whole: a voxel scene on the "
                                "scipy engine")
-    tensors = [f"{ph.name}.k" for ph in scene.phases if ph.orthotropic or ph.tensor is not None]
-    anisotropic = [name for name in bounds if name in tensors]
-    if anisotropic:
-        raise click.BadParameter(f"scales isotropic phase conductivities only: {anisotropic[0]} is anisotropic",
-                                 param_hint="--representativeness-check")
-    if not any(name.endswith((".k", ".c")) and name[:-2] in phases for name in bounds):
-        raise click.BadParameter("maps the spread of k̄ and c̄ onto unknown phase conductivities or capacities: "
-                                 "give a <phase>.k or <phase>.c among the --unknown",
-                                 param_hint="--representativeness-check")
+    try:
+        phase_unknowns(scene, bounds)
+    except InputError as err:
+        raise click.BadParameter(str(err), param_hint="--representativeness-check") from None
 
 
 def _representativeness(result: Identification, scene: Scene) -> Identification:
@@ -306,7 +301,7 @@ def _representativeness(result: Identification, scene: Scene) -> Identification:
     rep = representativeness(scene, dict(result.estimates), loaded_axis(scene.boundary, scene.size))
     decay = f"{rep.decay:.3g} measured" if rep.decay is not None else f"{math.sqrt(8):.3g} assumed"
     log.info("representativeness: octants' k̄ spread %.3g, the image's %.3g (decay %s per eightfold volume); c̄ %.3g",
-             float(np.std(rep.octant_k, ddof=1) / np.mean(rep.octant_k)), rep.spread_k, decay, rep.spread_c)
+             rep.octant_spread_k, rep.spread_k, decay, rep.spread_c)
     uncertainty = with_spread(unc, "representativeness", half_widths(rep, unc.names, unc.estimates))
     return dataclasses.replace(result, uncertainty=uncertainty,
                                model={**result.model, "representativeness_check": rep.as_dict()})

@@ -56,9 +56,9 @@ def _probe(scene: Scene, axis: int, boundary: str, method: str, rtol: float) -> 
     hot = FaceSpec(f"{name}0", T=1.0) if boundary == "temperature" else FaceSpec(f"{name}0", flux=1.0)
     faces = (hot, FaceSpec(f"{name}1", T=0.0))
     conducting = np.where(np.isin(image.labels, [p.label for p in scene.phases if not insulating(p)]), 0, -1)
-    fixed = [f.face for f in faces if f.T is not None]
-    reach = [connected(conducting, [face]) for face in (f"{name}0", f"{name}1")]
-    if not connected(conducting, fixed).any() or (boundary == "temperature" and not (reach[0] & reach[1]).any()):
+    cold = connected(conducting, [f"{name}1"])  # the face fixed in both conditions
+    flows = (cold & connected(conducting, [f"{name}0"])).any() if boundary == "temperature" else cold.any()
+    if not flows:
         log.info("homogenisation: no conducting path along %s between its faces: k̄_%s = 0", name, name * 2)
         return 0.0  # no heat flows from one face to the other (exactly; a solve would give rounding)
     system = assemble_volumes(image.labels, image.voxel_size, scene.phases, faces, outputs=[f.face for f in faces])

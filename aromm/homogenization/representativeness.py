@@ -16,15 +16,15 @@ relative change δ_k of k̄ is exactly what scaling the unknown phase conductivi
 ``S_k = Σ_j ∂ln k̄/∂ln k_j`` over the unknown conductivities (k̄ is homogeneous of degree 1 in the phase
 conductivities), so least squares moves each of them by ``δ_k/S_k`` relatively, and nothing else; likewise the
 unknown capacities by ``δ_c/S_c``, ``S_c = Σ_j φ_j c_j / c̄``.  The 95 % half-widths are 1.96 times those, from
-s_k/√8 and s_c/√8.  ∂ln k̄/∂ln k_j is a central difference of the whole image's k̄ (two more cell problems per
-unknown conductivity).  What it leaves out: a spread of the other parameters' effects (h, a clock offset), and an
-integral range comparable to an octant (then s/√8 underestimates; ``aromm rev`` shows the trend with size).
+s_k/d and s_c/d.  ∂ln k̄/∂ln k_j is a central difference of the whole image's k̄ (two more cell problems per
+unknown conductivity).  What it leaves out: a spread of the other parameters' effects (h, a clock offset); and d is
+measured on 8 octants and 64 quarters, itself uncertain (``aromm rev`` shows the trend with size).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -53,6 +53,11 @@ class Representativeness:
     spread_c: float
     half: Mapping[str, float]
     decay: float | None = None  # measured d of the module docstring (None: √8 assumed)
+
+    @property
+    def octant_spread_k(self) -> float:
+        """The octants' own relative spread of k̄ (before the decay to the image's size)."""
+        return _spread(self.octant_k)
 
     def as_dict(self) -> dict[str, object]:
         return {"axis": "xyz"[self.axis], "octant_k": self.octant_k.tolist(),
@@ -88,6 +93,23 @@ def with_values(scene: Scene, values: Mapping[str, float]) -> Scene:
     return replace(scene, phases=phases)
 
 
+def phase_unknowns(scene: Scene, names: Iterable[str]) -> tuple[list[str], list[str]]:
+    """The unknown phase conductivities and capacities among ``names``; InputError when there is none, or when a
+    conductivity is an anisotropic phase's (the check scales isotropic ones only).  Cheap: commands call it before
+    any work."""
+    phases = {ph.name: ph for ph in scene.phases}
+    unknown_k = [n for n in names if n.endswith(".k") and n[:-2] in phases]
+    unknown_c = [n for n in names if n.endswith(".c") and n[:-2] in phases]
+    if not unknown_k and not unknown_c:
+        raise InputError("representativeness: it maps the spread of k̄ and c̄ onto unknown phase conductivities or "
+                         "capacities: give a <phase>.k or <phase>.c among the unknowns (--unknown on the command line)")
+    tensors = [n for n in unknown_k if phases[n[:-2]].orthotropic or phases[n[:-2]].tensor is not None]
+    if tensors:
+        raise InputError(f"representativeness: {tensors[0]} is an anisotropic phase's conductivity; the check scales "
+                         "isotropic phase conductivities only")
+    return unknown_k, unknown_c
+
+
 def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
                        method: str = "auto") -> Representativeness:
     """The module docstring's spreads and relative half-widths for the unknowns ``estimates`` (name → value) of an
@@ -102,16 +124,7 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
     >>> round(r.half["a.k"] / (1.96 * r.spread_k * 4.0), 2)  # k̄ = (k_a + k_b)/2: ∂ln k̄/∂ln k_a = 1/4
     1.0
     """
-    unknown_k = [n for n in estimates if n.endswith(".k") and n[:-2] in {ph.name for ph in scene.phases}]
-    unknown_c = [n for n in estimates if n.endswith(".c") and n[:-2] in {ph.name for ph in scene.phases}]
-    if not unknown_k and not unknown_c:
-        raise InputError("representativeness: it maps the spread of k̄ and c̄ onto unknown phase conductivities or "
-                         "capacities (<phase>.k, <phase>.c); none is among the unknowns")
-    tensors = [n for n in unknown_k if any(ph.name == n[:-2] and (ph.orthotropic or ph.tensor is not None)
-                                           for ph in scene.phases)]
-    if tensors:
-        raise InputError(f"representativeness: {tensors[0]} is an anisotropic phase's conductivity; the check scales "
-                         "isotropic phase conductivities only")
+    unknown_k, unknown_c = phase_unknowns(scene, estimates)
     base = with_values(scene, estimates)
 
     def k_bar(s: Scene) -> float:
@@ -142,8 +155,9 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
                 math.log1p(STEP) - math.log1p(-STEP))
         half.update({name: Z95 * spread_k / slope if slope > 0 else math.inf for name in unknown_k})
     if unknown_c:
-        c_bar = sum(base.volume_fractions()[ph.name] * float(ph.c or 0.0) for ph in base.phases)
-        share = sum(base.volume_fractions()[n[:-2]] * estimates[n] for n in unknown_c) / c_bar if c_bar else 0.0
+        whole = base.volume_fractions()
+        c_bar = sum(whole[ph.name] * float(ph.c or 0.0) for ph in base.phases)
+        share = sum(whole[n[:-2]] * estimates[n] for n in unknown_c) / c_bar if c_bar else 0.0
         half.update({name: Z95 * spread_c / share if share > 0 else math.inf for name in unknown_c})
     return Representativeness(axis, octant_k, octant_c, spread_k, spread_c, half, decay)
 

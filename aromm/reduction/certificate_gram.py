@@ -81,7 +81,7 @@ class GramLedger:
             if old is None:
                 grown.append((corner + corner.T) / 2)
             else:  # M_oldᵀ N̂⁻¹ M₊ = M_oldᵀ Z₊ + Ẑ_oldᵀ R₊ (module docstring)
-                side = eng.dot(self._arrival(old), z) + np.vstack([b.T @ r.astype(np.float32) for b in self.riesz[j]])
+                side = eng.dot(old, z)[self._order()] + np.vstack([b.T @ r.astype(np.float32) for b in self.riesz[j]])
                 grown.append(np.block([[self.grams[j], side], [side.T, (corner + corner.T) / 2]]))
             self.riesz[j].append(z.astype(np.float32))
         self.solves += int(fresh.shape[1]) * len(self.sigmas)
@@ -89,10 +89,6 @@ class GramLedger:
         self.vtu = eng.dot(basis, self.u)
         log.info("certificate: Gram matrices of %d columns on %d rungs (%d solves in all), %.1f CPU s",
                  len(self.labels), len(self.sigmas), self.solves, time.process_time() - start)
-
-    def _arrival(self, layout: FloatArray) -> FloatArray:
-        """The columns of ``[head, A_1V, …, A_mV]`` (term-major over the accounted width) in arrival order."""
-        return layout[:, self._order()]
 
     def _order(self) -> list[int]:
         """Index in the term-major layout of each arrival-order column."""

@@ -39,10 +39,10 @@ def wanted(system: ThermalSystem, certify: bool | None, columns: int) -> str | N
     :data:`~aromm.reduction.scipy_engine.DIRECT_BELOW` unknowns), else why not."""
     if system.time is None:
         return "not computed: a steady model"
-    if not (system.n < DIRECT_BELOW if certify is None else certify):
-        return (f"not computed: {system.n} unknowns, it would cost about {len(ladder(*_grid(system)))} × {columns} "
-                "shifted solves (ask with [reduction] certify = true or aromm reduce --certify)")
     rungs = len(ladder(*_grid(system)))
+    if not (system.n < DIRECT_BELOW if certify is None else certify):
+        return (f"not computed: {system.n} unknowns, it would cost about {rungs} × {columns} "
+                "shifted solves (ask with [reduction] certify = true or aromm reduce --certify)")
     if system.n * columns * (8 + 4 * rungs) > CERTIFY_BYTES:  # M, and N̂_σ⁻¹M in float32 per rung (certificate_gram)
         return f"not computed: M of {system.n} × {columns} and its {rungs} solutions would exceed {CERTIFY_BYTES} B"
     return None

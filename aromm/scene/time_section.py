@@ -120,13 +120,13 @@ def time_scales(fractions: Mapping[str, float], phases: Sequence[PhaseSpec], bou
     axis = loaded_axis(boundary, size)
     length = size[axis]
     present = [ph for ph in phases if fractions.get(ph.name, 0.0) > 0.0]
-    low, high = {ph.name: _along(ph, axis)[0] for ph in present}, {ph.name: _along(ph, axis)[1] for ph in present}
+    bounds = {ph.name: _along(ph, axis) for ph in present}  # (lowest, highest) along the axis
     c_bar = sum(fractions[ph.name] * float(ph.c or 0.0) for ph in present)
-    parallel = sum(fractions[ph.name] * high[ph.name] for ph in present)
+    parallel = sum(fractions[ph.name] * bounds[ph.name][1] for ph in present)
     if c_bar <= 0 or parallel <= 0:
         raise InputError('[time] "auto" needs a phase with k > 0 and c > 0')
-    connected = all(low[ph.name] > 0 for ph in present)
-    series = 1.0 / sum(fractions[ph.name] / low[ph.name] for ph in present) if connected else 0.0
+    connected = all(bounds[ph.name][0] > 0 for ph in present)
+    series = 1.0 / sum(fractions[ph.name] / bounds[ph.name][0] for ph in present) if connected else 0.0
     scale = c_bar * length**2
     times = (scale / parallel, scale / series if series > 0 else math.inf)
     why = (f"t_D = c̄ L²/k = {c_bar:.3g} J/(m³ K) × ({length:.3g} m)² / k = {times[0]:.3g}–{times[1]:.3g} s for k "
