@@ -61,7 +61,7 @@ def connected(phase: npt.NDArray[np.int64], anchors: Sequence[str]) -> npt.NDArr
     return np.isin(components, sorted(touching))
 
 
-def _pruned(phase: npt.NDArray[np.int64], boundary: Sequence[FaceSpec]) -> npt.NDArray[np.int64]:
+def pruned(phase: npt.NDArray[np.int64], boundary: Sequence[FaceSpec]) -> npt.NDArray[np.int64]:
     """``phase`` with the voxels of no path to a fixed-temperature or exchange face set to −1 (logged)."""
     anchors = [f.face for f in boundary if f.T is not None or f.h is not None]
     if not anchors:
@@ -121,7 +121,7 @@ def assemble_volumes(
     phase = phase_index(labels, phases)
     phase[np.isin(labels, [ph.label for ph in phases if insulating(ph)])] = -1  # no unknown in an insulator
     if time is None:
-        phase = _pruned(phase, boundary)
+        phase = pruned(phase, boundary)
     faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
     grid = VolumeGrid(phase, voxel, faces)
     present = sorted(set(np.unique(grid.cell_phase).tolist()))

@@ -205,7 +205,7 @@ class MultigridSolver:
         total = 0
         work = [self.levels[0].vector(f"cg{i}", b.shape, float) for i in range(4)]
         while True:
-            x, r, its = _pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total,
+            x, r, its = pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total,
                              work=work, energy=energy_tol)
             total += its
             if energy_tol is not None and total < MAX_ITERATIONS:  # stopped by the energy estimate
@@ -239,7 +239,7 @@ class MultigridSolver:
         return rounding_floor(self._matrix, x, nb)
 
 
-def _pcg(a: _Operator, m: Callable[[FloatArray, FloatArray], FloatArray], x: FloatArray, r: FloatArray, *,
+def pcg(a: _Operator, m: Callable[[FloatArray, FloatArray], FloatArray], x: FloatArray, r: FloatArray, *,
          target: float, budget: int, work: list[FloatArray], energy: float | None = None
          ) -> tuple[FloatArray, FloatArray, int]:
     """CG on A x = b from x with r = b − A x, preconditioned by ``m(r, out=z)``; x and r updated in place.
@@ -300,9 +300,10 @@ def _smooth(level: _Level, x: FloatArray, r: FloatArray, want_residual: bool) ->
 
 
 def _product(matrix: _Operator, v: FloatArray, out: FloatArray) -> FloatArray:
-    """``out`` ← A v: the matrix-free operator writes into ``out``; an assembled (coarse) matrix's product is copied."""
-    if isinstance(matrix, VoxelOperator):
-        return matrix.matvec(v, out=out)
+    """``out`` ← A v: a matrix-free operator (``matvec(v, out=)``) writes into ``out``; an assembled (coarse) matrix's
+    product is copied."""
+    if not sp.issparse(matrix):
+        return matrix.matvec(v, out=out)  # type: ignore[attr-defined]
     out[...] = matrix @ v
     return out
 
