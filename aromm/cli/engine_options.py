@@ -25,9 +25,11 @@ ENGINE = click.option("--engine", type=click.Choice(ENGINES), default="scipy", s
                       help="scipy: one process; petsc: PETSc/SLEPc under `mpiexec -n P` (rank 0 prints and writes).")
 SOLVER = click.option("--solver", type=click.Choice((*METHODS, *PETSC_SOLVERS)), default="auto", show_default=True,
                       help="Sparse linear solver. scipy engine: cholmod (cvxopt's supernodal Cholesky), splu, amg "
-                           "(pyamg + CG), mg (CG + geometric multigrid on the voxel grid); auto: mg for a steady "
-                           "solve of a voxel image from 4,000 unknowns (homogenize: from 20³ voxels), else "
-                           "cholmod; petsc engine: gamg (CG + algebraic multigrid), mumps (Cholesky).")
+                           "(pyamg + CG), mg (CG + geometric multigrid on the voxel grid; with --discretisation fv "
+                           "the matrix-free aggregation multigrid for fixed temperatures, pyamg + CG for flux and "
+                           "periodic cells); auto: mg for a steady solve of a voxel image from 4,000 unknowns "
+                           "(homogenize: from 20³ voxels), else cholmod; petsc engine: gamg (CG + algebraic "
+                           "multigrid), mumps (Cholesky).")
 
 
 

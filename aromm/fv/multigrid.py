@@ -10,9 +10,10 @@ is solved by ``CYCLES`` = 2 cycles (a W-cycle; CG iterations on white-noise medi
 positive scale keeps the coarse correction positive semi-definite, so the preconditioner is symmetric positive
 definite and plain CG applies.
 
-Memory, in bytes per cell of the fine grid: CG's x, r, z, p, q and step and the right-hand side (float64, 56), the
-V-cycle's residual (8), the links (12, float32), the live-cell byte (1), coarse levels ≈ (12 + 1 + 40) / 7 ≈ 7.6:
-≈ 85 B in all (measured in benchmarks/fv_solver.py).
+Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the V-cycle's residual, which
+CG's update step shares (8), the links (12, float32), the live-cell byte (1), coarse levels ≈ (12 + 1 + 40) / 7 ≈
+7.6: ≈ 69 B in all (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; measured in
+benchmarks/fv_solver.py).
 
 CG stops when the true relative residual ``‖b − A x‖ / ‖b‖ ≤ rtol`` or at the rounding floor
 ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖`` (:mod:`aromm.linalg.factorizations`), and raises
@@ -21,6 +22,7 @@ CG stops when the true relative residual ``‖b − A x‖ / ‖b‖ ≤ rtol`` 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -99,6 +101,8 @@ class VolumeMultigrid:
     def precondition(self, r: FloatArray, z: FloatArray) -> FloatArray:
         """One V-cycle from a zero guess: ``z ≈ A⁻¹ r`` (flat or of the stencil's shape)."""
         shape = self.stencil.shape
+        if self.levels[0].r.size != self.stencil.cells:
+            self.levels[0].r = np.empty(self.stencil.cells)
         self._vcycle(0, r.reshape(shape), z.reshape(shape))
         return z
 
@@ -112,7 +116,7 @@ class VolumeMultigrid:
         ops.sweep(level.stencil, b, x, 1)
         if index + 1 < len(self.levels):
             coarse = self.levels[index + 1]
-            r = level.r if index else self._fine_residual(x)
+            r = level.r.reshape(x.shape)
             ops.residual(level.stencil, b, x, r)
             ops.restrict(r, coarse.b)
             self._coarse_correction(index + 1)
@@ -134,47 +138,63 @@ class VolumeMultigrid:
             self._vcycle(index, level.e, level.c)
             level.x += level.c
 
-    def _fine_residual(self, like: FloatArray) -> FloatArray:
-        fine = self.levels[0]
-        if fine.r.shape != like.shape:
-            fine.r = np.empty_like(like)
-        return fine.r
-
-    def floor(self, x: FloatArray, nb: float, work: FloatArray) -> float:
+    def floor(self, x: FloatArray, nb: float, work: tuple[FloatArray, FloatArray, FloatArray]) -> float:
         """``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖``, with ``abs(A) abs(x) = 2 D abs(x) − A abs(x)`` (A = D − N,
-        N ≥ 0)."""
-        ax = np.abs(x).reshape(self.stencil.shape)
-        work = work.reshape(ax.shape)
-        self.ops.diagonal(self.stencil, work)
-        work *= 2.0 * ax
-        product = np.empty_like(ax)
+        N ≥ 0); ``work``: three free vectors."""
+        shape = self.stencil.shape
+        ax, out, product = (w.reshape(shape) for w in work)
+        np.abs(x.reshape(shape), out=ax)
+        self.ops.diagonal(self.stencil, out)
+        out *= 2.0 * ax
         self.ops.product(self.stencil, ax, product)
-        work -= product
-        return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(work)) / nb
+        out -= product
+        return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(out)) / nb
 
     def solve(self, b: FloatArray) -> FloatArray:
         """x with ‖b − A x‖ ≤ rtol ‖b‖ (true residual, checked), or at the rounding floor; NumericalError
         otherwise."""
         shape = self.stencil.shape
-        nb = float(np.linalg.norm(b))
+
+        def true_residual(x: FloatArray, r: FloatArray) -> None:
+            self.ops.residual(self.stencil, b.reshape(shape), x.reshape(shape), r.reshape(shape))
+
+        return self._solve(float(np.linalg.norm(b)), true_residual)
+
+    def solve_hot_face(self) -> FloatArray:
+        """The field's homogenisation problem, T = 1 at the first face of the stencil's axis and 0 at the last:
+        ``b = f`` on the first plane, zero elsewhere, never stored as a full array."""
+        shape, st = self.stencil.shape, self.stencil
+
+        def true_residual(x: FloatArray, r: FloatArray) -> None:
+            self.ops.product(st, x.reshape(shape), r.reshape(shape))
+            np.negative(r, out=r)
+            np.moveaxis(r.reshape(shape), st.axis, 0)[0] += st.low
+
+        return self._solve(float(np.linalg.norm(st.low)), true_residual)
+
+    def _solve(self, nb: float, true_residual: Callable[[FloatArray, FloatArray], None]) -> FloatArray:
+        """CG from x = 0; ``true_residual(x, r)`` writes b − A x into r (flat vectors)."""
+        shape = self.stencil.shape
         x = np.zeros(self.stencil.cells)
         if nb == 0.0:
             self.iterations.append(0)
             return x.reshape(shape)
         a = StencilOperator(self.stencil, self.ops)
-        r = b.astype(float).ravel()  # CG's vectors are flat (views of the same memory as the stencil's shape)
-        work = [np.empty_like(x) for _ in range(4)]
+        r = np.empty_like(x)
+        true_residual(x, r)
+        # CG's update step shares its memory with the fine V-cycle's residual: they are never live together
+        self.levels[0].r = np.empty_like(x)
+        work = [np.empty_like(x) for _ in range(3)] + [self.levels[0].r]
         total = 0
         while True:
             x, r, its = pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total,
                             work=work)
             total += its
-            # the recursive residual drifts: restart from the true one
-            self.ops.residual(self.stencil, b.reshape(shape), x.reshape(shape), r.reshape(shape))
+            true_residual(x, r)  # the recursive residual drifts: restart from the true one
             res = float(np.linalg.norm(r)) / nb
             if not np.isfinite(res):
                 raise NumericalError(f"finite-volume multigrid CG: non-finite residual after {total} iterations")
-            if res <= self.rtol or res <= self.rtol + self.floor(x, nb, work[0]):
+            if res <= self.rtol or res <= self.rtol + self.floor(x, nb, (work[0], work[1], work[2])):
                 self.at_floor += res > self.rtol
                 self.iterations.append(total)
                 return x.reshape(shape)

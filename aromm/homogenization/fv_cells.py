@@ -69,10 +69,8 @@ def _stencil_probe(scene: Scene, axis: int, rtol: float) -> float:
     del phase
     stencil = conductance_stencil((k_axes[0], k_axes[1], k_axes[2]), image.voxel_size, axis)
     del k_axes
-    b = np.zeros(stencil.shape)
-    np.moveaxis(b, axis, 0)[0] = stencil.low  # T = 1 at the face axis0: its half cells' f T on the right-hand side
     solver = VolumeMultigrid(stencil, rtol)
-    x = solver.solve(b)
+    x = solver.solve_hot_face()
     log.debug("finite volumes, matrix-free multigrid along %s: %d CG iterations, %d levels, %.0f B/voxel kept",
               name, solver.iterations[-1], len(solver.levels), solver.nbytes() / stencil.cells)
     heat = float(np.sum(stencil.low * (1.0 - np.take(x, 0, axis=axis))))  # W, the flow through the hot face
@@ -80,7 +78,7 @@ def _stencil_probe(scene: Scene, axis: int, rtol: float) -> float:
     return heat * size[axis] / (float(np.prod(size)) / size[axis])
 
 
-def _probe(scene: Scene, axis: int, boundary: str, method: str, rtol: float) -> float:
+def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) -> float:
     """k_ii under fixed temperatures (``temperature``) or a flux and a fixed temperature (``flux``)."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
@@ -164,7 +162,7 @@ def fv_cell(scene: Scene, boundary: str, method: str, rtol: float,
     k = np.zeros((3, 3))
     cpus, walls = [], []
     for axis in range(3):
-        k[axis, axis] = _probe(scene, axis, boundary, name, rtol)
+        k[axis, axis] = probe_k(scene, axis, boundary, name, rtol)
         cpus.append(time.process_time() - cpu)
         walls.append(time.perf_counter() - wall)
         cpu, wall = time.process_time(), time.perf_counter()
