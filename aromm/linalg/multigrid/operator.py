@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
+from aromm.linalg.multigrid.q1_kernel import code_table, slab_product
 
 COMBOS = ("DSS", "SDS", "SSD", "DDS", "DSD", "SDD", "DDD")  # letters: x, y, z
 MASS_COMBOS = (*COMBOS, "SSS")  # with a capacity term
@@ -70,6 +71,7 @@ class VoxelOperator:
     capacity: FloatArray | None = None
     exchange: tuple[tuple[str, float], ...] = ()
     keep_weights: bool = True  # keep the gathered per-voxel weights while they fit WEIGHT_CACHE_BYTES
+    compiled: bool = True  # the fused slab product of aromm.linalg.multigrid.q1_kernel if numba imports
     _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -187,12 +189,19 @@ class VoxelOperator:
             y.fill(0.0)
         table = self._weight_table(dtype)
         mask = constrained and bool(self.fixed)
+        kernel = slab_product() if self.compiled else None
+        codes = code_table(self.weights, dtype)
         for k0, k1 in self._slabs():
             weights = None
             for column, target in zip(u, y, strict=True):
                 ext = self._gather(column, k0, k1, copy=mask)
                 if mask:
                     self._zero_fixed(ext, k0, k1)
+                if kernel is not None:  # one fused pass, the weights read from the table by phase code
+                    fused = self._workspace(dtype, ext.size)[15, :ext.size].reshape(ext.shape)
+                    kernel(ext, self._padded_phase[k0:k1], codes, fused)
+                    self._scatter(target, fused, k0, k1)
+                    continue
                 if weights is None:
                     weights = self._slab_weights(table, k0, k1, _pass_size(ext.shape))
                 self._scatter(target, self._apply(ext, weights), k0, k1)
