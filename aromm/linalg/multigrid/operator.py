@@ -41,10 +41,9 @@ from aromm.linalg.multigrid.q1_kernel import code_table, slab_product
 
 COMBOS = ("DSS", "SDS", "SSD", "DDS", "DSD", "SDD", "DDD")  # letters: x, y, z
 MASS_COMBOS = (*COMBOS, "SSS")  # with a capacity term
-#: Gathered per-voxel weights are kept while a table (combinations × voxels) fits in this many bytes: float32
-#: (32 B/voxel) up to 256³, float64 (64 B/voxel) up to ≈ 200³.  Above, each product gathers them again: at 256³
-#: that was 56 % of a float32 and 29 % of a float64 product (0.48 → 0.21 s, 0.84 → 0.60 s, 2026-12-02, a one-off
-#: timing of the wood VER's shifted operator, one run each).
+#: Per-voxel weights are kept while (combinations × voxels) fits: float32 (32 B/voxel) to 256³, float64 to ≈ 200³.
+#: Above, the numpy product gathered them again (56 % of a float32 product at 256³, 2026-12-02); the compiled one
+#: (q1_kernel) reads them by phase code.
 WEIGHT_CACHE_BYTES = 1 << 30
 SLAB_NODES = 1 << 16  # nodes per slab of the matrix-free product (0.5 MB per float64 array: cache-sized)
 # 1-D reference matrices in the class basis {[0,0], [0,1], [1,1]} (lengths scaled out): stiffness, mass
@@ -71,7 +70,7 @@ class VoxelOperator:
     capacity: FloatArray | None = None
     exchange: tuple[tuple[str, float], ...] = ()
     keep_weights: bool = True  # keep the gathered per-voxel weights while they fit WEIGHT_CACHE_BYTES
-    compiled: bool = True  # the fused slab product of aromm.linalg.multigrid.q1_kernel if numba imports
+    compiled: bool = True  # uncached weights: aromm.linalg.multigrid.q1_kernel's product if numba imports
     _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -189,22 +188,20 @@ class VoxelOperator:
             y.fill(0.0)
         table = self._weight_table(dtype)
         mask = constrained and bool(self.fixed)
-        kernel = slab_product() if self.compiled else None
-        codes = code_table(self.weights, dtype)
+        kernel = slab_product() if self.compiled and not self._keeps(table) else None
         for k0, k1 in self._slabs():
             weights = None
             for column, target in zip(u, y, strict=True):
                 ext = self._gather(column, k0, k1, copy=mask)
                 if mask:
                     self._zero_fixed(ext, k0, k1)
-                if kernel is not None:  # one fused pass, the weights read from the table by phase code
-                    fused = self._workspace(dtype, ext.size)[15, :ext.size].reshape(ext.shape)
-                    kernel(ext, self._padded_phase[k0:k1], codes, fused)
-                    self._scatter(target, fused, k0, k1)
-                    continue
-                if weights is None:
-                    weights = self._slab_weights(table, k0, k1, _pass_size(ext.shape))
-                self._scatter(target, self._apply(ext, weights), k0, k1)
+                if kernel is not None:  # one fused pass, the weights read by phase code (none kept)
+                    result = self._workspace(dtype, ext.size)[15, :ext.size].reshape(ext.shape)
+                    kernel(ext, self._padded_phase[k0:k1], code_table(self.weights, dtype), result)
+                else:
+                    weights = self._slab_weights(table, k0, k1, _pass_size(ext.shape)) if weights is None else weights
+                    result = self._apply(ext, weights)
+                self._scatter(target, result, k0, k1)
         for column, target in zip(u, y, strict=True):
             self._faces(column, target, mask)
         if out is not None:
@@ -361,9 +358,12 @@ class VoxelOperator:
         if key in self._cache:
             return self._cache[key]
         weights = np.take(table, self._padded_phase[k0:k1].reshape(-1)[:size], axis=1)
-        if self.keep_weights and table.shape[0] * self._padded_phase.size * table.itemsize <= WEIGHT_CACHE_BYTES:
+        if self._keeps(table):
             self._cache[key] = weights
         return weights
+
+    def _keeps(self, table: FloatArray) -> bool:  # keep a slab's gathered weights (WEIGHT_CACHE_BYTES)
+        return self.keep_weights and table.shape[0] * self._padded_phase.size * table.itemsize <= WEIGHT_CACHE_BYTES
 
     def _fold(self, out: FloatArray) -> FloatArray:
         """Ghost-extended node array → node array (periodic: ghosts added onto their twins)."""
