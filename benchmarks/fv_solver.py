@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import os
 import resource
 import subprocess
@@ -64,8 +65,16 @@ def worker(case: str, path: str | None, method: str, axis: int, rtol: float) -> 
     phases = tuple(PhaseSpec(f"p{label}", label, k) for label, k in k_of.items())
     scene = Scene(VoxelGeometry(labels, (1.0, 1.0, 1.0)), phases, discretisation="fv")  # type: ignore[arg-type]
     if method == "mg":  # compile the kernels before the clock starts (numba caches them on disk after the first run)
-        probe_k(Scene(VoxelGeometry(np.full((6, 6, 6), labels.flat[0]), (1.0,) * 3), phases,  # type: ignore[arg-type]
+        probe_k(Scene(VoxelGeometry(np.full((24, 24, 24), max(k_of, key=k_of.__getitem__)), (1.0,) * 3), phases,  # type: ignore[arg-type]
                       discretisation="fv"), 0, "temperature", "mg", rtol)
+    lines: list[str] = []  # the solver's own report (iterations, levels), a debug line of aromm.homogenization
+
+    class Keep(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            lines.append(record.getMessage())
+
+    logging.getLogger("aromm.homogenization.fv_cells").addHandler(Keep(logging.DEBUG))
+    logging.getLogger("aromm.homogenization.fv_cells").setLevel(logging.DEBUG)
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     name = fv_method(method, labels.size, 0, "temperature")
     cpu, wall = time.process_time(), time.perf_counter()
@@ -75,7 +84,7 @@ def worker(case: str, path: str | None, method: str, axis: int, rtol: float) -> 
     conducting = float(np.mean(labels == max(k_of, key=lambda lab: k_of[lab])))
     return {"case": case, "method": name, "axis": axis, "k": k, "cpu_s": cpu, "wall_s": wall, "voxels": labels.size,
             "state_B_per_voxel": (peak - base) / labels.size, "all_in_B_per_voxel": peak / labels.size,
-            "fraction": conducting}
+            "fraction": conducting, "solver": lines[-1].split(": ")[-1] if lines else ""}
 
 
 def main() -> None:
@@ -114,7 +123,7 @@ def main() -> None:
                     paper = f"{row['k'] / (row['fraction'] / PUBLISHED_TAU[axis]) - 1:+.2%}"
                 print(f"{case:>11} {row['method']:>6} {axis:>4} {row['k']:10.6f} {paper:>9} {row['cpu_s']:8.1f} "
                       f"{row['wall_s']:7.1f} {row['state_B_per_voxel']:11.1f} {row['all_in_B_per_voxel']:7.1f}  "
-                      f"{load:.2f} → {os.getloadavg()[0]:.2f}", flush=True)
+                      f"{load:.2f} → {os.getloadavg()[0]:.2f}  {row['solver']}", flush=True)
 
 
 if __name__ == "__main__":

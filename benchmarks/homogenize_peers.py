@@ -6,10 +6,11 @@ measured in the same process, so "state" bytes/voxel = (peak − baseline)/voxel
 The machine is shared (2 cores): the 1-minute load average before → after each case is printed with every row.
 
 Like for like: every tool runs on the same number of threads (``--threads N``, one by default), printed in every
-row as the count the process actually had: each worker starts with OMP_NUM_THREADS, OPENBLAS_NUM_THREADS and
-MKL_NUM_THREADS = N, aromm's workers also under ``threadpoolctl.threadpool_limits(N)``, taufactor's after
-``torch.set_num_threads(N)``.  (Left on torch's default of one thread per core, taufactor spent several times
-the CPU seconds of a one-thread run for the same answer.)  The ratio lines compare CPU seconds per direction.
+row as the count the process actually had: each worker starts with OMP_NUM_THREADS, OPENBLAS_NUM_THREADS,
+MKL_NUM_THREADS and NUMBA_NUM_THREADS = N, aromm's workers also under ``threadpoolctl.threadpool_limits(N)``,
+taufactor's after ``torch.set_num_threads(N)``.  (Left on torch's default of one thread per core, taufactor spent
+several times the CPU seconds of a one-thread run for the same answer.)  The ratio lines compare CPU seconds per
+direction.
 
 Equal tolerance: both tools stop on the accuracy of k itself.  taufactor stops when the heat flow through every
 x-plane is within 1e-2 of the largest and τ changed by less than 2e-3 over 100 sweeps; its algebraic error at
@@ -89,8 +90,9 @@ def image(case: str, n: int) -> tuple[np.ndarray, tuple[float, float], dict[str,
 
 
 #: libraries aromm's solvers import on first use (the coarsest grid's CHOLMOD, pyamg): imported before the clock
-LAZY_IMPORTS = {"mg": ("cvxopt.cholmod",), "cholmod": ("cvxopt.cholmod",), "amg": ("pyamg",)}
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+LAZY_IMPORTS = {"mg": ("cvxopt.cholmod",), "cholmod": ("cvxopt.cholmod",), "amg": ("pyamg",),
+                "auto": ("cvxopt.cholmod", "pyamg", "aromm.fv.compiled")}  # fv: its compiled kernels (numba)
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
 def worker(spec: dict[str, object]) -> dict[str, object]:
@@ -129,9 +131,12 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
         method, boundary = tool.split("-")
         scene = Scene(VoxelGeometry(labels, (1e-3 / n,) * 3), (PhaseSpec("m", 0, k0), PhaseSpec("i", 1, k1)),
                       discretisation="fv" if method == "fv" else "q1")
-        method = "auto" if method == "fv" else method  # fv: pyamg CG from 20³ voxels (aromm.homogenization.fv_cells)
+        method = "auto" if method == "fv" else method  # fv: the matrix-free multigrid from 20³ voxels (fv_cells)
         for backend in LAZY_IMPORTS.get(method, ()):  # before the clock, as taufactor's torch is
             importlib.import_module(backend)
+        if method == "auto":  # numba loads each kernel on its first call: once on a small box, before the clock
+            effective_conductivity(Scene(VoxelGeometry(np.zeros((24, 24, 24), dtype=np.uint8), (1e-3,) * 3),
+                                         scene.phases, discretisation="fv"), boundary, method)
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         ktol = None if spec.get("ktol") is None else float(spec["ktol"])  # type: ignore[arg-type]
         with threadpool_limits(limits=threads):

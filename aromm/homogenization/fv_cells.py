@@ -78,6 +78,15 @@ def _stencil_probe(scene: Scene, axis: int, rtol: float) -> float:
     return heat * size[axis] / (float(np.prod(size)) / size[axis])
 
 
+def _flows(scene: Scene, name: str, boundary: str) -> bool:
+    """Whether heat can flow between the faces of axis ``name`` (its masks freed before any solve)."""
+    image = scene.geometry
+    assert isinstance(image, VoxelGeometry)
+    conducting = np.where(np.isin(image.labels, [p.label for p in scene.phases if not insulating(p)]), 0, -1)
+    cold = connected(conducting, [f"{name}1"])  # the face fixed in both conditions
+    return bool((cold & connected(conducting, [f"{name}0"])).any() if boundary == "temperature" else cold.any())
+
+
 def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) -> float:
     """k_ii under fixed temperatures (``temperature``) or a flux and a fixed temperature (``flux``)."""
     image = scene.geometry
@@ -85,10 +94,7 @@ def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) ->
     name = AXES[axis]
     hot = FaceSpec(f"{name}0", T=1.0) if boundary == "temperature" else FaceSpec(f"{name}0", flux=1.0)
     faces = (hot, FaceSpec(f"{name}1", T=0.0))
-    conducting = np.where(np.isin(image.labels, [p.label for p in scene.phases if not insulating(p)]), 0, -1)
-    cold = connected(conducting, [f"{name}1"])  # the face fixed in both conditions
-    flows = (cold & connected(conducting, [f"{name}0"])).any() if boundary == "temperature" else cold.any()
-    if not flows:
+    if not _flows(scene, name, boundary):
         log.info("homogenisation: no conducting path along %s between its faces: k̄_%s = 0", name, name * 2)
         return 0.0  # no heat flows from one face to the other (exactly; a solve would give rounding)
     if method == "mg" and all(p.tensor is None for p in scene.phases):
