@@ -6,8 +6,8 @@ per 10 % of the pairs of each eigen-solve, the cache entries used, the conversio
 command line sends those records to stderr as ``aromm: [  12.3 s] message`` (elapsed wall time since the command
 started): every INFO record when stderr is not a terminal; on a terminal, where the bars show the progress,
 only the notes of the CSV reader (:mod:`aromm.core.labcsv`), an automatic time grid's reason
-(:mod:`aromm.scene.time_section`), a direction without a conducting path (:mod:`aromm.homogenization.fv_cells`) and
-warnings.
+(:mod:`aromm.scene.time_section`), a direction without a conducting path (:mod:`aromm.homogenization.fv_cells`),
+the finite-volume kernels running without numba (:mod:`aromm.fv.kernels`) and warnings.
 """
 
 from __future__ import annotations
@@ -19,8 +19,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 LOGGERS = ("aromm", "inverse")
-NOTES = ("aromm.core.labcsv", "aromm.scene.time_section", "aromm.homogenization.fv_cells")  # always shown: what the
-# reader converted or dropped, an automatic time grid, a direction without a conducting path
+# always shown: what the reader converted or dropped, an automatic time grid, a direction without a conducting path,
+# finite-volume kernels running in numpy for want of numba
+NOTES = ("aromm.core.labcsv", "aromm.scene.time_section", "aromm.homogenization.fv_cells", "aromm.fv.kernels")
 
 
 class Elapsed(logging.Formatter):

@@ -12,14 +12,18 @@ in every kernel (never stored); a cell whose diagonal is zero carries no equatio
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 import numpy.typing as npt
 
 from aromm.core.system import FloatArray
 from aromm.fv.stencil import Stencil
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -106,5 +110,12 @@ def kernels(name: str = "auto") -> Kernels:
     except ImportError:
         if name == "numba":
             raise
+        _say_numpy()
         return NUMPY
     return COMPILED
+
+
+@cache
+def _say_numpy() -> None:
+    log.info("finite volumes: numba is not installed, the multigrid's kernels run in numpy (3–14× slower, "
+             "benchmarks/kernels.py); pip install 'aromm[fast]' compiles them")
