@@ -5,6 +5,8 @@ from the CG tolerance, and the iterations do not grow with the grid."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -14,6 +16,7 @@ from aromm.core.vocabulary import PhaseSpec
 from aromm.fv.kernels import kernels
 from aromm.fv.multigrid import VolumeMultigrid
 from aromm.fv.stencil import LINK_ROUNDING, Stencil, assembled, coarsen, conductance_stencil
+from aromm.fv.volumes import connected
 from aromm.homogenization.cell_problems import effective_conductivity
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
@@ -152,3 +155,30 @@ def test_the_numpy_and_compiled_solves_agree() -> None:
     bound = 1e-10 * float(np.linalg.norm(b)) / smallest + 1e3 * EPS / smallest * float(abs(a).max())  # ‖A⁻¹‖ ‖r‖
     for x in (x_nb, x_np):
         assert np.linalg.norm(x - exact) <= bound
+
+
+@pytest.mark.parametrize("insulating", [0.0, 5.0])
+def test_the_flux_probe_agrees_with_the_assembled_face_unknowns(insulating: float) -> None:
+    """k = (Q/A) L / T̄, T̄ at the face (half a cell out): against the assembled fv path (splu), within the CG error
+    |ΔT̄| ≤ ‖Δx‖ ≤ ‖r‖ / λ_min ≤ rtol ‖b‖ / λ_min and the float32 links' 2⁻²⁴ (T̄'s solved part is bᵀA⁻¹b / (n q A),
+    non-increasing and (−1)-homogeneous in the links)."""
+    rng = np.random.default_rng(8)
+    labels = rng.integers(0, 3, size=(9, 8, 7))
+    phases = (PhaseSpec("a", 0, 1.0), PhaseSpec("b", 1, 1e3), PhaseSpec("c", 2, insulating))
+    scene, rtol = _scene(labels, phases), 1e-8
+    direct = np.diag(effective_conductivity(scene, "flux", "splu").k)
+    fast = effective_conductivity(scene, "flux", "mg", rtol=rtol)
+    assert fast.method == "mg"
+    k = np.array([1.0, 1e3, insulating])[labels]
+    for axis in range(3):
+        st = conductance_stencil((k, k, k), VOXEL, axis)
+        a = assembled(replace(st, low=np.zeros_like(st.low))).toarray()  # the flux problem's operator
+        live = a.diagonal() != 1.0  # (cells without an equation carry a unit diagonal in `assembled`)
+        smallest = float(np.linalg.eigvalsh(a[np.ix_(live, live)])[0])
+        area = float(np.prod(VOXEL)) / VOXEL[axis]
+        b_norm = area * np.sqrt(labels.size / labels.shape[axis])  # q A on each cell of the hot face, at most
+        kept = connected(np.where(k > 0, 0, -1), [f"{'xyz'[axis]}1"])  # cells with a path to the cold face
+        share = float(np.mean(np.take(kept, 0, axis=axis)))  # Q / A for q = 1: the conducting part of the face
+        mean_T = share * labels.shape[axis] * VOXEL[axis] / direct[axis]
+        bound = rtol * b_norm / smallest / mean_T + LINK_ROUNDING + 1e3 * EPS * 1e3 * 9**2
+        assert np.diag(fast.k)[axis] == pytest.approx(direct[axis], rel=bound)

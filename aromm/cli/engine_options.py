@@ -26,8 +26,8 @@ ENGINE = click.option("--engine", type=click.Choice(ENGINES), default="scipy", s
 SOLVER = click.option("--solver", type=click.Choice((*METHODS, *PETSC_SOLVERS)), default="auto", show_default=True,
                       help="Sparse linear solver. scipy engine: cholmod (cvxopt's supernodal Cholesky), splu, amg "
                            "(pyamg + CG), mg (CG + geometric multigrid on the voxel grid; with --discretisation fv "
-                           "the matrix-free aggregation multigrid for fixed temperatures, pyamg + CG for flux and "
-                           "periodic cells); auto: mg for a steady solve of a voxel image from 4,000 unknowns "
+                           "the matrix-free aggregation multigrid for the temperature and flux probes, pyamg + CG "
+                           "for periodic cells); auto: mg for a steady solve of a voxel image from 4,000 unknowns "
                            "(homogenize: from 20³ voxels), else cholmod; petsc engine: gamg (CG + algebraic "
                            "multigrid), mumps (Cholesky).")
 

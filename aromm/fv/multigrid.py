@@ -12,8 +12,8 @@ definite and plain CG applies.
 
 Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the V-cycle's residual, which
 CG's update step shares (8), the links (12, float32), the live-cell byte (1), coarse levels ≈ (12 + 1 + 40) / 7 ≈
-7.6: ≈ 69 B in all (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; measured in
-benchmarks/fv_solver.py).
+7.6: ≈ 69 B in all (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general
+``solve(b)`` adds b's 8; measured in benchmarks/fv_solver.py).
 
 CG stops when the true relative residual ``‖b − A x‖ / ‖b‖ ≤ rtol`` or at the rounding floor
 ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖`` (:mod:`aromm.linalg.factorizations`), and raises

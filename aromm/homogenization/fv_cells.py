@@ -15,17 +15,18 @@ PuMA and OpenImpala.
 An insulating phase (``k = 0``) carries no unknown; a direction without a percolating path gives ``k = 0`` exactly
 (with fixed temperatures: no conducting cluster touches both faces; said in the log), not an error.
 Solvers: the direct methods of :mod:`aromm.linalg.direct`; ``mg``, CG preconditioned by the aggregation multigrid
-of :mod:`aromm.fv.multigrid` on the matrix-free 7-point stencil (fixed temperatures; ≈ 75 B per voxel, links in
-float32: k̄ within 6e-8 relatively of the float64 operator's); or ``amg`` (pyamg CG on the assembled matrix).  All to
-the relative residual ``rtol``.  ``auto`` takes ``mg`` (fixed temperatures) or ``amg`` (flux, periodic) from
-:data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on; ``mg`` asked for a flux or periodic cell
-takes ``amg``.
+of :mod:`aromm.fv.multigrid` on the matrix-free 7-point stencil (the probes: fixed temperatures ≈ 70 B per voxel,
+flux ≈ 80 with its right-hand side; links in float32: k̄ within 6e-8 relatively of the float64 operator's); or ``amg``
+(pyamg CG on the assembled matrix).  All to the relative residual ``rtol``.  ``auto`` takes ``mg`` (probes) or
+``amg`` (periodic) from :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on; ``mg`` asked for a
+periodic cell takes ``amg``.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -46,36 +47,53 @@ log = logging.getLogger(__name__)
 
 
 def fv_method(method: str, voxels: int, crossover: int, boundary: str) -> str:
-    """``mg``, or ``auto`` from ``crossover`` voxels on → ``mg`` with fixed temperatures, ``amg`` otherwise (the
-    matrix-free multigrid has no flux face nor periodic links yet); ``auto`` below → the direct default; other names
-    as :func:`aromm.linalg.direct.resolve_method` checks them."""
+    """``mg``, or ``auto`` from ``crossover`` voxels on → ``mg`` for the probes (fixed temperatures, flux), ``amg``
+    for the periodic cell (the matrix-free multigrid has no periodic links yet); ``auto`` below → the direct default;
+    other names as :func:`aromm.linalg.direct.resolve_method` checks them."""
     if method == "mg" or (method == "auto" and voxels >= crossover):
-        return "mg" if boundary == "temperature" else "amg"
+        return "amg" if boundary == "periodic" else "mg"
     return resolve_method(method)
 
 
-def _stencil_probe(scene: Scene, axis: int, rtol: float) -> float:
-    """k_ii under fixed temperatures by the matrix-free multigrid (:mod:`aromm.fv.multigrid`); 0 without a path."""
+def _stencil_probe(scene: Scene, axis: int, rtol: float, boundary: str) -> float:
+    """k_ii by the matrix-free multigrid (:mod:`aromm.fv.multigrid`): fixed temperatures 1 and 0 (the heat through
+    the hot face), or a flux q = 1 W/m² into the first face's conducting cells and T = 0 at the last,
+    ``k = (Q / A) L / T̄`` with Q the heat that enters and T̄ the mean temperature of those cells *at the face*, half
+    a cell out: ``x + q d / (2 k)`` (the assembled path's face unknowns, :mod:`aromm.fv.grid`)."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
     name = AXES[axis]
-    faces = (FaceSpec(f"{name}0", T=1.0), FaceSpec(f"{name}1", T=0.0))
+    hot = FaceSpec(f"{name}0", T=1.0) if boundary == "temperature" else FaceSpec(f"{name}0", flux=1.0)
     phase = phase_index(np.asarray(image.labels), scene.phases)
     phase[np.isin(phase, [i for i, p in enumerate(scene.phases) if insulating(p)])] = -1
-    phase = pruned(phase, faces)
+    phase = pruned(phase, (hot, FaceSpec(f"{name}1", T=0.0)))
     k_of = np.array([p.k if isinstance(p.k, tuple) else (p.k,) * 3 for p in scene.phases] + [(0.0,) * 3])
     isotropic = bool(np.all(k_of == k_of[:, :1]))
     k_axes = [k_of[phase, 0]] * 3 if isotropic else [k_of[phase, a] for a in range(3)]  # phase −1: the zero row
     del phase
     stencil = conductance_stencil((k_axes[0], k_axes[1], k_axes[2]), image.voxel_size, axis)
+    k_hot = np.take(k_axes[axis], 0, axis=axis)  # the hot face's cells, W/(m K)
     del k_axes
-    solver = VolumeMultigrid(stencil, rtol)
-    x = solver.solve_hot_face()
+    size, d = image.size, image.voxel_size[axis]
+    box_area = float(np.prod(size)) / size[axis]
+    if boundary == "temperature":
+        solver = VolumeMultigrid(stencil, rtol)
+        x = solver.solve_hot_face()
+        heat = float(np.sum(stencil.low * (1.0 - np.take(x, 0, axis=axis))))  # W, the flow through the hot face
+        k = heat * size[axis] / box_area
+    else:
+        stencil = replace(stencil, low=np.zeros_like(stencil.low))  # no fixed temperature at the hot face
+        b = np.zeros(stencil.shape)
+        conducting = k_hot > 0
+        np.moveaxis(b, axis, 0)[0] = conducting * (float(np.prod(image.voxel_size)) / d)  # q A per face cell, W
+        solver = VolumeMultigrid(stencil, rtol)
+        x = solver.solve(b)
+        face_T = np.take(x, 0, axis=axis)[conducting] + d / (2.0 * k_hot[conducting])
+        entering = float(np.sum(np.moveaxis(b, axis, 0)[0]))  # W: q times the conducting part of the face
+        k = entering / box_area * size[axis] / float(np.mean(face_T))
     log.debug("finite volumes, matrix-free multigrid along %s: %d CG iterations, %d levels, %.0f B/voxel kept",
               name, solver.iterations[-1], len(solver.levels), solver.nbytes() / stencil.cells)
-    heat = float(np.sum(stencil.low * (1.0 - np.take(x, 0, axis=axis))))  # W, the flow through the hot face
-    size = image.size
-    return heat * size[axis] / (float(np.prod(size)) / size[axis])
+    return k
 
 
 def _flows(scene: Scene, name: str, boundary: str) -> bool:
@@ -98,7 +116,7 @@ def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) ->
         log.info("homogenisation: no conducting path along %s between its faces: k̄_%s = 0", name, name * 2)
         return 0.0  # no heat flows from one face to the other (exactly; a solve would give rounding)
     if method == "mg" and all(p.tensor is None for p in scene.phases):
-        return _stencil_probe(scene, axis, rtol)
+        return _stencil_probe(scene, axis, rtol, boundary)
     method = "amg" if method == "mg" else method  # a rotated tensor: the assembled grid refuses it, saying why
     system = assemble_volumes(image.labels, image.voxel_size, scene.phases, faces, outputs=[f.face for f in faces])
     field = steady_field(system, method=method, rtol=rtol)
