@@ -2,7 +2,8 @@
 
 The image is ``python/pumapy/data/100_fiberform.tif`` of github.com/nasa/puma (not shipped; ``--image PATH``),
 segmented as PuMA's tests do: grey ≥ 90 is fibre (k = 12 W/(m K)), the rest air (0.0257 W/(m K)); voxel 1.3 µm.
-Fixed temperatures on the two faces of each array axis, the others adiabatic.  aromm: ``--discretisation fv``,
+Fixed temperatures on the two faces of each array axis (tifffile's order: pages, rows, columns = PuMA's z, y, x),
+the others adiabatic.  aromm: ``--discretisation fv``,
 the matrix-free multigrid (:mod:`aromm.fv.multigrid`) at the library's residual 1e-8; taufactor 1.2
 ``MultiPhaseSolver`` at its default stop (1 % flux spread), along the first array axis of the image turned so that
 axis comes first.  One thread each (``NUMBA_NUM_THREADS``, ``torch.set_num_threads``); CPU seconds per direction.
