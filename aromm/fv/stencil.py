@@ -118,10 +118,6 @@ def _pairs(a: npt.NDArray[np.floating], axes: tuple[int, ...]) -> FloatArray:
     return np.asarray(a, dtype=np.float64)
 
 
-def coarse_shape(shape: Shape) -> Shape:
-    return ((shape[0] + 1) // 2, (shape[1] + 1) // 2, (shape[2] + 1) // 2)
-
-
 def coarsen(stencil: Stencil) -> Stencil:
     """The Galerkin operator ``Pᵀ A P`` of 2 × 2 × 2 aggregation (module docstring)."""
     links = []
