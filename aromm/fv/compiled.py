@@ -111,10 +111,9 @@ def nb_residual(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> N
 def nb_product(st: Stencil, x: FloatArray, out: FloatArray) -> None:
     product(*st.links, st.low, st.high, st.axis, x, out)
 
-def nb_diagonal(st: Stencil, out: FloatArray) -> None:
-    NUMPY.diagonal(st, out)  # setup and the final floor only: not worth a compiled twin
-
 def nb_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
     sweep(*st.links, st.low, st.high, st.axis, b, x, colour)
 
-COMPILED = Kernels("numba", nb_product, nb_diagonal, nb_residual, nb_sweep, restrict, prolong)
+
+# the diagonal is needed by the rounding floor only (once a solve): numpy's serves
+COMPILED = Kernels("numba", nb_product, NUMPY.diagonal, nb_residual, nb_sweep, restrict, prolong)

@@ -49,8 +49,17 @@ def _lo_hi(axis: int, n: int) -> tuple[tuple[slice, ...], tuple[slice, ...]]:
     return tuple(lo), tuple(hi)
 
 
+def _add_fixed(st: Stencil, out: FloatArray, x: FloatArray | None = None) -> None:
+    """out += f x on the two fixed planes (f alone without ``x``), no full-size temporary."""
+    planes = np.moveaxis(out, st.axis, 0)  # a view: the fixed planes are its first and last
+    values = None if x is None else np.moveaxis(x, st.axis, 0)
+    planes[0] += st.low if values is None else st.low * values[0]
+    planes[-1] += st.high if values is None else st.high * values[-1]
+
+
 def _np_product(st: Stencil, x: FloatArray, out: FloatArray) -> None:
-    np.multiply(st.fixed(), x, out=out)
+    out.fill(0.0)
+    _add_fixed(st, out, x)
     for a, g in enumerate(st.links):
         lo, hi = _lo_hi(a, x.shape[a])
         flow = g * (x[lo] - x[hi])
@@ -65,9 +74,7 @@ def _np_residual(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> 
 
 def _np_diagonal(st: Stencil, out: FloatArray) -> None:
     out.fill(0.0)
-    planes = np.moveaxis(out, st.axis, 0)  # a view; no full-size temporary (the floor runs it at 500³)
-    planes[0] += st.low
-    planes[-1] += st.high
+    _add_fixed(st, out)  # no full-size temporary (the floor runs it at 500³)
     for a, g in enumerate(st.links):
         lo, hi = _lo_hi(a, out.shape[a])
         out[lo] += g

@@ -61,6 +61,18 @@ def connected(phase: npt.NDArray[np.int64], anchors: Sequence[str]) -> npt.NDArr
     return np.isin(components, sorted(touching))
 
 
+def conducting_phase(labels: np.ndarray, phases: Sequence[PhaseSpec]) -> npt.NDArray[np.int64]:
+    """Each voxel's position in ``phases`` (:func:`aromm.core.vocabulary.phase_index`), −1 in an insulating phase
+    (``k = 0``: no unknown there).
+
+    >>> conducting_phase(np.array([0, 1, 0]).reshape(3, 1, 1), [PhaseSpec("a", 0, 0.0), PhaseSpec("b", 1, 2.0)]).ravel()
+    array([-1,  1, -1])
+    """
+    phase = phase_index(labels, phases)
+    phase[np.isin(labels, [ph.label for ph in phases if insulating(ph)])] = -1
+    return phase
+
+
 def pruned(phase: npt.NDArray[np.int64], boundary: Sequence[FaceSpec]) -> npt.NDArray[np.int64]:
     """``phase`` with the voxels of no path to a fixed-temperature or exchange face set to −1 (logged)."""
     anchors = [f.face for f in boundary if f.T is not None or f.h is not None]
@@ -118,8 +130,7 @@ def assemble_volumes(
     if cold and time is not None:
         raise InputError(f"phase {cold[0]!r}: k = 0 (insulating) is for steady scenes (homogenize, rev, simulate "
                          "without [time]); a transient needs every phase to conduct")
-    phase = phase_index(labels, phases)
-    phase[np.isin(labels, [ph.label for ph in phases if insulating(ph)])] = -1  # no unknown in an insulator
+    phase = conducting_phase(labels, phases)
     if time is None:
         phase = pruned(phase, boundary)
     faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})

@@ -33,12 +33,12 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from aromm.core.system import FloatArray
-from aromm.core.vocabulary import FaceSpec, insulating, phase_index
+from aromm.core.vocabulary import FaceSpec, phase_index
 from aromm.full.solve import reaction_heat_flow, steady_field
 from aromm.fv.grid import AXES
 from aromm.fv.multigrid import VolumeMultigrid
 from aromm.fv.stencil import conductance_stencil
-from aromm.fv.volumes import assemble_volumes, connected, pruned
+from aromm.fv.volumes import assemble_volumes, conducting_phase, connected, pruned
 from aromm.linalg.direct import factorize, resolve_method
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
@@ -55,19 +55,16 @@ def fv_method(method: str, voxels: int, crossover: int, boundary: str) -> str:
     return resolve_method(method)
 
 
-def _stencil_probe(scene: Scene, axis: int, rtol: float, boundary: str) -> float:
-    """k_ii by the matrix-free multigrid (:mod:`aromm.fv.multigrid`): fixed temperatures 1 and 0 (the heat through
-    the hot face), or a flux q = 1 W/m² into the first face's conducting cells and T = 0 at the last,
-    ``k = (Q / A) L / T̄`` with Q the heat that enters and T̄ the mean temperature of those cells *at the face*, half
-    a cell out: ``x + q d / (2 k)`` (the assembled path's face unknowns, :mod:`aromm.fv.grid`)."""
+def _stencil_probe(scene: Scene, axis: int, rtol: float, faces: tuple[FaceSpec, FaceSpec]) -> float:
+    """k_ii by the matrix-free multigrid (:mod:`aromm.fv.multigrid`) for the probe ``faces`` (hot, cold): fixed
+    temperatures 1 and 0 (the heat through the hot face), or a flux q = 1 W/m² into the hot face's conducting cells
+    and T = 0 at the cold one, ``k = (Q / A) L / T̄`` with Q the heat that enters and T̄ the mean temperature of those
+    cells *at the face*, half a cell out: ``x + q d / (2 k)`` (the assembled path's face unknowns,
+    :mod:`aromm.fv.grid`)."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
-    name = AXES[axis]
-    hot = FaceSpec(f"{name}0", T=1.0) if boundary == "temperature" else FaceSpec(f"{name}0", flux=1.0)
-    phase = phase_index(np.asarray(image.labels), scene.phases)
-    phase[np.isin(phase, [i for i, p in enumerate(scene.phases) if insulating(p)])] = -1
-    phase = pruned(phase, (hot, FaceSpec(f"{name}1", T=0.0)))
-    k_of = np.array([p.k if isinstance(p.k, tuple) else (p.k,) * 3 for p in scene.phases] + [(0.0,) * 3])
+    phase = pruned(conducting_phase(np.asarray(image.labels), scene.phases), faces)
+    k_of = _axis_k(scene)
     isotropic = bool(np.all(k_of == k_of[:, :1]))
     k_axes = [k_of[phase, 0]] * 3 if isotropic else [k_of[phase, a] for a in range(3)]  # phase −1: the zero row
     del phase
@@ -76,31 +73,37 @@ def _stencil_probe(scene: Scene, axis: int, rtol: float, boundary: str) -> float
     del k_axes
     size, d = image.size, image.voxel_size[axis]
     box_area = float(np.prod(size)) / size[axis]
-    if boundary == "temperature":
+    if faces[0].T is not None:
         solver = VolumeMultigrid(stencil, rtol)
         x = solver.solve_hot_face()
         heat = float(np.sum(stencil.low * (1.0 - np.take(x, 0, axis=axis))))  # W, the flow through the hot face
         k = heat * size[axis] / box_area
     else:
         stencil = replace(stencil, low=np.zeros_like(stencil.low))  # no fixed temperature at the hot face
-        b = np.zeros(stencil.shape)
         conducting = k_hot > 0
-        np.moveaxis(b, axis, 0)[0] = conducting * (float(np.prod(image.voxel_size)) / d)  # q A per face cell, W
+        cell_area = float(np.prod(image.voxel_size)) / d
+        b = np.zeros(stencil.shape)
+        np.moveaxis(b, axis, 0)[0] = conducting * cell_area  # q A per conducting face cell, W
         solver = VolumeMultigrid(stencil, rtol)
         x = solver.solve(b)
         face_T = np.take(x, 0, axis=axis)[conducting] + d / (2.0 * k_hot[conducting])
-        entering = float(np.sum(np.moveaxis(b, axis, 0)[0]))  # W: q times the conducting part of the face
+        entering = cell_area * float(np.count_nonzero(conducting))  # W: q times the conducting part of the face
         k = entering / box_area * size[axis] / float(np.mean(face_T))
     log.debug("finite volumes, matrix-free multigrid along %s: %d CG iterations, %d levels, %.0f B/voxel kept",
-              name, solver.iterations[-1], len(solver.levels), solver.nbytes() / stencil.cells)
+              AXES[axis], solver.iterations[-1], len(solver.levels), solver.nbytes() / stencil.cells)
     return k
+
+
+def _axis_k(scene: Scene) -> FloatArray:
+    """(phases + 1, 3) conductivities along x, y, z (W/(m K)); the last row zero, for the index −1 (no unknown)."""
+    return np.array([p.k if isinstance(p.k, tuple) else (p.k,) * 3 for p in scene.phases] + [(0.0,) * 3], dtype=float)
 
 
 def _flows(scene: Scene, name: str, boundary: str) -> bool:
     """Whether heat can flow between the faces of axis ``name`` (its masks freed before any solve)."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
-    conducting = np.where(np.isin(image.labels, [p.label for p in scene.phases if not insulating(p)]), 0, -1)
+    conducting = conducting_phase(np.asarray(image.labels), scene.phases)
     cold = connected(conducting, [f"{name}1"])  # the face fixed in both conditions
     return bool((cold & connected(conducting, [f"{name}0"])).any() if boundary == "temperature" else cold.any())
 
@@ -116,7 +119,7 @@ def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) ->
         log.info("homogenisation: no conducting path along %s between its faces: k̄_%s = 0", name, name * 2)
         return 0.0  # no heat flows from one face to the other (exactly; a solve would give rounding)
     if method == "mg" and all(p.tensor is None for p in scene.phases):
-        return _stencil_probe(scene, axis, rtol, boundary)
+        return _stencil_probe(scene, axis, rtol, faces)
     method = "amg" if method == "mg" else method  # a rotated tensor: the assembled grid refuses it, saying why
     system = assemble_volumes(image.labels, image.voxel_size, scene.phases, faces, outputs=[f.face for f in faces])
     field = steady_field(system, method=method, rtol=rtol)
@@ -133,7 +136,7 @@ def _periodic(scene: Scene, method: str, rtol: float) -> FloatArray:
     """The full tensor of the periodic cell problem (module docstring)."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
-    k_of = np.array([p.k if isinstance(p.k, tuple) else (p.k,) * 3 for p in scene.phases], dtype=float)
+    k_of = _axis_k(scene)  # a voxel of no phase (−1) reads the zero row; its links are dropped below anyway
     phase = phase_index(np.asarray(image.labels), scene.phases)
     cells = phase >= 0
     index = np.full(phase.shape, -1, dtype=np.int64)

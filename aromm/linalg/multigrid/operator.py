@@ -188,7 +188,7 @@ class VoxelOperator:
             y.fill(0.0)
         table = self._weight_table(dtype)
         mask = constrained and bool(self.fixed)
-        kernel = slab_product() if self.compiled and not self._keeps(table) else None
+        kernel, codes = (slab_product() if self.compiled and not self._keeps(table) else None), code_table(table)
         for k0, k1 in self._slabs():
             weights = None
             for column, target in zip(u, y, strict=True):
@@ -197,7 +197,7 @@ class VoxelOperator:
                     self._zero_fixed(ext, k0, k1)
                 if kernel is not None:  # one fused pass, the weights read by phase code (none kept)
                     result = self._workspace(dtype, ext.size)[15, :ext.size].reshape(ext.shape)
-                    kernel(ext, self._padded_phase[k0:k1], code_table(self.weights, dtype), result)
+                    kernel(ext, self._padded_phase[k0:k1], codes, result)
                 else:
                     weights = self._slab_weights(table, k0, k1, _pass_size(ext.shape)) if weights is None else weights
                     result = self._apply(ext, weights)

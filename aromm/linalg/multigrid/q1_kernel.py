@@ -30,12 +30,12 @@ from aromm.core.system import FloatArray
 SlabProduct = Callable[[FloatArray, npt.NDArray[np.integer], FloatArray, FloatArray], None]
 
 
-def code_table(weights: FloatArray, dtype: np.dtype) -> FloatArray:
-    """(codes, 8) weights of :func:`slab_product` from the operator's (combinations, phases) ``weights``: a row per
-    phase code, SSS last (zero without a capacity), and a last zero row (the padding code)."""
-    table = np.zeros((weights.shape[1] + 1, 8), dtype=dtype)
-    table[:-1, :weights.shape[0]] = weights.T
-    return table
+def code_table(table: FloatArray) -> FloatArray:
+    """(codes, 8) weights of :func:`slab_product` from the operator's (combinations, codes) weight table (its last
+    column the zero-weight padding code): a row per code, SSS last (zero without a capacity)."""
+    codes = np.zeros((table.shape[1], 8), dtype=table.dtype)
+    codes[:, :table.shape[0]] = table.T
+    return codes
 
 
 @cache
