@@ -203,14 +203,15 @@ def _build(system: Any, settings: ReductionSettings, engine: str, run: dict[str,
     if settings.basis_storage != "float64":
         raise InputError("basis_storage applies to the scipy engine (the petsc engine keeps the basis in float64)")
     cache = run.get("cache", True)
-    if settings.certify:
-        raise InputError("reduce: certify needs the scipy engine (the petsc engine computes no certificate yet)")
     reductor = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance, settings.certify)
     if reductor is not None:
         from aromm.engines.petsc.krylov_reduction import reduce_krylov
 
         return reduce_krylov(system, settings.order, reductor, solver=settings.solver, cache=cache,
                              progress=bool(run.get("progress")))
+    if settings.certify:
+        raise InputError("reduce: on the petsc engine certify needs method = \"krylov\" (its modal models carry no "
+                         "certificate yet)")
     from aromm.engines.petsc.reduction import reduce as reduce_petsc
 
     return reduce_petsc(system, settings, references=run.get("references", ()), cache=cache)

@@ -32,6 +32,7 @@ from aromm.scene.reduction_section import REDUCTION_METHODS as REDUCTIONS
                    "it asks for krylov.")
 @click.option("--certify/--no-certify", default=None,
               help="Attach (or not) the certified bound of the output error against the full model, any method "
+                   "on the scipy engine, krylov on the petsc engine "
                    "(default: the scene's [reduction] certify, else below 20,000 unknowns; a Krylov model of the 46³ "
                    "VER: 323 CPU s and 3.0 GB against 21 CPU s without; amalgam at order 200 about as much as its "
                    "build).")

@@ -81,7 +81,8 @@ class GramLedger:
             if old is None:
                 grown.append((corner + corner.T) / 2)
             else:  # M_oldᵀ N̂⁻¹ M₊ = M_oldᵀ Z₊ + Ẑ_oldᵀ R₊ (module docstring)
-                side = eng.dot(old, z)[self._order()] + np.vstack([b.T @ r.astype(np.float32) for b in self.riesz[j]])
+                low = r.astype(np.float32)
+                side = eng.dot(old, z)[self._order()] + np.vstack([eng.dot(b, low) for b in self.riesz[j]])
                 grown.append(np.block([[self.grams[j], side], [side.T, (corner + corner.T) / 2]]))
             self.riesz[j].append(z.astype(np.float32))
         self.solves += int(fresh.shape[1]) * len(self.sigmas)

@@ -16,10 +16,12 @@ from dataclasses import replace
 import numpy as np
 
 from aromm.core.system import FloatArray, ThermalSystem
-from aromm.reduction.certificate import Certificate, ladder
+from aromm.reduction import krylov
+from aromm.reduction.certificate import Certificate, CertifyingEngine, error_bound, ladder
 from aromm.reduction.certificate import certify as certificate_of
+from aromm.reduction.certificate_gram import GramLedger
 from aromm.reduction.rom import ReducedModel
-from aromm.reduction.scipy_engine import DIRECT_BELOW, ScipyEngine
+from aromm.reduction.scipy_engine import DIRECT_BELOW
 
 #: The certificate's offline matrix M (n × (inputs + outputs + terms · order)) is held whole: above this many bytes
 #: the model is returned without a bound (info says so).
@@ -28,7 +30,7 @@ CERTIFY_BYTES = 2 * 1024 ** 3
 Info = dict[str, float | int | str]
 
 
-def width(engine: ScipyEngine, system: ThermalSystem, order: int) -> int:
+def width(engine: CertifyingEngine, system: ThermalSystem, order: int) -> int:
     """Columns of M for a basis of ``order`` vectors: inputs, outputs and every term applied to the basis."""
     terms = len(system.conductance.terms) + len(system.capacity.terms)
     return int(engine.input_terms().shape[1]) + len(system.observation) + terms * order
@@ -48,7 +50,7 @@ def wanted(system: ThermalSystem, certify: bool | None, columns: int) -> str | N
     return None
 
 
-def certified(engine: ScipyEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
+def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
               certify: bool | None, reference: Mapping[str, float], training: Sequence[Mapping[str, float]],
               rtol: float, tolerance: float | None = None,
               certificate: Certificate | None = None) -> tuple[ReducedModel, Info]:
@@ -97,3 +99,39 @@ def tolerance_note(info: Mapping[str, float | int | str]) -> str | None:
                 "(the bound has run 3-65x the actual error; raise max_points or narrow the box to lower it)")
     return (f"the Krylov reduced model did not meet its tolerance {tol:.2g} °C: estimated error "
             f"{estimate:.2g} °C ({why}); an estimate, not a bound")
+
+
+class SpanBound:
+    """The greedy's certified bound (:class:`aromm.reduction.krylov.Bound`) over the training set, from Gram matrices
+    kept along the growing span (:class:`~aromm.reduction.certificate_gram.GramLedger`); ``final`` is the compressed
+    model's certificate once :meth:`compressed` has been told its coefficients."""
+
+    def __init__(self, engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
+                 box: krylov.Box) -> None:
+        self.engine, self.system, self.reductor = engine, system, reductor
+        self.training = krylov.training_set(box, reductor.per_axis)
+        self.ledger = GramLedger(engine, system, krylov.centre(box), reductor.rtol)
+        self.final: Certificate | None = None
+
+    def _too_large(self, columns: int) -> bool:
+        return wanted(self.system, self.reductor.certify, width(self.engine, self.system, columns)) is not None
+
+    def __call__(self, basis: FloatArray, model: ReducedModel) -> FloatArray:
+        if self._too_large(basis.shape[1]):
+            return np.zeros(len(self.training))  # too large to certify: the estimate decides, as without a bound
+        self.ledger.extend(basis)
+        cert = self.ledger.certificate()
+        return np.array([float(np.max(error_bound(model, cert, mu))) for mu in self.training])
+
+    def compressed(self, basis: FloatArray, coefficients: FloatArray) -> None:
+        if not self._too_large(basis.shape[1]):
+            self.ledger.extend(basis)
+            self.final = self.ledger.certificate(coefficients)
+
+
+def span_bound(engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
+               box: krylov.Box) -> SpanBound | None:
+    """The greedy's certified bound when the model is to be certified."""
+    if wanted(system, reductor.certify, width(engine, system, 1)) is not None:
+        return None
+    return SpanBound(engine, system, reductor, box)

@@ -12,14 +12,10 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 
-import numpy as np
-
 from aromm.core.cache import NpzCache
 from aromm.core.system import FloatArray, ThermalSystem
 from aromm.reduction import krylov
-from aromm.reduction.certificate import Certificate, error_bound
-from aromm.reduction.certificate_gram import GramLedger
-from aromm.reduction.certified import certified, wanted, width
+from aromm.reduction.certified import certified, span_bound
 from aromm.reduction.lifting import lift
 from aromm.reduction.model_key import system_key
 from aromm.reduction.rom import ReducedModel, from_arrays, one_blas_thread, to_arrays
@@ -65,39 +61,3 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
         if fields:
             store.save("krylov-basis", key, {"psi": engine.to_numpy(psi)})
     return with_fields(rom, system, engine.to_numpy(psi), basis_values, solver) if fields else rom
-
-
-class SpanBound:
-    """The greedy's certified bound (:class:`aromm.reduction.krylov.Bound`) over the training set, from Gram matrices
-    kept along the growing span (:class:`~aromm.reduction.certificate_gram.GramLedger`); ``final`` is the compressed
-    model's certificate once :meth:`compressed` has been told its coefficients."""
-
-    def __init__(self, engine: ScipyEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
-                 box: krylov.Box) -> None:
-        self.engine, self.system, self.reductor = engine, system, reductor
-        self.training = krylov.training_set(box, reductor.per_axis)
-        self.ledger = GramLedger(engine, system, krylov.centre(box), reductor.rtol)
-        self.final: Certificate | None = None
-
-    def _too_large(self, columns: int) -> bool:
-        return wanted(self.system, self.reductor.certify, width(self.engine, self.system, columns)) is not None
-
-    def __call__(self, basis: FloatArray, model: ReducedModel) -> FloatArray:
-        if self._too_large(basis.shape[1]):
-            return np.zeros(len(self.training))  # too large to certify: the estimate decides, as without a bound
-        self.ledger.extend(basis)
-        cert = self.ledger.certificate()
-        return np.array([float(np.max(error_bound(model, cert, mu))) for mu in self.training])
-
-    def compressed(self, basis: FloatArray, coefficients: FloatArray) -> None:
-        if not self._too_large(basis.shape[1]):
-            self.ledger.extend(basis)
-            self.final = self.ledger.certificate(coefficients)
-
-
-def span_bound(engine: ScipyEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
-               box: krylov.Box) -> SpanBound | None:
-    """The greedy's certified bound when the model is to be certified."""
-    if wanted(system, reductor.certify, width(engine, system, 1)) is not None:
-        return None
-    return SpanBound(engine, system, reductor, box)

@@ -284,6 +284,11 @@ class PetscKrylovEngine:
     def _matrix_terms(self) -> tuple[DistributedTerm, ...]:
         return (*self.system.conductance, *self.system.capacity)
 
+    def term_products(self, basis: FloatArray) -> FloatArray:
+        """``[K_1 V, …, C_1 V, …]`` (this rank's rows, term-major): the certificate's M
+        (:mod:`aromm.reduction.certificate`)."""
+        return self.join([self._apply(t.operator, basis) for t in self._matrix_terms()])
+
     def project(self, basis: FloatArray) -> ReducedModel:
         """The Galerkin model on V (:func:`aromm.engines.petsc.projection.project`); ``VᵀA_tV`` grown with the new
         columns when V extends the last projected basis in the engine's buffer

@@ -4,9 +4,11 @@ The source is assembled by boxes (a voxel scene) or distributed by rows (a Therm
 as for the engine's other reductions (:func:`aromm.engines.petsc.reduction.distributed`); the reduction is
 :func:`aromm.reduction.krylov.krylov_model` itself on :class:`~aromm.engines.petsc.krylov_engine.PetscKrylovEngine`,
 so it builds the span of the scipy engine (same parameter points, shifts, moments and compression) with CG + GAMG
-solves and sums over the ranks.  Collective: every rank calls it and returns the same model; rank 0 alone
-reads and writes the cache (keyed by the content of the image, the scene and every option, not by the number
-of ranks).  No SLEPc call is made; the reductor's ``krylov:`` log lines are said by rank 0 only.
+solves and sums over the ranks.  The certified output error bound (:mod:`aromm.reduction.certified`, when asked or
+by size) is formed the same way: its shifted solves by the same KSP, its Gram matrices summed over the ranks.
+Collective: every rank calls it and returns the same model; rank 0 alone reads and writes the cache (keyed by the
+content of the image, the scene and every option, not by the number of ranks).  No SLEPc call is made; the
+reductor's ``krylov:`` log lines are said by rank 0 only.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from aromm.engines.petsc import runtime
 from aromm.engines.petsc.krylov_engine import SOLVERS, PetscKrylovEngine
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.reduction import Source, cached, distributed
-from aromm.reduction.krylov import KrylovReductor, krylov_model, material_box
+from aromm.reduction.certified import certified, span_bound
+from aromm.reduction.krylov import KrylovReductor, centre, krylov_model, material_box, training_set
 from aromm.reduction.model_key import system_key
 from aromm.reduction.offline import resolve_cache
 from aromm.reduction.rom import ReducedModel, one_blas_thread, to_arrays
@@ -62,8 +65,13 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
     engine = PetscKrylovEngine(system, linear_solver)
     try:
         with one_blas_thread(), runtime.root_logs(comm, krylov_model.__module__):
-            rom, _, info = krylov_model(engine, system.template, reductor, int(order),
-                                        progress=progress and runtime.is_root(comm))
+            bound = span_bound(engine, system.template, reductor, box)
+            rom, psi, info = krylov_model(engine, system.template, reductor, int(order),
+                                          progress=progress and runtime.is_root(comm), bound=bound)
+            rom, extra = certified(engine, system.template, rom, psi, certify=reductor.certify, reference=centre(box),
+                                   training=training_set(box, reductor.per_axis), rtol=reductor.rtol,
+                                   tolerance=reductor.tolerance, certificate=bound.final if bound else None)
+            info.update(extra)
     finally:
         engine.close()
     info.update({"offline_seconds": time.perf_counter() - start, "assembly_seconds": assembly,
