@@ -17,34 +17,35 @@ JIT = numba.njit(parallel=True, cache=True, nogil=True)
 
 
 @numba.njit(inline="always", cache=True)
-def gather(gx, gy, gz, low, high, axis, x, i, j, k):  # type: ignore[no-untyped-def]  # noqa: PLR0917
-    """(Σ g x_neighbour, Σ g + f) of cell (i, j, k)."""
+def gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+    """(Σ g x_neighbour, Σ g + f) of cell (i, j, k); ``periodic``: the wrapped links too (link n − 1 of an axis joins
+    its last cell to its first)."""
     nx, ny, nz = x.shape
     s = 0.0
     d = 0.0
-    if i > 0:
-        g = np.float64(gx[i - 1, j, k])
+    if i > 0 or periodic:
+        g = np.float64(gx[i - 1, j, k])  # i − 1 = −1 reads the wrapped link n − 1 (periodic only)
         s += g * x[i - 1, j, k]
         d += g
-    if i < nx - 1:
+    if i < nx - 1 or periodic:
         g = np.float64(gx[i, j, k])
-        s += g * x[i + 1, j, k]
+        s += g * x[(i + 1) % nx, j, k]
         d += g
-    if j > 0:
+    if j > 0 or periodic:
         g = np.float64(gy[i, j - 1, k])
         s += g * x[i, j - 1, k]
         d += g
-    if j < ny - 1:
+    if j < ny - 1 or periodic:
         g = np.float64(gy[i, j, k])
-        s += g * x[i, j + 1, k]
+        s += g * x[i, (j + 1) % ny, k]
         d += g
-    if k > 0:
+    if k > 0 or periodic:
         g = np.float64(gz[i, j, k - 1])
         s += g * x[i, j, k - 1]
         d += g
-    if k < nz - 1:
+    if k < nz - 1 or periodic:
         g = np.float64(gz[i, j, k])
-        s += g * x[i, j, k + 1]
+        s += g * x[i, j, (k + 1) % nz]
         d += g
     if axis == 0:
         d += (low[j, k] if i == 0 else 0.0) + (high[j, k] if i == nx - 1 else 0.0)
@@ -55,30 +56,30 @@ def gather(gx, gy, gz, low, high, axis, x, i, j, k):  # type: ignore[no-untyped-
     return s, d
 
 @JIT
-def residual(gx, gy, gz, low, high, axis, b, x, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+def residual(gx, gy, gz, low, high, axis, periodic, b, x, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     nx, ny, nz = x.shape
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):
-                s, d = gather(gx, gy, gz, low, high, axis, x, i, j, k)
+                s, d = gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k)
                 out[i, j, k] = b[i, j, k] - (d * x[i, j, k] - s)
 
 @JIT
-def product(gx, gy, gz, low, high, axis, x, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+def product(gx, gy, gz, low, high, axis, periodic, x, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     nx, ny, nz = x.shape
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):
-                s, d = gather(gx, gy, gz, low, high, axis, x, i, j, k)
+                s, d = gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k)
                 out[i, j, k] = d * x[i, j, k] - s
 
 @JIT
-def sweep(gx, gy, gz, low, high, axis, b, x, colour):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+def sweep(gx, gy, gz, low, high, axis, periodic, b, x, colour):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     nx, ny, nz = x.shape
     for i in prange(nx):
         for j in range(ny):
             for k in range((i + j + colour) % 2, nz, 2):
-                s, d = gather(gx, gy, gz, low, high, axis, x, i, j, k)
+                s, d = gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k)
                 if d > 0.0:
                     x[i, j, k] = (b[i, j, k] + s) / d
 
@@ -106,13 +107,13 @@ def prolong(e, x, alive, alpha):  # type: ignore[no-untyped-def]
                     x[i, j, k] += alpha * e[i // 2, j // 2, k // 2]
 
 def nb_residual(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> None:
-    residual(*st.links, st.low, st.high, st.axis, b, x, out)
+    residual(*st.links, st.low, st.high, st.axis, st.periodic, b, x, out)
 
 def nb_product(st: Stencil, x: FloatArray, out: FloatArray) -> None:
-    product(*st.links, st.low, st.high, st.axis, x, out)
+    product(*st.links, st.low, st.high, st.axis, st.periodic, x, out)
 
 def nb_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
-    sweep(*st.links, st.low, st.high, st.axis, b, x, colour)
+    sweep(*st.links, st.low, st.high, st.axis, st.periodic, b, x, colour)
 
 
 # the diagonal is needed by the rounding floor only (once a solve): numpy's serves

@@ -7,7 +7,8 @@ dependency, ≈ 5–10× slower: each numpy operation is a pass of its own).  :f
 numba imports, else the numpy one; both are tested equal (tests/test_fv_multigrid.py).
 
 Conventions: ``x``, ``b``, ``out`` are float64 arrays of the stencil's shape; the diagonal is summed from the links
-in every kernel (never stored); a cell whose diagonal is zero carries no equation and is left unchanged.
+in every kernel (never stored); a cell whose diagonal is zero carries no equation and is left unchanged.  A periodic
+stencil's wrapped links join the last cell of every axis to the first (red–black sweeps need its axes even).
 """
 
 from __future__ import annotations
@@ -42,11 +43,23 @@ class Kernels:
     prolong: Callable[[FloatArray, FloatArray, npt.NDArray[np.uint8], float], None]
 
 
-def _lo_hi(axis: int, n: int) -> tuple[tuple[slice, ...], tuple[slice, ...]]:
-    lo = [slice(None)] * 3
-    hi = [slice(None)] * 3
+Index = tuple[slice | int, ...]
+
+
+def _links(st: Stencil, axis: int) -> list[tuple[npt.NDArray[np.float32], Index, Index]]:
+    """(g, first cells, second cells) of the links along ``axis``: the open ones, and a periodic stencil's wrapped
+    plane (last cell to first)."""
+    g = st.links[axis]
+    n = st.shape[axis]
+    lo: list[slice | int] = [slice(None)] * 3
+    hi: list[slice | int] = [slice(None)] * 3
     lo[axis], hi[axis] = slice(0, n - 1), slice(1, n)
-    return tuple(lo), tuple(hi)
+    inner: Index = (slice(None),) * axis + (slice(0, n - 1),)
+    out = [(g[inner] if st.periodic else g, tuple(lo), tuple(hi))]
+    if st.periodic and n > 1:
+        lo[axis], hi[axis] = n - 1, 0
+        out.append((np.take(g, n - 1, axis=axis), tuple(lo), tuple(hi)))
+    return out
 
 
 def _add_fixed(st: Stencil, out: FloatArray, x: FloatArray | None = None) -> None:
@@ -60,11 +73,11 @@ def _add_fixed(st: Stencil, out: FloatArray, x: FloatArray | None = None) -> Non
 def _np_product(st: Stencil, x: FloatArray, out: FloatArray) -> None:
     out.fill(0.0)
     _add_fixed(st, out, x)
-    for a, g in enumerate(st.links):
-        lo, hi = _lo_hi(a, x.shape[a])
-        flow = g * (x[lo] - x[hi])
-        out[lo] += flow
-        out[hi] -= flow
+    for a in range(3):
+        for g, lo, hi in _links(st, a):
+            flow = g * (x[lo] - x[hi])
+            out[lo] += flow
+            out[hi] -= flow
 
 
 def _np_residual(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> None:
@@ -75,20 +88,20 @@ def _np_residual(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> 
 def _np_diagonal(st: Stencil, out: FloatArray) -> None:
     out.fill(0.0)
     _add_fixed(st, out)  # no full-size temporary (the floor runs it at 500³)
-    for a, g in enumerate(st.links):
-        lo, hi = _lo_hi(a, out.shape[a])
-        out[lo] += g
-        out[hi] += g
+    for a in range(3):
+        for g, lo, hi in _links(st, a):
+            out[lo] += g
+            out[hi] += g
 
 
 def _np_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
     diagonal = np.empty(x.shape)
     _np_diagonal(st, diagonal)
     total = b.copy()
-    for a, g in enumerate(st.links):
-        lo, hi = _lo_hi(a, x.shape[a])
-        total[lo] += g * x[hi]
-        total[hi] += g * x[lo]
+    for a in range(3):
+        for g, lo, hi in _links(st, a):
+            total[lo] += g * x[hi]
+            total[hi] += g * x[lo]
     parity = sum(np.indices(x.shape, sparse=True)) % 2
     update = (parity == colour) & (diagonal > 0)
     x[update] = total[update] / diagonal[update]

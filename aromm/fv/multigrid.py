@@ -10,6 +10,12 @@ is solved by ``CYCLES`` = 2 cycles (a W-cycle; CG iterations on white-noise medi
 positive scale keeps the coarse correction positive semi-definite, so the preconditioner is symmetric positive
 definite and plain CG applies.
 
+A periodic stencil (:func:`aromm.fv.stencil.periodic_stencil`) needs every axis even; its levels are coarsened
+while they stay even (the first odd one is the coarsest), and its coarsest operator, singular, is factorised with
+the first cell of every cluster held at zero.  CG then runs on the consistent singular system: the right-hand side
+has no component in the null space (a divergence), so neither has the residual, and the constants per cluster that
+the iterate picks up are irrelevant to the cell problem (it uses the field's differences).
+
 Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the V-cycle's residual, which
 CG's update step shares (8), the links (12, float32), the live-cell byte (1), coarse levels ≈ (12 + 1 + 40) / 7 ≈
 7.6: ≈ 69 B in all (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general
@@ -27,6 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse as sp
+from scipy.sparse import csgraph
 
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
@@ -50,6 +58,18 @@ class _Level:
     r: FloatArray
     e: FloatArray = field(default_factory=lambda: np.zeros(0))  # a W-cycle's residual and correction
     c: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+
+def _pinned(a: sp.csr_array) -> sp.csr_array:
+    """``a`` with the first cell of every connected cluster held at zero (its row and column replaced by the
+    identity's): a periodic operator's null space (a constant per cluster) removed, its solutions for a consistent
+    right-hand side unchanged up to those constants."""
+    _, cluster = csgraph.connected_components(a, directed=False)
+    _, first = np.unique(cluster, return_index=True)
+    keep = np.ones(a.shape[0])
+    keep[first] = 0.0
+    mask = sp.diags_array(keep)
+    return sp.csr_array(mask @ a @ mask + sp.diags_array(1.0 - keep))
 
 
 @dataclass(eq=False)
@@ -87,11 +107,17 @@ class VolumeMultigrid:
             raise InputError(f"multigrid: relative residual tolerance must lie in (0, 1), got {self.rtol:g}")
         self.ops = kernels(self.backend)
         st = self.stencil
+        if st.periodic and any(n % 2 for n in st.shape):
+            raise InputError(f"multigrid: a periodic stencil needs an even number of cells along every axis (red–black "
+                             f"colouring), got {st.shape}")
         self.levels = [_Level(st, st.alive(), *(np.zeros(0) for _ in range(3)))]
         while st.cells > self.coarsest and min(st.shape) > 2:
+            if st.periodic and any(n % 2 for n in st.shape):
+                break  # an odd periodic level cannot be coloured red–black: it is the coarsest, solved directly
             st = coarsen(st)
             self.levels.append(_Level(st, st.alive(), *(np.zeros(st.shape) for _ in range(3))))
-        self._coarse_solve = factorize_direct(assembled(st)) if len(self.levels) > 1 else None
+        self._coarse_solve = factorize_direct(_pinned(assembled(st)) if st.periodic else assembled(st)) \
+            if len(self.levels) > 1 else None
 
     def nbytes(self) -> int:
         """Bytes the hierarchy keeps (links, live bytes, coarse vectors), without CG's vectors."""

@@ -18,6 +18,13 @@ degree one in them, so it moves by at most ``2⁻²⁴ ≈ 6e-8`` relatively (:d
 Coarse levels (:func:`coarsen`) aggregate 2 × 2 × 2 cells (the last one thinner on an odd axis) with piecewise-
 constant transfers P; the Galerkin operator ``Pᵀ A P`` is again a 7-point stencil whose links are the sums of the
 fine links that cross each coarse face and whose fixed-face terms are the sums of the fine ones [Notay2010].
+
+A *periodic* stencil (:func:`periodic_stencil`, the periodic cell problem) has no fixed face and one more link per
+row of every axis, from the last cell back to the first: ``links[a]`` then has the full length of axis ``a`` (link
+``i`` joins cells ``i`` and ``i + 1 mod n``; an axis of one cell has none).  Its operator is singular, with one
+constant per connected cluster in its null space.  Red–black colouring needs every periodic axis even (the last and
+the first cell of an odd axis share a colour), which :class:`~aromm.fv.multigrid.VolumeMultigrid` checks; 2 × 2 × 2
+aggregation of an even axis keeps the wrapped link as the coarse one.
 """
 
 from __future__ import annotations
@@ -44,11 +51,12 @@ class Stencil:
     axis: int
     low: FloatArray
     high: FloatArray
+    periodic: bool = False
 
     @property
     def shape(self) -> Shape:
         s = list(self.links[0].shape)
-        s[0] += 1
+        s[0] += 0 if self.periodic else 1
         return (s[0], s[1], s[2])
 
     @property
@@ -68,6 +76,9 @@ class Stencil:
         weight = self.fixed() > 0
         for a, g in enumerate(self.links):
             cut = g > 0
+            if self.periodic:
+                weight |= cut | np.roll(cut, 1, axis=a)
+                continue
             lo = [slice(None)] * 3
             hi = [slice(None)] * 3
             lo[a], hi[a] = slice(0, -1), slice(1, None)
@@ -107,6 +118,27 @@ def conductance_stencil(k_axes: tuple[FloatArray, FloatArray, FloatArray], voxel
     return Stencil((links[0], links[1], links[2]), axis, low, high)
 
 
+def periodic_stencil(k_axes: tuple[FloatArray, FloatArray, FloatArray],
+                     voxel_size: tuple[float, float, float]) -> Stencil:
+    """The stencil of the periodic cell (module docstring): ``k_axes`` as :func:`conductance_stencil`'s.
+
+    >>> st = periodic_stencil((np.ones((2, 3, 1)),) * 3, (1.0, 1.0, 1.0))
+    >>> st.shape, [g.shape for g in st.links], float(st.links[2].max())
+    ((2, 3, 1), [(2, 3, 1), (2, 3, 1), (2, 3, 1)], 0.0)
+    """
+    links = []
+    for a, k in enumerate(k_axes):
+        factor = float(np.prod(voxel_size)) / voxel_size[a] ** 2
+        nxt = np.roll(k, -1, axis=a)
+        s = k + nxt
+        g = np.zeros(k.shape, dtype=np.float32)
+        if k.shape[a] > 1:  # one cell along the axis: its wrapped link would join the cell to itself
+            np.divide(2.0 * factor * k * nxt, s, out=g, where=s > 0, casting="unsafe")
+        links.append(g)
+    plane = np.zeros(k_axes[0].shape[1:])
+    return Stencil((links[0], links[1], links[2]), 0, plane, plane.copy(), periodic=True)
+
+
 def _pairs(a: npt.NDArray[np.floating], axes: tuple[int, ...]) -> FloatArray:
     """Sum of consecutive pairs along each of ``axes`` (a last single one on an odd length).
 
@@ -123,9 +155,12 @@ def coarsen(stencil: Stencil) -> Stencil:
     links = []
     for a, g in enumerate(stencil.links):
         crossing = np.take(g, np.arange(1, g.shape[a], 2), axis=a)  # fine links between two aggregates
-        links.append(_pairs(crossing, tuple(b for b in range(3) if b != a)).astype(np.float32))
+        coarse = _pairs(crossing, tuple(b for b in range(3) if b != a)).astype(np.float32)
+        if stencil.periodic and coarse.shape[a] == 1:
+            coarse[...] = 0.0  # a single aggregate along the axis: its wrapped link joins it to itself
+        links.append(coarse)
     low, high = _pairs(stencil.low, (0, 1)), _pairs(stencil.high, (0, 1))  # a plane's two axes
-    return Stencil((links[0], links[1], links[2]), stencil.axis, low, high)
+    return Stencil((links[0], links[1], links[2]), stencil.axis, low, high, stencil.periodic)
 
 
 def assembled(stencil: Stencil) -> sp.csr_array:
@@ -136,8 +171,9 @@ def assembled(stencil: Stencil) -> sp.csr_array:
     rows, cols, vals = [], [], []
     diagonal = stencil.fixed().ravel()
     for a, g in enumerate(stencil.links):
-        i = np.take(index, np.arange(shape[a] - 1), axis=a).ravel()
-        j = np.take(index, np.arange(1, shape[a]), axis=a).ravel()
+        count = g.shape[a]  # n − 1, or n with the wrapped links of a periodic stencil
+        i = np.take(index, np.arange(count), axis=a).ravel()
+        j = np.take(index, (np.arange(count) + 1) % shape[a], axis=a).ravel()
         w = g.ravel().astype(np.float64)
         rows += [i, j]
         cols += [j, i]

@@ -6,20 +6,16 @@ PuMA and OpenImpala.
   The field's convention for k̄ and the tortuosity factor τ = φ k_phase / k̄ [Cooper2016].
 * ``flux`` — a uniform flux q into face i0, T = 0 at face i1 [Chavez2020, eq. 13]: ``k_ii = (Q / A_i) L_i /
   (T̄_i0 − T̄_i1)`` with Q the heat that enters (q times the conducting part of the face).
-* ``periodic`` — ``T = G·x + T̃`` with T̃ periodic.  With D the link–cell incidence (the links of the periodic image,
-  wrapped across the box), W their harmonic-mean conductances (W/K) and s_j the jump of x_j along each link (d_j on
-  links along axis j, 0 on the others), T̃_j solves ``Dᵀ W D T̃_j = −Dᵀ W s_j`` and
-  ``k_ij |Ω| = (D T̃_i + s_i)ᵀ W (D T̃_j + s_j)``, the energy form (its algebraic error is quadratic in the solve's).
-  Each connected cluster's constant is pinned at one of its voxels.
+* ``periodic`` — ``T = G·x + T̃`` with T̃ periodic, the full tensor (:mod:`aromm.homogenization.fv_periodic`).
 
 An insulating phase (``k = 0``) carries no unknown; a direction without a percolating path gives ``k = 0`` exactly
 (with fixed temperatures: no conducting cluster touches both faces; said in the log), not an error.
 Solvers: the direct methods of :mod:`aromm.linalg.direct`; ``mg``, CG preconditioned by the aggregation multigrid
 of :mod:`aromm.fv.multigrid` on the matrix-free 7-point stencil (the probes: fixed temperatures ≈ 70 B per voxel,
 flux ≈ 80 with its right-hand side; links in float32: k̄ within 6e-8 relatively of the float64 operator's); or ``amg``
-(pyamg CG on the assembled matrix).  All to the relative residual ``rtol``.  ``auto`` takes ``mg`` (probes) or
-``amg`` (periodic) from :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on; ``mg`` asked for a
-periodic cell takes ``amg``.
+(pyamg CG on the assembled matrix).  All to the relative residual ``rtol``.  ``auto`` takes ``mg`` from
+:data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on (the periodic cell: ``amg`` where the
+matrix-free multigrid cannot run, odd sizes or a rotated tensor).
 """
 
 from __future__ import annotations
@@ -29,29 +25,28 @@ import time
 from dataclasses import replace
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse import csgraph
 
 from aromm.core.system import FloatArray
-from aromm.core.vocabulary import FaceSpec, phase_index
+from aromm.core.vocabulary import FaceSpec
 from aromm.full.solve import reaction_heat_flow, steady_field
 from aromm.fv.grid import AXES
 from aromm.fv.multigrid import VolumeMultigrid
 from aromm.fv.stencil import conductance_stencil
 from aromm.fv.volumes import assemble_volumes, conducting_phase, connected, pruned
-from aromm.linalg.direct import factorize, resolve_method
+from aromm.homogenization.fv_periodic import axis_k, periodic_k
+from aromm.linalg.direct import resolve_method
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
 
 log = logging.getLogger(__name__)
 
 
-def fv_method(method: str, voxels: int, crossover: int, boundary: str) -> str:
-    """``mg``, or ``auto`` from ``crossover`` voxels on → ``mg`` for the probes (fixed temperatures, flux), ``amg``
-    for the periodic cell (the matrix-free multigrid has no periodic links yet); ``auto`` below → the direct default;
-    other names as :func:`aromm.linalg.direct.resolve_method` checks them."""
+def fv_method(method: str, voxels: int, crossover: int) -> str:
+    """``mg``, or ``auto`` from ``crossover`` voxels on → ``mg`` (the periodic cell takes ``amg`` instead where the
+    matrix-free multigrid cannot run: :func:`aromm.homogenization.fv_periodic.periodic_k`); ``auto`` below → the
+    direct default; other names as :func:`aromm.linalg.direct.resolve_method` checks them."""
     if method == "mg" or (method == "auto" and voxels >= crossover):
-        return "amg" if boundary == "periodic" else "mg"
+        return "mg"
     return resolve_method(method)
 
 
@@ -64,7 +59,7 @@ def _stencil_probe(scene: Scene, axis: int, rtol: float, faces: tuple[FaceSpec, 
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
     phase = pruned(conducting_phase(np.asarray(image.labels), scene.phases), faces)
-    k_of = _axis_k(scene)
+    k_of = axis_k(scene)
     isotropic = bool(np.all(k_of == k_of[:, :1]))
     k_axes = [k_of[phase, 0]] * 3 if isotropic else [k_of[phase, a] for a in range(3)]  # phase −1: the zero row
     del phase
@@ -92,11 +87,6 @@ def _stencil_probe(scene: Scene, axis: int, rtol: float, faces: tuple[FaceSpec, 
     log.debug("finite volumes, matrix-free multigrid along %s: %d CG iterations, %d levels, %.0f B/voxel kept",
               AXES[axis], solver.iterations[-1], len(solver.levels), solver.nbytes() / stencil.cells)
     return k
-
-
-def _axis_k(scene: Scene) -> FloatArray:
-    """(phases + 1, 3) conductivities along x, y, z (W/(m K)); the last row zero, for the index −1 (no unknown)."""
-    return np.array([p.k if isinstance(p.k, tuple) else (p.k,) * 3 for p in scene.phases] + [(0.0,) * 3], dtype=float)
 
 
 def _flows(scene: Scene, name: str, boundary: str) -> bool:
@@ -132,59 +122,15 @@ def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) ->
     return entering / area * size[axis] / drop if entering else 0.0
 
 
-def _periodic(scene: Scene, method: str, rtol: float) -> FloatArray:
-    """The full tensor of the periodic cell problem (module docstring)."""
-    image = scene.geometry
-    assert isinstance(image, VoxelGeometry)
-    k_of = _axis_k(scene)  # a voxel of no phase (−1) reads the zero row; its links are dropped below anyway
-    phase = phase_index(np.asarray(image.labels), scene.phases)
-    cells = phase >= 0
-    index = np.full(phase.shape, -1, dtype=np.int64)
-    index[cells] = np.arange(int(cells.sum()))
-    rows, w, jumps = [], [], []
-    for axis in range(3):
-        a = index.ravel()
-        b = np.roll(index, -1, axis=axis).ravel()
-        ka = k_of[phase.ravel(), axis]
-        kb = k_of[np.roll(phase, -1, axis=axis).ravel(), axis]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            g = np.where(ka + kb > 0, 2.0 * ka * kb / (ka + kb), 0.0)
-        keep = (a >= 0) & (b >= 0) & (g > 0)
-        area = float(np.prod(image.voxel_size)) / image.voxel_size[axis]
-        rows.append(np.stack([a[keep], b[keep]]))
-        w.append(g[keep] * area / image.voxel_size[axis])
-        jump = np.zeros((3, int(keep.sum())))
-        jump[axis] = image.voxel_size[axis]
-        jumps.append(jump)
-    link = np.concatenate(rows, axis=1)
-    weights = np.concatenate(w)
-    s = np.concatenate(jumps, axis=1)
-    m, n = link.shape[1], int(cells.sum())
-    d = sp.csr_array(sp.coo_array((np.concatenate([-np.ones(m), np.ones(m)]),
-                                   (np.tile(np.arange(m), 2), np.concatenate([link[0], link[1]]))), shape=(m, n)))
-    a_full = sp.csr_array(d.T @ sp.diags_array(weights) @ d)
-    _, component = csgraph.connected_components(a_full, directed=False)
-    _, first = np.unique(component, return_index=True)
-    free = np.setdiff1d(np.arange(n), first)  # one pinned voxel per cluster
-    solver = factorize(a_full[free][:, free], method, rtol)
-    gradients = []
-    for j in range(3):
-        t = np.zeros(n)
-        t[free] = solver.solve(-(d.T @ (weights * s[j]))[free])
-        gradients.append(d @ t + s[j])
-    volume = float(np.prod(image.size))
-    return np.array([[gradients[i] @ (weights * gradients[j]) / volume for j in range(3)] for i in range(3)])
-
-
 def fv_cell(scene: Scene, boundary: str, method: str, rtol: float,
             crossover: int) -> tuple[FloatArray, str, list[float], list[float]]:
     """(k tensor W/(m K), solver, CPU s and wall s per solve) of the scene's image in finite volumes."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
-    name = fv_method(method, int(np.asarray(image.labels).size), crossover, boundary)
+    name = fv_method(method, int(np.asarray(image.labels).size), crossover)
     cpu, wall = time.process_time(), time.perf_counter()
     if boundary == "periodic":
-        k = _periodic(scene, name, rtol)
+        k, name = periodic_k(scene, name, rtol)
         return k, name, [time.process_time() - cpu], [time.perf_counter() - wall]
     k = np.zeros((3, 3))
     cpus, walls = [], []
