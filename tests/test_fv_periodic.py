@@ -17,6 +17,7 @@ from aromm.core.vocabulary import PhaseSpec
 from aromm.fv.kernels import kernels
 from aromm.fv.multigrid import VolumeMultigrid
 from aromm.fv.stencil import LINK_ROUNDING, Stencil, assembled, coarsen, periodic_stencil
+from aromm.fv.volumes import winding_axes
 from aromm.homogenization import fv_periodic
 from aromm.homogenization.cell_problems import effective_conductivity
 from aromm.scene.geometry import VoxelGeometry
@@ -184,3 +185,31 @@ def test_the_periodic_v_cycle_is_symmetric_and_positive() -> None:
     bu, bv = mg.precondition(u, np.empty(st.shape)), mg.precondition(v, np.empty(st.shape))
     assert float(np.vdot(v, bu)) == pytest.approx(float(np.vdot(u, bv)), rel=1e-10)
     assert float(np.vdot(u, bu)) > 0 and float(np.vdot(v, bv)) > 0
+
+
+@pytest.mark.parametrize("solver", ["mg", "splu"])
+def test_an_axis_without_a_winding_path_gives_zero_exactly(solver: str, caplog: pytest.LogCaptureFixture) -> None:
+    """Conducting slabs cut by insulating planes across x: no path winds around the box along x, so the row and
+    column of x are 0 exactly (said in the log); along the slabs each conducts like a laminate's layers (the
+    insulating planes are 2 of 8 voxels thick: k_yy = k_zz = 6/8 of the conductor's)."""
+    labels = np.ones((8, 4, 6), dtype=int)
+    labels[3] = labels[7] = 0
+    phases = (PhaseSpec("void", 0, 0.0), PhaseSpec("solid", 1, 2.0))
+    with caplog.at_level(logging.INFO, logger=fv_periodic.__name__):
+        result = effective_conductivity(_scene(labels, phases), "periodic", solver)
+    assert "winds around the periodic cell along x" in caplog.text
+    assert np.all(result.k[0] == 0.0) and np.all(result.k[:, 0] == 0.0)
+    assert np.abs(np.diag(result.k)[1:] - 1.5).max() <= 4 * LINK_ROUNDING * 2.0
+
+
+def test_winding_follows_loops_that_cross_the_box_more_than_once() -> None:
+    """A staircase that climbs one voxel in y per voxel in x closes on itself only across both faces: it winds
+    along x and y together; the same staircase cut in its middle winds along neither."""
+    n = 4
+    stair = np.zeros((n, n, 1), dtype=bool)
+    for i in range(n):
+        stair[i, i] = stair[i, (i + 1) % n] = True
+    assert winding_axes(stair)[:2] == (True, True)
+    cut = stair.copy()
+    cut[2] = False
+    assert winding_axes(cut)[:2] == (False, False)

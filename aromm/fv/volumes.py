@@ -61,6 +61,57 @@ def connected(phase: npt.NDArray[np.int64], anchors: Sequence[str]) -> npt.NDArr
     return np.isin(components, sorted(touching))
 
 
+def winding_axes(conducting: npt.NDArray[np.bool_]) -> tuple[bool, bool, bool]:
+    """Whether a cluster of ``conducting`` voxels, joined by face neighbours across the periodic box, winds around
+    the box along each axis (a path that leaves through one face and comes back through the other): the axes along
+    which the periodic cell conducts at all.
+
+    Clusters of the box cut open are labelled, then joined by the links that wrap around it, each carrying the
+    displacement of its crossing (e.g. +1 along x); a potential in Z³ is spread over that graph, and an edge that
+    closes a loop with a displacement other than zero is a winding path along the axes where it is non-zero.
+
+    >>> slab = np.zeros((4, 3, 3), dtype=bool)
+    >>> slab[1] = True  # a plane across x, periodic along y and z
+    >>> winding_axes(slab)
+    (False, True, True)
+    """
+    import scipy.ndimage as ndi
+
+    components, _ = ndi.label(conducting)
+    edges: dict[tuple[int, int], set[tuple[int, int, int]]] = {}
+    winds = np.zeros(3, dtype=bool)
+    for axis in range(3):
+        if conducting.shape[axis] < 2:  # one voxel thick: every conducting voxel is its own neighbour across
+            winds[axis] = bool(conducting.any())
+            continue
+        last, first = np.take(components, -1, axis=axis), np.take(components, 0, axis=axis)
+        both = (last > 0) & (first > 0)
+        step = (int(axis == 0), int(axis == 1), int(axis == 2))
+        for u, v in set(zip(last[both].tolist(), first[both].tolist(), strict=True)):
+            edges.setdefault((u, v), set()).add(step)
+    neighbours: dict[int, list[tuple[int, npt.NDArray[np.int64]]]] = {}
+    for (u, v), steps in edges.items():
+        for step in steps:
+            d = np.array(step)
+            neighbours.setdefault(u, []).append((v, d))
+            neighbours.setdefault(v, []).append((u, -d))
+    potential: dict[int, npt.NDArray[np.int64]] = {}
+    for root in neighbours:
+        if root in potential:
+            continue
+        potential[root] = np.zeros(3, dtype=np.int64)
+        stack = [root]
+        while stack:
+            u = stack.pop()
+            for v, d in neighbours[u]:
+                if v not in potential:
+                    potential[v] = potential[u] + d
+                    stack.append(v)
+                else:
+                    winds |= (potential[u] + d - potential[v]) != 0
+    return bool(winds[0]), bool(winds[1]), bool(winds[2])
+
+
 def conducting_phase(labels: np.ndarray, phases: Sequence[PhaseSpec]) -> npt.NDArray[np.int64]:
     """Each voxel's position in ``phases`` (:func:`aromm.core.vocabulary.phase_index`), −1 in an insulating phase
     (``k = 0``: no unknown there).

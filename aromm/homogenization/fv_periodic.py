@@ -4,7 +4,9 @@
 the box), W their harmonic-mean conductances (W/K) and s_j the jump of x_j along each link (d_j on links along axis
 j, 0 on the others), T̃_j solves ``Dᵀ W D T̃_j = −Dᵀ W s_j`` and ``k_ij |Ω| = (D T̃_i + s_i)ᵀ W (D T̃_j + s_j)``, the
 energy form (its error is quadratic in the solve's).  The operator ``Dᵀ W D`` is singular (a constant per connected
-cluster); the right-hand side is a divergence, so the system is consistent.
+cluster); the right-hand side is a divergence, so the system is consistent.  With an insulating phase, an axis
+along which no cluster winds around the box (:func:`aromm.fv.volumes.winding_axes`) has k = 0 in its row and column
+exactly (a solve would give its rounding), said in the log.
 
 Two ways to solve it:
 
@@ -25,9 +27,10 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from aromm.core.system import FloatArray
-from aromm.core.vocabulary import phase_index
+from aromm.core.vocabulary import insulating, phase_index
 from aromm.fv.multigrid import VolumeMultigrid
 from aromm.fv.stencil import periodic_stencil
+from aromm.fv.volumes import conducting_phase, winding_axes
 from aromm.linalg.direct import factorize
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
@@ -45,6 +48,12 @@ def periodic_k(scene: Scene, method: str, rtol: float) -> tuple[FloatArray, str]
     matrix-free multigrid cannot run (odd sizes, a rotated tensor), saying so in the log."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
+    winds = (True, True, True)
+    if any(insulating(p) for p in scene.phases):
+        winds = winding_axes(conducting_phase(np.asarray(image.labels), scene.phases) >= 0)
+        for axis in (a for a in range(3) if not winds[a]):
+            log.info("homogenisation: no conducting path winds around the periodic cell along %s: k̄_%s = 0, and "
+                     "its row and column", "xyz"[axis], "xyz"[axis] * 2)
     if method == "mg":
         shape = np.asarray(image.labels).shape
         if any(n % 2 for n in shape) or any(p.tensor is not None for p in scene.phases):
@@ -53,12 +62,13 @@ def periodic_k(scene: Scene, method: str, rtol: float) -> tuple[FloatArray, str]
                      "" if all(p.tensor is None for p in scene.phases) else " with a rotated tensor")
             method = "amg"
         else:
-            return _stencil(scene, rtol), method
-    return _assembled(scene, method, rtol), method
+            return _stencil(scene, rtol, winds), method
+    return _assembled(scene, method, rtol, winds), method
 
 
-def _stencil(scene: Scene, rtol: float) -> FloatArray:
-    """The tensor by the matrix-free multigrid (module docstring)."""
+def _stencil(scene: Scene, rtol: float, winds: tuple[bool, bool, bool] = (True, True, True)) -> FloatArray:
+    """The tensor by the matrix-free multigrid (module docstring); the rows and columns of the axes that do not
+    ``wind`` are zero, unsolved."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
     phase = phase_index(np.asarray(image.labels), scene.phases)
@@ -68,7 +78,7 @@ def _stencil(scene: Scene, rtol: float) -> FloatArray:
     solver = VolumeMultigrid(stencil, rtol)
     d = image.voxel_size
     k = np.zeros((3, 3))
-    for j in range(3):
+    for j in (a for a in range(3) if winds[a]):
         g = stencil.links[j].astype(np.float64)  # a difference of float32 links is exact in float64: b sums to 0
         b = d[j] * (g - np.roll(g, 1, axis=j))  # −Dᵀ W s_j: what leaves each cell along j minus what enters
         del g
@@ -79,7 +89,7 @@ def _stencil(scene: Scene, rtol: float) -> FloatArray:
             grad = np.roll(t, -1, axis=i) - t  # D T̃_j on the links along i (float64)
             if i == j:
                 grad += d[j]
-            else:
+            elif winds[i]:
                 k[i, j] = d[i] * float(np.sum(gi * grad))  # s_iᵀ W D T̃_j (s_iᵀ W s_j = 0)
             k[j, j] += float(np.sum(gi * grad * grad))  # the energy form, over the links of every axis
         log.debug("finite volumes, periodic cell along %s: %d CG iterations, %d levels", "xyz"[j],
@@ -88,8 +98,10 @@ def _stencil(scene: Scene, rtol: float) -> FloatArray:
     return (k + k.T) / (2.0 * volume)
 
 
-def _assembled(scene: Scene, method: str, rtol: float) -> FloatArray:
-    """The full tensor on the assembled incidence ``D`` (module docstring), by ``method``."""
+def _assembled(scene: Scene, method: str, rtol: float,
+               winds: tuple[bool, bool, bool] = (True, True, True)) -> FloatArray:
+    """The full tensor on the assembled incidence ``D`` (module docstring), by ``method``; the rows and columns of
+    the axes that do not ``wind`` are zero."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
     k_of = axis_k(scene)  # a voxel of no phase (−1) reads the zero row; its links are dropped below anyway
@@ -129,4 +141,5 @@ def _assembled(scene: Scene, method: str, rtol: float) -> FloatArray:
         t[free] = solver.solve(-(d.T @ (weights * s[j]))[free])
         gradients.append(d @ t + s[j])
     volume = float(np.prod(image.size))
-    return np.array([[gradients[i] @ (weights * gradients[j]) / volume for j in range(3)] for i in range(3)])
+    return np.array([[gradients[i] @ (weights * gradients[j]) / volume if winds[i] and winds[j] else 0.0
+                      for j in range(3)] for i in range(3)])
