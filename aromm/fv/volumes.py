@@ -50,15 +50,47 @@ def connected(phase: npt.NDArray[np.int64], anchors: Sequence[str]) -> npt.NDArr
     >>> connected(p, ["x1"]).ravel().tolist()
     [False, False, True, True]
     """
+    components = _components(phase)
+    return np.isin(components, sorted(set().union(*(_touching(components, f) for f in anchors))))
+
+
+def reachable(phase: npt.NDArray[np.int64], anchors: Sequence[str],
+              joined: Sequence[str]) -> tuple[npt.NDArray[np.int64], bool]:
+    """``phase`` with the voxels that no conducting path joins to a face of ``anchors`` set to −1 (logged, as
+    :func:`pruned`), and whether one cluster touches every face of ``joined``: one labelling, none without an
+    insulating voxel (the box is then one cluster).
+
+    >>> p = np.array([0, -1, 0, 0]).reshape(4, 1, 1)
+    >>> kept, joins = reachable(p, ["x0", "x1"], ["x0", "x1"])
+    >>> kept.ravel().tolist(), joins
+    ([0, -1, 0, 0], False)
+    """
+    if bool(np.all(phase >= 0)):
+        return phase, True
+    components = _components(phase)
+    touching = [_touching(components, f) for f in joined]
+    joins = bool(set.intersection(*touching)) if touching else True
+    keep = np.isin(components, sorted(set().union(*(_touching(components, f) for f in anchors))))
+    del components
+    removed = int(np.count_nonzero((phase >= 0) & ~keep))
+    if removed:
+        log.info("finite volumes: %d voxels (%.4g %% of the volume) have no conducting path to a face with a fixed "
+                 "temperature or an exchange (%s) and are left out", removed, 100.0 * removed / phase.size,
+                 ", ".join(anchors))
+    return np.where(keep, phase, -1), joins
+
+
+def _components(phase: npt.NDArray[np.int64]) -> npt.NDArray[np.int32]:
     import scipy.ndimage as ndi  # ≈ 0.13 CPU s: only when an insulating phase is there to cut
 
     components, _ = ndi.label(phase >= 0)  # the default structure: face neighbours, the two-point links
-    touching: set[int] = set()
-    for face in anchors:
-        axis, side = AXES.index(face[0]), (0 if face[1] == "0" else -1)
-        touching.update(np.unique(np.take(components, side, axis=axis)).tolist())
-    touching.discard(0)
-    return np.isin(components, sorted(touching))
+    return np.asarray(components, dtype=np.int32)
+
+
+def _touching(components: npt.NDArray[np.int32], face: str) -> set[int]:
+    """The clusters (labels > 0) with a voxel on ``face``."""
+    axis, side = AXES.index(face[0]), (0 if face[1] == "0" else -1)
+    return set(np.unique(np.take(components, side, axis=axis)).tolist()) - {0}
 
 
 def winding_axes(conducting: npt.NDArray[np.bool_]) -> tuple[bool, bool, bool]:
@@ -127,15 +159,7 @@ def conducting_phase(labels: np.ndarray, phases: Sequence[PhaseSpec]) -> npt.NDA
 def pruned(phase: npt.NDArray[np.int64], boundary: Sequence[FaceSpec]) -> npt.NDArray[np.int64]:
     """``phase`` with the voxels of no path to a fixed-temperature or exchange face set to −1 (logged)."""
     anchors = [f.face for f in boundary if f.T is not None or f.h is not None]
-    if not anchors:
-        return phase
-    keep = connected(phase, anchors)
-    removed = int(np.count_nonzero((phase >= 0) & ~keep))
-    if removed:
-        log.info("finite volumes: %d voxels (%.4g %% of the volume) have no conducting path to a face with a fixed "
-                 "temperature or an exchange (%s) and are left out", removed, 100.0 * removed / phase.size,
-                 ", ".join(anchors))
-    return np.where(keep, phase, -1)
+    return reachable(phase, anchors, ())[0] if anchors else phase
 
 
 def _interface_terms(grid: VolumeGrid, phases: Sequence[PhaseSpec], present: Sequence[int]) -> list[Term]:

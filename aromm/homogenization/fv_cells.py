@@ -25,6 +25,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+import numpy.typing as npt
 
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import FaceSpec
@@ -32,7 +33,7 @@ from aromm.full.solve import reaction_heat_flow, steady_field
 from aromm.fv.grid import AXES
 from aromm.fv.multigrid import VolumeMultigrid
 from aromm.fv.stencil import conductance_stencil
-from aromm.fv.volumes import assemble_volumes, conducting_phase, connected, pruned
+from aromm.fv.volumes import assemble_volumes, conducting_phase, reachable
 from aromm.homogenization.fv_periodic import axis_k, periodic_k
 from aromm.linalg.direct import resolve_method
 from aromm.scene.geometry import VoxelGeometry
@@ -50,15 +51,17 @@ def fv_method(method: str, voxels: int, crossover: int) -> str:
     return resolve_method(method)
 
 
-def _stencil_probe(scene: Scene, axis: int, rtol: float, faces: tuple[FaceSpec, FaceSpec]) -> float:
+def _stencil_probe(scene: Scene, axis: int, rtol: float, faces: tuple[FaceSpec, FaceSpec],
+                   held: list[npt.NDArray[np.int64]]) -> float:
     """k_ii by the matrix-free multigrid (:mod:`aromm.fv.multigrid`) for the probe ``faces`` (hot, cold): fixed
     temperatures 1 and 0 (the heat through the hot face), or a flux q = 1 W/m² into the hot face's conducting cells
     and T = 0 at the cold one, ``k = (Q / A) L / T̄`` with Q the heat that enters and T̄ the mean temperature of those
     cells *at the face*, half a cell out: ``x + q d / (2 k)`` (the assembled path's face unknowns,
-    :mod:`aromm.fv.grid`)."""
+    :mod:`aromm.fv.grid`).  ``held``: each voxel's phase, pruned (:func:`_probe_phase`), taken out and freed here
+    before the solve."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
-    phase = pruned(conducting_phase(np.asarray(image.labels), scene.phases), faces)
+    phase = held.pop()
     k_of = axis_k(scene)
     isotropic = bool(np.all(k_of == k_of[:, :1]))
     k_axes = [k_of[phase, 0]] * 3 if isotropic else [k_of[phase, a] for a in range(3)]  # phase −1: the zero row
@@ -89,13 +92,15 @@ def _stencil_probe(scene: Scene, axis: int, rtol: float, faces: tuple[FaceSpec, 
     return k
 
 
-def _flows(scene: Scene, name: str, boundary: str) -> bool:
-    """Whether heat can flow between the faces of axis ``name`` (its masks freed before any solve)."""
+def _probe_phase(scene: Scene, faces: tuple[FaceSpec, FaceSpec]) -> npt.NDArray[np.int64] | None:
+    """Each voxel's phase, −1 where no conducting path joins it to a fixed face (:func:`aromm.fv.volumes.reachable`,
+    one labelling); None when no heat can flow between the probe's two faces (with fixed temperatures: no cluster
+    touches both; with a flux: none touches the cold face)."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
-    conducting = conducting_phase(np.asarray(image.labels), scene.phases)
-    cold = connected(conducting, [f"{name}1"])  # the face fixed in both conditions
-    return bool((cold & connected(conducting, [f"{name}0"])).any() if boundary == "temperature" else cold.any())
+    fixed = [f.face for f in faces if f.T is not None]
+    phase, joins = reachable(conducting_phase(np.asarray(image.labels), scene.phases), fixed, fixed)
+    return phase if joins and bool(np.any(phase >= 0)) else None
 
 
 def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) -> float:
@@ -105,11 +110,15 @@ def probe_k(scene: Scene, axis: int, boundary: str, method: str, rtol: float) ->
     name = AXES[axis]
     hot = FaceSpec(f"{name}0", T=1.0) if boundary == "temperature" else FaceSpec(f"{name}0", flux=1.0)
     faces = (hot, FaceSpec(f"{name}1", T=0.0))
-    if not _flows(scene, name, boundary):
+    phase = _probe_phase(scene, faces)
+    if phase is None:
         log.info("homogenisation: no conducting path along %s between its faces: k̄_%s = 0", name, name * 2)
         return 0.0  # no heat flows from one face to the other (exactly; a solve would give rounding)
     if method == "mg" and all(p.tensor is None for p in scene.phases):
-        return _stencil_probe(scene, axis, rtol, faces)
+        held = [phase]  # handed over, so that no frame here keeps it through the solve
+        del phase
+        return _stencil_probe(scene, axis, rtol, faces, held)
+    del phase
     method = "amg" if method == "mg" else method  # a rotated tensor: the assembled grid refuses it, saying why
     system = assemble_volumes(image.labels, image.voxel_size, scene.phases, faces, outputs=[f.face for f in faces])
     field = steady_field(system, method=method, rtol=rtol)
