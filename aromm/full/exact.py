@@ -54,8 +54,8 @@ def exact_outputs(system: ThermalSystem, values: Mapping[str, float], times: Flo
     lam = np.maximum(lam, 0.0)
     e_s = e[:, s] - e[:, m] @ condense
 
-    def full_load(t: float) -> FloatArray:
-        return np.asarray(system.load.evaluate(v, at=t), dtype=float).ravel()
+    def full_load(t: float) -> FloatArray:  # no load term: the initial state alone drives it
+        return np.asarray(system.load.evaluate(v, at=t), dtype=float).ravel() if system.load else np.zeros(system.n)
 
     def load(t: float) -> FloatArray:
         f = full_load(t)

@@ -1,0 +1,195 @@
+"""Coupled heat and moisture, linearised about a reference state, as an affine system of the thermal kind.
+
+Fields T (°C) and φ (relative humidity, 0–1); per phase k (W/(m K)), c (J/(m³ K)), ξ = dw/dφ (kg/m³), D_φ
+(kg/(m s), liquid and bound water on ∇φ) and δ_p (kg/(m s Pa), vapour permeability) [Kuenzel1995, § 2]:
+
+    c ∂T/∂t = ∇·(k ∇T) + L_v ∇·(δ_p ∇p_v),     ξ ∂φ/∂t = ∇·(D_φ ∇φ) + ∇·(δ_p ∇p_v),
+
+with the vapour pressure ``p_v = φ p_sat(T)`` linearised at (T_ref, φ_ref): ``∇p_v ≈ p ∇φ + a ∇T``,
+``p = p_sat(T_ref)``, ``a = φ_ref p_sat′(T_ref)``, ``p_sat(T) = 610.5 exp(17.269 T / (237.3 + T))`` Pa [Tetens1930].
+The moisture equation times ``λ = L_v p / a`` (J/kg) makes the 2 × 2 flux matrix symmetric:
+
+    [[k + L_v δ_p a, L_v δ_p p], [L_v δ_p p, λ (D_φ + δ_p p)]]  =  k E_T + λ D_φ E_φ + δ_p (L_v / a) v vᵀ,
+
+``E_T = diag(1, 0)``, ``E_φ = diag(0, 1)``, ``v = (a, p)``: each term positive semi-definite, the sum definite where
+k > 0 and D_φ > 0; the capacity is ``diag(c, λ ξ)``.  So on 2n unknowns (the T block, then the φ block) the coupled
+operators are affine in the phase parameters, each term ``B ⊗ K_i`` (K_i the thermal system's own conduction
+operator of phase i, B one of the 2 × 2 blocks above) symmetric positive semi-definite, and every solver, reductor,
+certificate and identification of the thermal model applies unchanged (docs/notes/hygrothermal.md).  L_v, T_ref and
+φ_ref are constants of the model, not parameters (a product such as L_v δ_p would not be affine).
+
+Boundary conditions here: the thermal system's own (fixed temperatures, flux, convection: T block only), fixed
+relative humidities on faces (``fixed_phi``), and sealed faces elsewhere (no moisture flux).  Outputs: every thermal
+output on the T block, and ``phi:<output>`` the same row on the φ block.  Initial state: ``initial.T`` on T and
+``initial.phi`` on φ (uniform).  Units SI except T in °C; the model is valid near (T_ref, φ_ref), where the
+linearisation of p_v holds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from aromm.core.errors import InputError
+from aromm.core.system import Affine, Coefficient, Dirichlet, FloatArray, Term, ThermalSystem, dense, sparse
+
+LATENT_HEAT = 2.45e6  # J/kg, evaporation of water near 20 °C
+MOISTURE_KEYS = ("xi", "D_phi", "delta_p")
+
+
+def p_sat(T: float) -> float:
+    """Saturation vapour pressure (Pa) over water at T (°C) [Tetens1930].
+
+    >>> round(p_sat(20.0))
+    2337
+    """
+    return 610.5 * math.exp(17.269 * T / (237.3 + T))
+
+
+def p_sat_slope(T: float) -> float:
+    """dp_sat/dT (Pa/K) at T (°C)."""
+    return p_sat(T) * 17.269 * 237.3 / (237.3 + T) ** 2
+
+
+@dataclass(frozen=True)
+class MoistureState:
+    """The reference state of the linearisation: ``T_ref`` (°C), ``phi_ref`` (0–1), ``latent_heat`` L_v (J/kg)."""
+
+    T_ref: float = 20.0
+    phi_ref: float = 0.5
+    latent_heat: float = LATENT_HEAT
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.phi_ref <= 1.0:
+            raise InputError(f"moisture.phi_ref must lie in (0, 1], got {self.phi_ref!r}")
+        if not self.latent_heat > 0.0:
+            raise InputError(f"moisture.latent_heat must be positive (J/kg), got {self.latent_heat!r}")
+        if not -50.0 <= self.T_ref <= 100.0:
+            raise InputError(f"moisture.T_ref must lie in [-50, 100] °C (p_sat's range), got {self.T_ref!r}")
+
+    @property
+    def p(self) -> float:
+        """p_sat(T_ref), Pa: ∂p_v/∂φ."""
+        return p_sat(self.T_ref)
+
+    @property
+    def a(self) -> float:
+        """φ_ref p_sat′(T_ref), Pa/K: ∂p_v/∂T."""
+        return self.phi_ref * p_sat_slope(self.T_ref)
+
+    @property
+    def weight(self) -> float:
+        """λ = L_v p / a (J/kg): the moisture equation's factor that makes the flux matrix symmetric."""
+        return self.latent_heat * self.p / self.a
+
+    def blocks(self) -> dict[str, FloatArray]:
+        """The 2 × 2 blocks of each parameter's term (module docstring), by parameter suffix."""
+        lam, a, p = self.weight, self.a, self.p
+        return {"k": np.diag([1.0, 0.0]), "D_phi": np.diag([0.0, lam]),
+                "delta_p": self.latent_heat / a * np.outer([a, p], [a, p]),
+                "c": np.diag([1.0, 0.0]), "xi": np.diag([0.0, lam])}
+
+
+def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str, Mapping[str, float]],
+            fixed_phi: Mapping[str, float] | None = None, initial_phi: float | None = None) -> ThermalSystem:
+    """The coupled system of the thermal system ``thermal`` (isotropic phases, assembled or matrix-free terms,
+    :func:`aromm.core.system.sparse`): ``moisture`` maps each phase name to its ``xi``, ``D_phi`` and ``delta_p``;
+    ``fixed_phi`` maps faces (with a fixed temperature, or a face output) to a fixed relative humidity; the initial
+    relative humidity is ``initial_phi`` (default φ_ref).  Parameters ``<phase>.xi``, ``<phase>.D_phi``,
+    ``<phase>.delta_p``, ``<face>.phi`` and ``initial.phi`` join the thermal ones."""
+    n, blocks = thermal.n, state.blocks()
+    phases = _phases(thermal)
+    missing = sorted(set(phases) - set(moisture))
+    if missing:
+        raise InputError(f"hygrothermal: no moisture properties for phase(s) {', '.join(missing)}; each phase needs "
+                         f"{', '.join(MOISTURE_KEYS)}")
+    parameters = dict(thermal.parameters)
+    for name, values in moisture.items():
+        if name not in phases:
+            raise InputError(f"hygrothermal: unknown phase {name!r}; phases: {', '.join(sorted(phases))}")
+        for key in MOISTURE_KEYS:
+            value = values.get(key)
+            if value is None or not math.isfinite(float(value)) or float(value) < 0.0:
+                raise InputError(f"hygrothermal: {name}.{key} must be a finite value ≥ 0, got {value!r}")
+            parameters[f"{name}.{key}"] = float(value)
+    conductance, capacity = [], []
+    for term in thermal.conductance.terms:
+        op = sparse(term.operator)
+        if term.role == "exchange":  # convection: the heat row only
+            conductance.append(_block(term, term.name, term.coefficient, blocks["k"], op))
+            continue
+        phase = _phase_of(term)
+        if phase is None:
+            raise InputError(f"hygrothermal: the conduction term {term.name!r} ({term.coefficient.describe()}) is not "
+                             "one isotropic phase's k: anisotropic phases are not coupled yet")
+        for key in ("k", "D_phi", "delta_p"):
+            coefficient = term.coefficient if key == "k" else _renamed(term.coefficient, f"{phase}.{key}")
+            conductance.append(_block(term, f"{term.name}_{key}", coefficient, blocks[key], op))
+    for term in thermal.capacity.terms:
+        phase = term.coefficient.params[0].rsplit(".", 1)[0]
+        for key in ("c", "xi"):
+            coefficient = term.coefficient if key == "c" else _renamed(term.coefficient, f"{phase}.xi")
+            capacity.append(_block(term, f"{term.name}_{key}", coefficient, blocks[key], sparse(term.operator)))
+    load = [Term(t.name, t.coefficient, np.concatenate([np.asarray(t.operator, dtype=float), np.zeros(n)]), t.role,
+                 t.time) for t in thermal.load.terms]
+    dirichlet = list(thermal.dirichlet)
+    for face, value in (fixed_phi or {}).items():
+        if not 0.0 <= float(value) <= 1.0:
+            raise InputError(f"hygrothermal: {face}.phi must lie in [0, 1], got {value!r}")
+        dofs = _face_dofs(thermal, face)
+        dirichlet.append(Dirichlet(f"{face}_phi", (dofs + n).astype(np.int64), f"{face}.phi"))
+        parameters[f"{face}.phi"] = float(value)
+    parameters["initial.phi"] = state.phi_ref if initial_phi is None else float(initial_phi)
+    on_phi = np.concatenate([np.zeros(n), np.ones(n)])
+    initial = [Term("initial_phi", Coefficient(("initial.phi",)), on_phi, "initial"),
+               Term("initial_T_off_phi", Coefficient(("initial.T",), scale=-1.0), on_phi, "initial")]
+    observation: dict[str, FloatArray | sp.csr_array] = {}
+    for name, row in thermal.observation.items():
+        r = sp.csr_array(sp.csr_array(dense(row).reshape(1, -1)))
+        observation[name] = sp.csr_array(sp.hstack([r, sp.csr_array((1, n))]))
+        observation[f"phi:{name}"] = sp.csr_array(sp.hstack([sp.csr_array((1, n)), r]))
+    if thermal.initial or thermal.feedthrough:
+        raise InputError("hygrothermal: couple the assembled thermal system, before any lifting")
+    return ThermalSystem(2 * n, Affine(tuple(conductance)), Affine(tuple(capacity)), Affine(tuple(load)),
+                         tuple(dirichlet), observation, parameters, thermal.time, None,
+                         None if thermal.boundary is None else sp.csr_array(sp.block_diag([thermal.boundary] * 2)),
+                         Affine(tuple(initial)))
+
+
+def _face_dofs(thermal: ThermalSystem, face: str) -> np.ndarray:
+    """The unknowns of ``face``: those of its fixed temperature, else those its face-mean output weighs."""
+    for d in thermal.dirichlet:
+        if d.param == f"{face}.T":
+            return np.asarray(d.dofs)
+    row = thermal.observation.get(face)
+    if row is None:
+        raise InputError(f"hygrothermal: fixed_phi names {face!r}, neither a face with a fixed temperature nor an "
+                         f"output face; outputs: {', '.join(thermal.observation)}")
+    return np.flatnonzero(dense(row).ravel() != 0.0)
+
+
+def _phases(thermal: ThermalSystem) -> set[str]:
+    """The phases of the isotropic conduction terms (their parameter ``<phase>.k``)."""
+    return {name for name in map(_phase_of, thermal.conductance.terms) if name is not None}
+
+
+def _phase_of(term: Term) -> str | None:
+    """The phase of a conduction term whose coefficient is one phase's ``k`` (times constants), else None."""
+    params = term.coefficient.params
+    if term.role != "conduction" or term.coefficient.kind != "product" or len(params) != 1:
+        return None
+    phase, _, key = params[0].rpartition(".")
+    return phase if key == "k" and phase else None
+
+
+def _renamed(coefficient: Coefficient, name: str) -> Coefficient:
+    """``coefficient`` with its (single) parameter replaced by ``name`` (the same scale)."""
+    return Coefficient((name, *coefficient.params[1:]), coefficient.kind, coefficient.scale)
+
+
+def _block(term: Term, name: str, coefficient: Coefficient, block: FloatArray, op: sp.csr_array) -> Term:
+    return Term(name, coefficient, sp.csr_array(sp.kron(block, op)), term.role, term.time)
