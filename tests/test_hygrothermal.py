@@ -140,3 +140,16 @@ def test_the_krylov_reduced_model_and_its_certified_bound_apply_unchanged() -> N
         bound = rom.error_bound(mu)
         assert bound is not None
         assert np.all(bound >= actual - 1e-11 * np.abs(truth).max()), (bound, actual)
+
+
+def test_finite_volumes_between_two_phases_are_refused_saying_why() -> None:
+    from aromm.fv.volumes import assemble_volumes
+
+    labels = np.zeros((4, 2, 2), dtype=int)
+    labels[2:] = 1
+    thermal = assemble_volumes(labels, (1e-3,) * 3, [PhaseSpec("a", 0, 1.0, 1e6), PhaseSpec("b", 1, 2.0, 1e6)],
+                               [FaceSpec("x0", T=1.0)], outputs=["x1"])
+    props = {"xi": 1.0, "D_phi": 1e-9, "delta_p": 1e-11}
+    with pytest.raises(InputError, match="finite-volume link between two phases"):
+        coupled(thermal, STATE, {"a": props, "b": props})
+

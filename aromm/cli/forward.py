@@ -140,6 +140,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int | None, out: Path | None
     from aromm.cli import checks
     from aromm.core.observables import write_csv
     from aromm.core.series import write_series, write_vtu
+    from aromm.scene.moisture_section import split_outputs
     from aromm.scene.scene_file import assemble
 
     refuse_order_with_full_model(model)
@@ -168,7 +169,7 @@ def simulate_cmd(*, scene: Path, model: str, order: int | None, out: Path | None
     if not is_root(engine):
         return
     if as_json:
-        echo_json({**obs.to_json(), **bound})
+        echo_json({**split_outputs(obs.to_json()), **bound})
     else:
         click.echo(_table(obs))
         if bound:
@@ -267,11 +268,13 @@ def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: flo
     from aromm.cli import checks
     from aromm.core.observables import TIME_SERIES
     from aromm.homogenization.synthetic import homogeneous_measurements
+    from aromm.scene.moisture_section import refuse_moisture
     from inverse.measurements import save_measurements
 
     solver = engine_cli.resolve(engine, solver)
     source = engine_cli.load(scene, engine)
     sc = engine_cli.outline(source)
+    refuse_moisture(sc, "measure")
     if sc.time is None:
         raise InputError(f"{scene}: [time]: measurements need a transient scene; add [time] with end and dt (s)")
     if not sc.outputs:

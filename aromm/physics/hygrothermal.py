@@ -18,6 +18,9 @@ operator of phase i, B one of the 2 × 2 blocks above) symmetric positive semi-d
 certificate and identification of the thermal model applies unchanged (docs/notes/hygrothermal.md).  L_v, T_ref and
 φ_ref are constants of the model, not parameters (a product such as L_v δ_p would not be affine).
 
+Finite volumes couple within one phase only: a link between two phases has the harmonic mean of their k as its
+coefficient, which no 2 × 2 block times a phase operator reproduces (refused, saying so).
+
 Boundary conditions here: the thermal system's own (fixed temperatures, flux, convection: T block only), fixed
 relative humidities on faces (``fixed_phi``), and sealed faces elsewhere (no moisture flux).  Outputs: every thermal
 output on the T block, and ``phi:<output>`` the same row on the φ block.  Initial state: ``initial.T`` on T and
@@ -124,8 +127,11 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
             continue
         phase = _phase_of(term)
         if phase is None:
-            raise InputError(f"hygrothermal: the conduction term {term.name!r} ({term.coefficient.describe()}) is not "
-                             "one isotropic phase's k: anisotropic phases are not coupled yet")
+            why = ("a finite-volume link between two phases (a harmonic mean of their k, which has no 2 × 2 block "
+                   "form): use q1 elements" if term.coefficient.kind == "harmonic" else
+                   "not one isotropic phase's k: anisotropic phases are not coupled yet")
+            raise InputError(f"hygrothermal: the conduction term {term.name!r} ({term.coefficient.describe()}) is "
+                             f"{why}")
         for key in ("k", "D_phi", "delta_p"):
             coefficient = term.coefficient if key == "k" else _renamed(term.coefficient, f"{phase}.{key}")
             conductance.append(_block(term, f"{term.name}_{key}", coefficient, blocks[key], op))

@@ -109,13 +109,15 @@ def masked(specs: Any, box: Collection[str]) -> Any:
 
 def physics_key(digest: str, *, shape: Sequence[int], voxel_size: Sequence[float], phases: Any, boundary: Any,
                 initial_T: float, time: Any, outputs: Sequence[str], sensors: Any = (),
-                box: Collection[str] = (), discretisation: str = "q1") -> str:
+                box: Collection[str] = (), discretisation: str = "q1", moisture: Any = None) -> str:
     """Content hash of a voxel scene's physics; ``digest`` the image's (:mod:`aromm.microstructure.digest`); the
-    values of the parameters named in ``box`` left out (:func:`masked`); ``discretisation`` q1 or fv."""
+    values of the parameters named in ``box`` left out (:func:`masked`); ``discretisation`` q1 or fv; ``moisture``
+    the scene's moisture part as its ``keyed`` gives it (None: a thermal scene, the key of before)."""
     initial = BOXED if "initial.T" in box else float(initial_T)
+    parts = () if moisture is None else (plain(moisture),)
     return content_key("voxel physics", _VERSION, tuple(int(n) for n in shape), tuple(float(v) for v in voxel_size),
                        masked(phases, box), masked(boundary, box), initial, plain(time),
-                       tuple(str(o) for o in outputs), plain(sensors), digest, str(discretisation))
+                       tuple(str(o) for o in outputs), plain(sensors), digest, str(discretisation), *parts)
 
 
 def scene_physics_key(scene: Scene, box: Collection[str] = ()) -> str | None:
@@ -126,7 +128,8 @@ def scene_physics_key(scene: Scene, box: Collection[str] = ()) -> str | None:
     return physics_key(label_digest(np.asarray(geometry.labels)), shape=geometry.shape,
                        voxel_size=geometry.voxel_size, phases=scene.phases, boundary=scene.boundary,
                        initial_T=scene.initial_T, time=scene.time, outputs=scene.outputs, sensors=scene.sensors,
-                       box=box, discretisation=scene.discretisation)
+                       box=box, discretisation=scene.discretisation,
+                       moisture=None if scene.moisture is None else scene.moisture.keyed(box))
 
 
 def system_key(system: ThermalSystem, box: Sequence[tuple[str, float, float]], *parts: Any,

@@ -25,9 +25,11 @@ from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
 from aromm.microstructure.generators import GENERATORS
 from aromm.microstructure.segmentation import SegmentationReport, prepare_image
+from aromm.physics.hygrothermal import MOISTURE_KEYS
 from aromm.scene.contact_resistances import parse_interfaces
 from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
 from aromm.scene.model_section import parse_model, refusal, with_discretisation
+from aromm.scene.moisture_section import MoistureScene, parse_moisture
 from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
 from aromm.scene.time_section import AutoTime, auto_grid, parse_time
@@ -37,9 +39,9 @@ if TYPE_CHECKING:  # meshio (≈ 0.06 CPU s) is read for mesh scenes only
     import meshio
 
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction",
-            "model")
-PHASE_KEYS = ("label", "k", "c", *FIBRE_KEYS)
-FACE_KEYS = ("flux", "h", "T_ext", "T")
+            "model", "moisture")
+PHASE_KEYS = ("label", "k", "c", *FIBRE_KEYS, *MOISTURE_KEYS)
+FACE_KEYS = ("flux", "h", "T_ext", "T", "phi")
 IMAGE_KEYS = ("image", "voxel_size", "shape", "dtype", "segment", "crop", "downsample")
 REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
 
@@ -62,11 +64,13 @@ class Scene:
     sensors: tuple[Sensor, ...] = ()
     segmentation: SegmentationReport | None = None  # a grey image's (aromm.microstructure.segmentation)
     discretisation: str = "q1"  # of a voxel image: "q1" elements or "fv" finite volumes (aromm.scene.model_section)
+    moisture: MoistureScene | None = None  # coupled heat and moisture (aromm.scene.moisture_section)
 
     @property
     def parameters(self) -> dict[str, float]:
         """Named parameter values of this scene (``"fibre.k"``, ``"z1.h"``, ``"initial.T"``...)."""
-        return parameter_values(self.phases, self.boundary, self.initial_T, self.time is not None)
+        out = parameter_values(self.phases, self.boundary, self.initial_T, self.time is not None)
+        return out if self.moisture is None else {**out, **self.moisture.parameters}
 
     @property
     def where(self) -> str:
@@ -139,13 +143,15 @@ def assemble(scene: Scene, matrix_free: bool = False) -> ThermalSystem:
     if refused is not None:
         raise InputError(f"{scene.where}{refused[0]}: {refused[1]}")
     voxels: dict[str, Any] = {"matrix_free": matrix_free, "discretisation": scene.discretisation}
+    moisture = scene.moisture
+    faces = scene.outputs if moisture is None else moisture.faces(scene.outputs)
     system = scene.geometry.assemble(scene.phases, scene.boundary, interfaces=scene.interfaces, time=scene.time,
-                                     initial_T=scene.initial_T, outputs=scene.outputs, where=scene.where,
+                                     initial_T=scene.initial_T, outputs=faces, where=scene.where,
                                      **(voxels if isinstance(scene.geometry, VoxelGeometry) else {}))
-    if not scene.sensors:
-        return system
-    rows = sensor_rows(scene.sensors, scene.geometry, system, scene.where)
-    return replace(system, observation={**system.observation, **rows})
+    if scene.sensors:
+        rows = sensor_rows(scene.sensors, scene.geometry, system, scene.where)
+        system = replace(system, observation={**system.observation, **rows})
+    return system if moisture is None else moisture.coupled(system, (*scene.outputs, *(s.name for s in scene.sensors)))
 
 
 def load_scene(path: str | Path, discretisation: str | None = None) -> Scene:
@@ -208,7 +214,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
         raise r.fail(f"phases.{from_image[0]}.axis", "a fibre axis from the image needs the whole image: use the "
                                                      "scipy engine, or give the axis as [x, y, z]")
     boundary = _boundary(r, data)
-    initial = r.table(data, "initial", ("T",))
+    initial = r.table(data, "initial", ("T", "phi"))
     initial_T = _celsius(r, r.number(initial.get("T", 0.0), "initial.T"), "initial.T")
     time = parse_time(r, data)
     varying = [f.face for f in boundary if f.varies]
@@ -230,10 +236,11 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
         raise InputError(f"{where(path)}{singular}")
     interfaces = parse_interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
+    moisture = parse_moisture(r, data, phases)
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
-    reduction = parse_reduction(r, data, allowed)
+    reduction = parse_reduction(r, data, allowed if moisture is None else {**allowed, **moisture.parameters})
     return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report,
-                 parse_model(r, data, geometry, phases, sensors))
+                 parse_model(r, data, geometry, phases, sensors), moisture)
 
 
 def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,
@@ -435,6 +442,6 @@ def _outputs(r: TableReader, data: Mapping[str, Any],
     faces = out.get("mean_T", [])
     if not isinstance(faces, list) or any(f not in FACES for f in faces):
         raise r.fail("outputs.mean_T", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
-    named = {k: v for k, v in out.items() if k != "mean_T"}
+    named = {k: v for k, v in out.items() if k not in ("mean_T", "mean_phi")}  # mean_phi: aromm.scene.moisture_section
     return tuple(faces), parse_sensors(named, box(geometry), faces, where(r.path),
                                        voxels=isinstance(geometry, VoxelGeometry))

@@ -141,6 +141,8 @@ def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     if scene.discretisation != "q1":
         raise InputError(f"{path}: model.discretisation: the petsc engine assembles q1 elements only; run "
                          f"{scene.discretisation} with --engine scipy")
+    if scene.moisture is not None:
+        raise InputError(f"{path}: moisture: the petsc engine has no moisture model yet; run it with --engine scipy")
     geometry = scene.geometry
     assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
     return VoxelProblem(image, geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,

@@ -1,0 +1,155 @@
+"""The scene's ``[moisture]`` vocabulary: coupled heat and moisture (:mod:`aromm.physics.hygrothermal`).
+
+A scene without ``[moisture]`` is exactly a thermal scene; with it::
+
+    [moisture]
+    T_ref = 20.0          # °C, the linearisation's reference state
+    phi_ref = 0.5
+    latent_heat = 2.45e6  # J/kg, optional
+    [phases.board]        # beside label, k and c, every phase: xi (kg/m³), D_phi (kg/(m s)), delta_p (kg/(m s Pa))
+    xi = 20.0
+    D_phi = 1.0e-9
+    delta_p = 2.0e-11
+    [boundary.x0]         # a fixed relative humidity (0–1) on a face; faces without one are sealed
+    phi = 0.8
+    [initial]
+    phi = 0.5             # default phi_ref
+    [outputs]
+    mean_phi = ["x1"]     # face-mean relative humidities
+
+Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi`` and ``initial.phi`` join the scene's.
+Not yet: vapour exchange (β) and moisture-flux faces, anisotropic phases, the petsc engine, sensors of φ.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+from aromm.core.errors import InputError
+from aromm.core.system import ThermalSystem
+from aromm.core.vocabulary import FACES, PhaseSpec
+from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, MoistureState, coupled
+from aromm.scene.toml import TableReader
+
+STATE_KEYS = ("T_ref", "phi_ref", "latent_heat")
+#: What a moisture output is called in a coupled system's outputs (:func:`aromm.physics.hygrothermal.coupled`).
+PHI_PREFIX = "phi:"
+
+
+@dataclass(frozen=True)
+class MoistureScene:
+    """The moisture part of a scene: the reference ``state``, each phase's ``xi``, ``D_phi`` and ``delta_p``, the
+    faces with a ``fixed_phi``, ``initial_phi`` and the face-mean outputs ``outputs``."""
+
+    state: MoistureState
+    phases: Mapping[str, Mapping[str, float]]
+    fixed_phi: Mapping[str, float]
+    initial_phi: float
+    outputs: tuple[str, ...] = ()
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Its named parameter values (module docstring)."""
+        out = {f"{phase}.{key}": float(v) for phase, values in self.phases.items() for key, v in values.items()}
+        out.update({f"{face}.phi": float(v) for face, v in self.fixed_phi.items()})
+        out["initial.phi"] = float(self.initial_phi)
+        return out
+
+    def faces(self, outputs: Sequence[str]) -> tuple[str, ...]:
+        """The face outputs the thermal system must have: the scene's, then those of ``mean_phi``."""
+        return (*outputs, *(f for f in self.outputs if f not in outputs))
+
+    def coupled(self, thermal: ThermalSystem, outputs: Sequence[str]) -> ThermalSystem:
+        """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal ``outputs`` and the
+        ``phi:<face>`` of ``mean_phi``."""
+        system = coupled(thermal, self.state, self.phases, self.fixed_phi, self.initial_phi)
+        wanted = {*outputs, *(PHI_PREFIX + f for f in self.outputs)}
+        return replace(system, observation={k: v for k, v in system.observation.items() if k in wanted})
+
+    def keyed(self, box: Collection[str]) -> tuple[Any, ...]:
+        """What a reduced model's cache key holds of it: every value, those of the parameters in ``box`` masked."""
+        values = tuple(sorted((name, "in the training box" if name in box else value)
+                              for name, value in self.parameters.items()))
+        state = (self.state.T_ref, self.state.phi_ref, self.state.latent_heat)
+        return ("moisture", state, values, self.outputs)
+
+
+def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[PhaseSpec]) -> MoistureScene | None:
+    """The ``[moisture]`` part of a scene (None without the section); the moisture keys of ``[phases]``,
+    ``[boundary]``, ``[initial]`` and ``[outputs]`` are refused without it."""
+    phase_tables = r.table(data, "phases", None)
+    face_tables = r.table(data, "boundary", None)
+    initial = r.table(data, "initial", None)
+    outputs = r.table(data, "outputs", None)
+    if "moisture" not in data:
+        stray = [f"phases.{p}.{k}" for p, t in phase_tables.items() if isinstance(t, dict) for k in MOISTURE_KEYS
+                 if k in t] + [f"boundary.{f}.phi" for f, t in face_tables.items() if isinstance(t, dict)
+                               and "phi" in t] + (["initial.phi"] if "phi" in initial else []) \
+            + (["outputs.mean_phi"] if "mean_phi" in outputs else [])
+        if stray:
+            raise r.fail(stray[0], "a moisture key needs a [moisture] section (T_ref, phi_ref)")
+        return None
+    table = r.table(data, "moisture", STATE_KEYS)
+    try:
+        state = MoistureState(r.number(table.get("T_ref", 20.0), "moisture.T_ref"),
+                              r.number(table.get("phi_ref", 0.5), "moisture.phi_ref"),
+                              r.number(table.get("latent_heat", LATENT_HEAT), "moisture.latent_heat", positive=True))
+    except InputError as err:
+        raise InputError(f"{r.fail('moisture', str(err)).args[0]}") from None
+    values: dict[str, dict[str, float]] = {}
+    for ph in phases:
+        spec = phase_tables.get(ph.name, {})
+        missing = [k for k in MOISTURE_KEYS if k not in spec]
+        if missing:
+            raise r.fail(f"phases.{ph.name}.{missing[0]}", f"missing: a [moisture] scene needs every phase's "
+                                                           f"{', '.join(MOISTURE_KEYS)}")
+        if ph.tensor is not None or isinstance(ph.k, tuple):
+            raise r.fail(f"phases.{ph.name}", "an anisotropic phase is not coupled to moisture yet")
+        values[ph.name] = {k: _non_negative(r, spec[k], f"phases.{ph.name}.{k}") for k in MOISTURE_KEYS}
+    fixed = {}
+    for face, spec in face_tables.items():
+        if isinstance(spec, dict) and "phi" in spec:
+            fixed[face] = _humidity(r, spec["phi"], f"boundary.{face}.phi")
+    initial_phi = _humidity(r, initial.get("phi", state.phi_ref), "initial.phi")
+    faces = outputs.get("mean_phi", [])
+    if not isinstance(faces, list) or any(f not in FACES for f in faces):
+        raise r.fail("outputs.mean_phi", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
+    return MoistureScene(state, values, fixed, initial_phi, tuple(faces))
+
+
+def _non_negative(r: TableReader, value: Any, key: str) -> float:
+    number = r.number(value, key)
+    if number < 0:
+        raise r.fail(key, f"must be >= 0, got {value!r}")
+    return number
+
+
+def _humidity(r: TableReader, value: Any, key: str) -> float:
+    number = r.number(value, key)
+    if not 0.0 <= number <= 1.0:
+        raise r.fail(key, f"a relative humidity lies in [0, 1] (not %), got {value!r}")
+    return number
+
+
+def split_outputs(payload: Mapping[str, Any]) -> dict[str, Any]:
+    """A ``{"t", "mean_T"}`` JSON payload with the ``phi:<face>`` series moved to ``"mean_phi": {face: [...]}``
+    (unchanged without any).
+
+    >>> split_outputs({"t": [1.0], "mean_T": {"x1": [20.5], "phi:x1": [0.5]}})
+    {'t': [1.0], 'mean_T': {'x1': [20.5]}, 'mean_phi': {'x1': [0.5]}}
+    """
+    series = payload.get("mean_T", {})
+    phi = {k[len(PHI_PREFIX):]: v for k, v in series.items() if k.startswith(PHI_PREFIX)}
+    if not phi:
+        return dict(payload)
+    return {**payload, "mean_T": {k: v for k, v in series.items() if not k.startswith(PHI_PREFIX)}, "mean_phi": phi}
+
+
+def refuse_moisture(scene: Any, command: str) -> None:
+    """An InputError when ``scene`` has a ``[moisture]`` section that ``command`` cannot use yet."""
+    if getattr(scene, "moisture", None) is not None:
+        raise InputError(f"{scene.where}moisture: `aromm {command}` does not take coupled heat and moisture yet "
+                         "(simulate and reduce do); leave [moisture] out for a thermal run")
+

@@ -1,0 +1,125 @@
+"""The scene's [moisture] vocabulary (aromm.scene.moisture_section) from the command line: the coupled slab of
+tests/test_hygrothermal.py written as a scene file, simulated by `aromm simulate --model reduced --json` against the
+exact coupled solution, bad input refused with its key, the commands that do not take moisture yet saying so, and a
+reduced model's cache key split by every moisture value outside its training box."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_hygrothermal import TIMES, _exact_far_face
+
+from aromm.cli import main
+from aromm.reduction.model_key import scene_physics_key
+from aromm.scene.scene_file import load_scene
+
+SCENE = """
+[geometry]
+image = "bar.npy"
+voxel_size = [{size}, {size}, {size}]
+
+[phases.board]
+label = 0
+k = 0.04
+c = 3.2e5
+xi = {xi}
+D_phi = 1.0e-9
+delta_p = 2.0e-11
+
+[moisture]
+T_ref = 20.0
+phi_ref = 0.5
+
+[boundary.x0]
+T = 20.0
+phi = 0.8
+
+[initial]
+T = 20.0
+phi = 0.5
+
+[time]
+end = 7200.0
+dt = 600.0
+
+[outputs]
+mean_T = ["x1"]
+mean_phi = ["x1"]
+
+[reduction]
+method = "krylov"
+bounds = {{ "board.xi" = [10.0, 40.0] }}
+"""
+
+
+def _scene(folder: Path, cells: int = 16, xi: float = 20.0) -> Path:
+    np.save(folder / "bar.npy", np.zeros((cells, 1, 1), dtype=np.int32))
+    path = folder / "s.toml"
+    path.write_text(SCENE.format(size=0.02 / cells, xi=xi), encoding="utf-8")
+    return path
+
+
+@pytest.mark.filterwarnings("ignore::aromm.core.errors.ModelWarning")
+def test_simulate_reduced_gives_mean_phi_beside_mean_T_within_the_exact_solution(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """16 cells: Q1's error on this slab is 6.0e-4 °C and 4.9e-5 in φ (tests/test_hygrothermal.py); the reduced
+    model adds at most its certified bound, given in the JSON."""
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path / "cache"))
+    path = _scene(tmp_path)
+    assert main(["simulate", str(path), "--model", "reduced", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out["mean_T"]) == {"x1"} and set(out["mean_phi"]) == {"x1"}
+    t = np.asarray(out["t"])
+    at = np.searchsorted(t, TIMES)
+    assert np.allclose(t[at], TIMES)
+    exact = _exact_far_face(TIMES)
+    bound = out["error_bound"]  # per output: x1 in °C, phi:x1 in relative humidity
+    assert np.abs(np.asarray(out["mean_T"]["x1"])[at] - exact[:, 0]).max() <= 6.1e-4 + bound["x1"]
+    assert np.abs(np.asarray(out["mean_phi"]["x1"])[at] - exact[:, 1]).max() <= 5e-5 + bound["phi:x1"]
+
+
+def test_the_scene_parameters_name_the_moisture_values(tmp_path: Path) -> None:
+    scene = load_scene(_scene(tmp_path))
+    params = scene.parameters
+    assert params["board.xi"] == 20.0 and params["x0.phi"] == 0.8 and params["initial.phi"] == 0.5
+    assert scene.moisture is not None and scene.moisture.outputs == ("x1",)
+
+
+@pytest.mark.parametrize(("edit", "fragment"), [
+    (lambda s: s.replace("[moisture]\nT_ref = 20.0\nphi_ref = 0.5\n", ""), "phases.board.xi: a moisture key needs"),
+    (lambda s: s.replace("xi = 20.0\n", ""), "phases.board.xi: missing"),
+    (lambda s: s.replace("phi = 0.8", "phi = 80"), "boundary.x0.phi: a relative humidity lies in [0, 1]"),
+    (lambda s: s.replace("delta_p = 2.0e-11", "delta_p = -1.0"), "phases.board.delta_p: must be >= 0"),
+    (lambda s: s.replace("phi_ref = 0.5", "phi_ref = 0.0"), "moisture.phi_ref must lie in (0, 1]"),
+    (lambda s: s.replace('mean_phi = ["x1"]', 'mean_phi = ["q1"]'), "outputs.mean_phi: must be a list of faces"),
+])
+def test_bad_moisture_input_exits_2_naming_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                   edit: object, fragment: str) -> None:
+    path = _scene(tmp_path)
+    path.write_text(edit(path.read_text(encoding="utf-8")), encoding="utf-8")  # type: ignore[operator]
+    assert main(["simulate", str(path), "--json"]) == 2
+    assert fragment in capsys.readouterr().err
+
+
+def test_measure_and_identify_say_they_do_not_take_moisture_yet(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    path = _scene(tmp_path)
+    assert main(["measure", str(path), "--homogeneous", "--out", str(tmp_path / "y.csv")]) == 2
+    assert "`aromm measure` does not take coupled heat and moisture yet" in capsys.readouterr().err
+    (tmp_path / "m.csv").write_text("t,x1\n600,20.1\n", encoding="utf-8")
+    assert main(["identify", str(path), "--measurements", str(tmp_path / "m.csv"), "--unknown",
+                 "board.k=0.01:0.1"]) == 2
+    assert "`aromm identify` does not take coupled heat and moisture yet" in capsys.readouterr().err
+
+
+def test_a_moisture_value_outside_the_box_splits_the_cache_key(tmp_path: Path) -> None:
+    """ξ outside the training box changes the model; inside it, one model serves (issue 35's rule, moisture too)."""
+    first, second = tmp_path / "a", tmp_path / "b"
+    first.mkdir()
+    second.mkdir()
+    a, b = load_scene(_scene(first, xi=20.0)), load_scene(_scene(second, xi=30.0))
+    assert scene_physics_key(a) != scene_physics_key(b)
+    assert scene_physics_key(a, {"board.xi"}) == scene_physics_key(b, {"board.xi"})
