@@ -153,3 +153,32 @@ def test_finite_volumes_between_two_phases_are_refused_saying_why() -> None:
     with pytest.raises(InputError, match="finite-volume link between two phases"):
         coupled(thermal, STATE, {"a": props, "b": props})
 
+
+
+def test_vapour_exchange_gives_the_exact_steady_profile() -> None:
+    """Steady bar: T = 20 °C and φ = 0.8 fixed on x0; on x1 convection (h 8 W/(m² K), T_ext 18 °C) and vapour
+    exchange (β 2e-8 kg/(m² s Pa), φ_ext 0.4) with the same air (near the reference state: the linearisation of
+    p_v is the model's, and far from (T_ref, φ_ref) it stops being the physics).  The exact solution is linear,
+    u = u0 + s x with (A + H L) s = −H (u0 − u_ext) (A the symmetrised flux matrix, H the exchange rows: heat
+    h(T − T_ext) plus the latent heat L_v j, moisture λ j, j = β (p (φ − φ_ext) + a (T − T_ext))); Q1 reproduces a
+    linear field exactly, so the far face agrees to the direct solve's rounding."""
+    from aromm.full.solve import steady_field
+
+    size = LENGTH / 6
+    thermal = assemble_voxels(np.zeros((6, 1, 1), dtype=int), (size, size, size),
+                              [PhaseSpec("board", 0, BOARD["k"], BOARD["c"])],
+                              [FaceSpec("x0", T=20.0), FaceSpec("x1", h=8.0, T_ext=18.0)], outputs=["x1"])
+    moisture = {"board": {k: BOARD[k] for k in ("xi", "D_phi", "delta_p")}}
+    system = coupled(thermal, STATE, moisture, fixed_phi={"x0": 0.8}, vapour={"x1": (2e-8, 0.4)})
+    field = steady_field(system)
+    far = np.array([float(np.asarray(system.observation[name] @ field).ravel()[0]) for name in ("x1", "phi:x1")])
+    lam, a, p, lv = STATE.weight, STATE.a, STATE.p, STATE.latent_heat
+    k, d, dp, beta = BOARD["k"], BOARD["D_phi"], BOARD["delta_p"], 2e-8
+    flux = np.array([[k + lv * dp * a, lv * dp * p], [lv * dp * p, lam * (d + dp * p)]])
+    h = np.array([[8.0 + lv * beta * a, lv * beta * p], [lam * beta * a, lam * beta * p]])
+    u0, u_ext = np.array([20.0, 0.8]), np.array([18.0, 0.4])
+    s = -np.linalg.solve(flux + h * LENGTH, h @ (u0 - u_ext))
+    exact = u0 + s * LENGTH
+    assert np.abs(far - exact).max() <= 1e-9 * np.abs(exact).max()
+    with pytest.raises(InputError, match="needs the face to exchange heat with the same air"):
+        coupled(thermal, STATE, moisture, vapour={"x0": (2e-8, 0.3)})

@@ -82,9 +82,13 @@ def test_simulate_reduced_gives_mean_phi_beside_mean_T_within_the_exact_solution
 
 
 def test_the_scene_parameters_name_the_moisture_values(tmp_path: Path) -> None:
-    scene = load_scene(_scene(tmp_path))
+    path = _scene(tmp_path)
+    path.write_text(path.read_text(encoding="utf-8").replace(
+        "[initial]", "[boundary.x1]\nh = 8.0\nT_ext = 18.0\nbeta = 2e-8\nphi_ext = 0.4\n[initial]"), encoding="utf-8")
+    scene = load_scene(path)
     params = scene.parameters
     assert params["board.xi"] == 20.0 and params["x0.phi"] == 0.8 and params["initial.phi"] == 0.5
+    assert params["x1.beta"] == 2e-8 and params["x1.phi_ext"] == 0.4
     assert scene.moisture is not None and scene.moisture.outputs == ("x1",)
 
 
@@ -95,6 +99,9 @@ def test_the_scene_parameters_name_the_moisture_values(tmp_path: Path) -> None:
     (lambda s: s.replace("delta_p = 2.0e-11", "delta_p = -1.0"), "phases.board.delta_p: must be >= 0"),
     (lambda s: s.replace("phi_ref = 0.5", "phi_ref = 0.0"), "moisture.phi_ref must lie in (0, 1]"),
     (lambda s: s.replace('mean_phi = ["x1"]', 'mean_phi = ["q1"]'), "outputs.mean_phi: must be a list of faces"),
+    (lambda s: s.replace("[initial]", "[boundary.x1]\nbeta = 2e-8\nphi_ext = 0.4\n[initial]"),
+     "boundary.x1: a vapour exchange takes beta (kg/(m² s Pa)) and phi_ext, on a face that exchanges heat"),
+    (lambda s: s.replace("phi = 0.8", "phi = 0.8\nbeta = 2e-8"), "boundary.x0: a face takes a fixed phi, or"),
 ])
 def test_bad_moisture_input_exits_2_naming_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                    edit: object, fragment: str) -> None:

@@ -22,9 +22,10 @@ Finite volumes couple within one phase only: a link between two phases has the h
 coefficient, which no 2 × 2 block times a phase operator reproduces (refused, saying so).
 
 Boundary conditions here: the thermal system's own (fixed temperatures, flux, convection: T block only), fixed
-relative humidities on faces (``fixed_phi``), and sealed faces elsewhere (no moisture flux).  Outputs: every thermal
-output on the T block, and ``phi:<output>`` the same row on the φ block.  Initial state: ``initial.T`` on T and
-``initial.phi`` on φ (uniform).  Units SI except T in °C; the model is valid near (T_ref, φ_ref), where the
+relative humidities on faces (``fixed_phi``), vapour exchange with the air of a convective face (``vapour``: β and
+φ_ext, the latent heat of the exchanged vapour included), and sealed faces elsewhere (no moisture flux).  Outputs:
+every thermal output on the T block, and ``phi:<output>`` the same row on the φ block.  Initial state: ``initial.T``
+on T and ``initial.phi`` on φ (uniform).  Units SI except T in °C; the model is valid near (T_ref, φ_ref), where the
 linearisation of p_v holds.
 """
 
@@ -97,13 +98,16 @@ class MoistureState:
                 "c": np.diag([1.0, 0.0]), "xi": np.diag([0.0, lam])}
 
 
-def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str, Mapping[str, float]],
-            fixed_phi: Mapping[str, float] | None = None, initial_phi: float | None = None) -> ThermalSystem:
+def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str, Mapping[str, float]], *,
+            fixed_phi: Mapping[str, float] | None = None, initial_phi: float | None = None,
+            vapour: Mapping[str, tuple[float, float]] | None = None) -> ThermalSystem:
     """The coupled system of the thermal system ``thermal`` (isotropic phases, assembled or matrix-free terms,
     :func:`aromm.core.system.sparse`): ``moisture`` maps each phase name to its ``xi``, ``D_phi`` and ``delta_p``;
     ``fixed_phi`` maps faces (with a fixed temperature, or a face output) to a fixed relative humidity; the initial
-    relative humidity is ``initial_phi`` (default φ_ref).  Parameters ``<phase>.xi``, ``<phase>.D_phi``,
-    ``<phase>.delta_p``, ``<face>.phi`` and ``initial.phi`` join the thermal ones."""
+    relative humidity is ``initial_phi`` (default φ_ref); ``vapour`` maps faces that exchange heat with the air (a
+    convection ``h``) to ``(beta, phi_ext)``, their vapour exchange (:func:`_vapour_terms`).  Parameters
+    ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``, ``<face>.phi_ext`` and
+    ``initial.phi`` join the thermal ones."""
     n, blocks = thermal.n, state.blocks()
     phases = _phases(thermal)
     missing = sorted(set(phases) - set(moisture))
@@ -142,6 +146,14 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
             capacity.append(_block(term, f"{term.name}_{key}", coefficient, blocks[key], sparse(term.operator)))
     load = [Term(t.name, t.coefficient, np.concatenate([np.asarray(t.operator, dtype=float), np.zeros(n)]), t.role,
                  t.time) for t in thermal.load.terms]
+    for face, (beta, phi_ext) in (vapour or {}).items():
+        if not (math.isfinite(beta) and beta > 0.0 and 0.0 <= phi_ext <= 1.0):
+            raise InputError(f"hygrothermal: {face}.beta must be > 0 (kg/(m² s Pa)) and {face}.phi_ext in [0, 1], got "
+                             f"{beta!r} and {phi_ext!r}")
+        terms = _vapour_terms(thermal, face, state)
+        conductance.append(terms[0])
+        load.extend(terms[1:])
+        parameters.update({f"{face}.beta": float(beta), f"{face}.phi_ext": float(phi_ext)})
     dirichlet = list(thermal.dirichlet)
     for face, value in (fixed_phi or {}).items():
         if not 0.0 <= float(value) <= 1.0:
@@ -164,6 +176,28 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
                          tuple(dirichlet), observation, parameters, thermal.time, None,
                          None if thermal.boundary is None else sp.csr_array(sp.block_diag([thermal.boundary] * 2)),
                          Affine(tuple(initial)))
+
+
+def _vapour_terms(thermal: ThermalSystem, face: str, state: MoistureState) -> list[Term]:
+    """The vapour exchange ``j = β (p_v,ext − p_v)`` (kg/(m² s)) through ``face``, with the outside air's
+    ``p_v,ext`` linearised like ``p_v`` (``p_v,ext − p_v = p (φ_ext − φ) + a (T_ext − T)``, T_ext the face's
+    convection temperature): it enters the moisture row (× λ) and, as latent heat L_v j, the heat row.  The operator
+    ``β [[L_v a, L_v p], [λ a, λ p]] ⊗ M_f`` is β times the δ_p block (symmetric, as λ a = L_v p); the loads
+    ``β (p φ_ext + a T_ext) (L_v, λ) ⊗ M_f 1``.  ``M_f`` is the face mass of the face's convection term."""
+    exchange = next((t for t in thermal.conductance.terms if t.role == "exchange" and t.coefficient.params ==
+                     (f"{face}.h",)), None)
+    if exchange is None:
+        raise InputError(f"hygrothermal: {face}.beta needs the face to exchange heat with the same air (an h and "
+                         f"T_ext on {face})")
+    mass = sparse(exchange.operator)
+    ones = np.asarray(mass @ np.ones(mass.shape[0])).ravel()
+    rows = np.concatenate([state.latent_heat * ones, state.weight * ones])
+    heat = next(t for t in thermal.load.terms if t.coefficient.params == (f"{face}.h", f"{face}.T_ext"))
+    block = state.latent_heat / state.a * np.outer([state.a, state.p], [state.a, state.p])
+    return [Term(f"B_{face}", Coefficient((f"{face}.beta",)), sp.csr_array(sp.kron(block, mass)), "exchange"),
+            Term(f"UB_{face}_phi", Coefficient((f"{face}.beta", f"{face}.phi_ext"), scale=state.p), rows, "load"),
+            Term(f"UB_{face}_T", Coefficient((f"{face}.beta", f"{face}.T_ext"), scale=state.a), rows, "load",
+                 heat.time)]
 
 
 def _face_dofs(thermal: ThermalSystem, face: str) -> np.ndarray:

@@ -10,21 +10,27 @@ A scene without ``[moisture]`` is exactly a thermal scene; with it::
     xi = 20.0
     D_phi = 1.0e-9
     delta_p = 2.0e-11
-    [boundary.x0]         # a fixed relative humidity (0–1) on a face; faces without one are sealed
+    [boundary.x0]         # a fixed relative humidity (0–1) on a face
     phi = 0.8
+    [boundary.x1]         # or vapour exchange with the air of a convective face; other faces are sealed
+    h = 8.0
+    T_ext = 20.0
+    beta = 2.0e-8         # kg/(m² s Pa)
+    phi_ext = 0.5
     [initial]
     phi = 0.5             # default phi_ref
     [outputs]
     mean_phi = ["x1"]     # face-mean relative humidities
 
-Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi`` and ``initial.phi`` join the scene's.
-Not yet: vapour exchange (β) and moisture-flux faces, anisotropic phases, the petsc engine, sensors of φ.
+Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``,
+``<face>.phi_ext`` and ``initial.phi`` join the scene's.  Not yet: moisture-flux faces, anisotropic phases, the
+petsc engine, sensors of φ.
 """
 
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from aromm.core.errors import InputError
@@ -34,6 +40,7 @@ from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, MoistureState
 from aromm.scene.toml import TableReader
 
 STATE_KEYS = ("T_ref", "phi_ref", "latent_heat")
+FACE_KEYS = ("phi", "beta", "phi_ext")
 #: What a moisture output is called in a coupled system's outputs (:func:`aromm.physics.hygrothermal.coupled`).
 PHI_PREFIX = "phi:"
 
@@ -48,12 +55,15 @@ class MoistureScene:
     fixed_phi: Mapping[str, float]
     initial_phi: float
     outputs: tuple[str, ...] = ()
+    vapour: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # face → (beta, phi_ext)
 
     @property
     def parameters(self) -> dict[str, float]:
         """Its named parameter values (module docstring)."""
         out = {f"{phase}.{key}": float(v) for phase, values in self.phases.items() for key, v in values.items()}
         out.update({f"{face}.phi": float(v) for face, v in self.fixed_phi.items()})
+        for face, (beta, phi_ext) in self.vapour.items():
+            out.update({f"{face}.beta": float(beta), f"{face}.phi_ext": float(phi_ext)})
         out["initial.phi"] = float(self.initial_phi)
         return out
 
@@ -64,7 +74,8 @@ class MoistureScene:
     def coupled(self, thermal: ThermalSystem, outputs: Sequence[str]) -> ThermalSystem:
         """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal ``outputs`` and the
         ``phi:<face>`` of ``mean_phi``."""
-        system = coupled(thermal, self.state, self.phases, self.fixed_phi, self.initial_phi)
+        system = coupled(thermal, self.state, self.phases, fixed_phi=self.fixed_phi, initial_phi=self.initial_phi,
+                         vapour=self.vapour)
         wanted = {*outputs, *(PHI_PREFIX + f for f in self.outputs)}
         return replace(system, observation={k: v for k, v in system.observation.items() if k in wanted})
 
@@ -85,8 +96,8 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
     outputs = r.table(data, "outputs", None)
     if "moisture" not in data:
         stray = [f"phases.{p}.{k}" for p, t in phase_tables.items() if isinstance(t, dict) for k in MOISTURE_KEYS
-                 if k in t] + [f"boundary.{f}.phi" for f, t in face_tables.items() if isinstance(t, dict)
-                               and "phi" in t] + (["initial.phi"] if "phi" in initial else []) \
+                 if k in t] + [f"boundary.{f}.{k}" for f, t in face_tables.items() if isinstance(t, dict)
+                               for k in FACE_KEYS if k in t] + (["initial.phi"] if "phi" in initial else []) \
             + (["outputs.mean_phi"] if "mean_phi" in outputs else [])
         if stray:
             raise r.fail(stray[0], "a moisture key needs a [moisture] section (T_ref, phi_ref)")
@@ -108,15 +119,25 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
         if ph.tensor is not None or isinstance(ph.k, tuple):
             raise r.fail(f"phases.{ph.name}", "an anisotropic phase is not coupled to moisture yet")
         values[ph.name] = {k: _non_negative(r, spec[k], f"phases.{ph.name}.{k}") for k in MOISTURE_KEYS}
-    fixed = {}
+    fixed, vapour = {}, {}
     for face, spec in face_tables.items():
-        if isinstance(spec, dict) and "phi" in spec:
+        if not isinstance(spec, dict):
+            continue
+        if "phi" in spec:
+            if "beta" in spec or "phi_ext" in spec:
+                raise r.fail(f"boundary.{face}", "a face takes a fixed phi, or a vapour exchange beta with phi_ext")
             fixed[face] = _humidity(r, spec["phi"], f"boundary.{face}.phi")
+        elif "beta" in spec or "phi_ext" in spec:
+            if "beta" not in spec or "phi_ext" not in spec or "h" not in spec:
+                raise r.fail(f"boundary.{face}", "a vapour exchange takes beta (kg/(m² s Pa)) and phi_ext, on a face "
+                                                 "that exchanges heat with the same air (h, T_ext)")
+            vapour[face] = (r.number(spec["beta"], f"boundary.{face}.beta", positive=True),
+                            _humidity(r, spec["phi_ext"], f"boundary.{face}.phi_ext"))
     initial_phi = _humidity(r, initial.get("phi", state.phi_ref), "initial.phi")
     faces = outputs.get("mean_phi", [])
     if not isinstance(faces, list) or any(f not in FACES for f in faces):
         raise r.fail("outputs.mean_phi", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
-    return MoistureScene(state, values, fixed, initial_phi, tuple(faces))
+    return MoistureScene(state, values, fixed, initial_phi, tuple(faces), vapour)
 
 
 def _non_negative(r: TableReader, value: Any, key: str) -> float:

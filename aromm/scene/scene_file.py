@@ -29,6 +29,7 @@ from aromm.physics.hygrothermal import MOISTURE_KEYS
 from aromm.scene.contact_resistances import parse_interfaces
 from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
 from aromm.scene.model_section import parse_model, refusal, with_discretisation
+from aromm.scene.moisture_section import FACE_KEYS as MOISTURE_FACE_KEYS
 from aromm.scene.moisture_section import MoistureScene, parse_moisture
 from aromm.scene.reduction_section import ReductionSettings, parse_reduction
 from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
@@ -41,7 +42,7 @@ if TYPE_CHECKING:  # meshio (≈ 0.06 CPU s) is read for mesh scenes only
 SECTIONS = ("geometry", "phases", "boundary", "initial", "time", "outputs", "interfaces", "source", "reduction",
             "model", "moisture")
 PHASE_KEYS = ("label", "k", "c", *FIBRE_KEYS, *MOISTURE_KEYS)
-FACE_KEYS = ("flux", "h", "T_ext", "T", "phi")
+FACE_KEYS = ("flux", "h", "T_ext", "T", *MOISTURE_FACE_KEYS)
 IMAGE_KEYS = ("image", "voxel_size", "shape", "dtype", "segment", "crop", "downsample")
 REFINE_BYTES_PER_VOXEL = 300.0  # memory of the multigrid homogenisation path (benchmarks/homogenize_peers.py)
 
