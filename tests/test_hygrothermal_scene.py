@@ -130,3 +130,17 @@ def test_a_moisture_value_outside_the_box_splits_the_cache_key(tmp_path: Path) -
     a, b = load_scene(_scene(first, xi=20.0)), load_scene(_scene(second, xi=30.0))
     assert scene_physics_key(a) != scene_physics_key(b)
     assert scene_physics_key(a, {"board.xi"}) == scene_physics_key(b, {"board.xi"})
+
+
+@pytest.mark.filterwarnings("ignore::aromm.core.errors.ModelWarning")
+def test_reduce_and_homogenize_say_what_they_do_with_moisture(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """`aromm reduce` names the bound's units (°C, and relative humidity for the phi: outputs); `aromm homogenize`
+    says that k̄ and c̄ are the thermal ones."""
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path / "cache"))
+    path = _scene(tmp_path)
+    assert main(["reduce", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "outputs: x1, phi:x1" in out and "relative humidity for phi: outputs" in out
+    assert main(["homogenize", str(path)]) == 0
+    assert "the moisture transport is not homogenised yet" in capsys.readouterr().err

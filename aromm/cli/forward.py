@@ -108,7 +108,7 @@ def _bound_line(bound: Mapping[str, object]) -> str:
     values = bound["error_bound"]
     if not isinstance(values, Mapping):
         return f"reduced model: no certified error bound ({bound.get('error_bound_note')})"
-    parts = ", ".join(f"{k} ≤ {float(v):.2g} °C" for k, v in values.items())
+    parts = ", ".join(f"{k} ≤ {float(v):.2g}{'' if k.startswith('phi:') else ' °C'}" for k, v in values.items())
     return f"reduced model: certified error against the full model at the output times: {parts}"
 
 
@@ -216,6 +216,9 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     direct = solver in ("cholmod", "splu")
     sc = engine_cli.load(scene, engine, refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
     capacities = all(ph.c is not None for ph in sc.phases)
+    if getattr(sc, "moisture", None) is not None:
+        click.echo("aromm: note: the scene's [moisture] is left out: k̄ and c̄ are the thermal ones (the moisture "
+                   "transport is not homogenised yet)", err=True)
     image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
     boundary = boundary or default_boundary(sc, engine)
     if image is None:
