@@ -144,3 +144,10 @@ def test_reduce_and_homogenize_say_what_they_do_with_moisture(tmp_path: Path, ca
     assert "outputs: x1, phi:x1" in out and "relative humidity for phi: outputs" in out
     assert main(["homogenize", str(path)]) == 0
     assert "the moisture transport is not homogenised yet" in capsys.readouterr().err
+
+
+def test_the_shipped_moisture_scene_loads_with_its_parameters() -> None:
+    """data/scenes/wood_moisture.toml reads (its simulation takes seconds: run by hand, its figures in its header)."""
+    scene = load_scene(Path(__file__).parents[1] / "data" / "scenes" / "wood_moisture.toml")
+    assert scene.moisture is not None and scene.moisture.vapour == {"z1": (2e-8, 0.5)}
+    assert scene.parameters["fibre.xi"] == 200.0 and scene.parameters["z0.phi"] == 0.8

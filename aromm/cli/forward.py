@@ -43,7 +43,8 @@ SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", sh
 
 def _table(obs: Observables, rows: int = 10) -> str:
     faces = list(obs.mean_T)
-    lines = ["t (s)".rjust(10) + "".join(f"T̄_{f} (°C)".rjust(14) for f in faces)]
+    lines = ["t (s)".rjust(10) + "".join((f"φ̄_{f[4:]} (RH)" if f.startswith("phi:") else f"T̄_{f} (°C)").rjust(14)
+                                         for f in faces)]
     index = np.unique(np.linspace(0, len(obs.t) - 1, min(rows, len(obs.t))).round().astype(int))
     for i in index:
         lines.append(f"{obs.t[i]:10.4g}" + "".join(f"{obs.mean_T[f][i]:14.6g}" for f in faces))
