@@ -108,6 +108,8 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
     convection ``h``) to ``(beta, phi_ext)``, their vapour exchange (:func:`_vapour_terms`).  Parameters
     ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``, ``<face>.phi_ext`` and
     ``initial.phi`` join the thermal ones."""
+    if thermal.initial or thermal.feedthrough:
+        raise InputError("hygrothermal: couple the assembled thermal system, before any lifting")
     n, blocks = thermal.n, state.blocks()
     phases = _phases(thermal)
     missing = sorted(set(phases) - set(moisture))
@@ -167,11 +169,9 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
                Term("initial_T_off_phi", Coefficient(("initial.T",), scale=-1.0), on_phi, "initial")]
     observation: dict[str, FloatArray | sp.csr_array] = {}
     for name, row in thermal.observation.items():
-        r = sp.csr_array(sp.csr_array(dense(row).reshape(1, -1)))
+        r = sp.csr_array(dense(row).reshape(1, -1))
         observation[name] = sp.csr_array(sp.hstack([r, sp.csr_array((1, n))]))
         observation[f"phi:{name}"] = sp.csr_array(sp.hstack([sp.csr_array((1, n)), r]))
-    if thermal.initial or thermal.feedthrough:
-        raise InputError("hygrothermal: couple the assembled thermal system, before any lifting")
     return ThermalSystem(2 * n, Affine(tuple(conductance)), Affine(tuple(capacity)), Affine(tuple(load)),
                          tuple(dirichlet), observation, parameters, thermal.time, None,
                          None if thermal.boundary is None else sp.csr_array(sp.block_diag([thermal.boundary] * 2)),
