@@ -6,8 +6,9 @@ per 10 % of the pairs of each eigen-solve, the cache entries used, the conversio
 command line sends those records to stderr as ``aromm: [  12.3 s] message`` (elapsed wall time since the command
 started): every INFO record when stderr is not a terminal; on a terminal, where the bars show the progress,
 only the notes of the CSV reader (:mod:`aromm.core.labcsv`), an automatic time grid's reason
-(:mod:`aromm.scene.time_section`), a direction without a conducting path (:mod:`aromm.homogenization.fv_cells`),
-the finite-volume kernels running without numba (:mod:`aromm.fv.kernels`) and warnings.
+(:mod:`aromm.scene.time_section`), a direction without a conducting path (:mod:`aromm.homogenization.fv_cells`,
+and :mod:`aromm.homogenization.fv_periodic`, which also says when a periodic cell falls back to the assembled
+operator), the finite-volume kernels running without numba (:mod:`aromm.fv.kernels`) and warnings.
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ from contextlib import contextmanager
 LOGGERS = ("aromm", "inverse")
 # always shown: what the reader converted or dropped, an automatic time grid, a direction without a conducting path,
 # finite-volume kernels running in numpy for want of numba
-NOTES = ("aromm.core.labcsv", "aromm.scene.time_section", "aromm.homogenization.fv_cells", "aromm.fv.kernels")
+NOTES = ("aromm.core.labcsv", "aromm.scene.time_section", "aromm.homogenization.fv_cells",
+         "aromm.homogenization.fv_periodic", "aromm.fv.kernels")
 
 
 class Elapsed(logging.Formatter):
