@@ -182,3 +182,35 @@ def test_vapour_exchange_gives_the_exact_steady_profile() -> None:
     assert np.abs(far - exact).max() <= 1e-9 * np.abs(exact).max()
     with pytest.raises(InputError, match="needs the face to exchange heat with the same air"):
         coupled(thermal, STATE, moisture, vapour={"x0": (2e-8, 0.3)})
+
+
+def _physical(state: MoistureState, k: float, d: float, dp: float) -> np.ndarray:
+    """A phase's flux matrix in physical units: heat and moisture fluxes against (∇T, ∇φ)."""
+    lv, a, p = state.latent_heat, state.a, state.p
+    return np.array([[k + lv * dp * a, lv * dp * p], [dp * a, d + dp * p]])
+
+
+def test_the_homogenised_moisture_transport_of_a_laminate_is_its_exact_means() -> None:
+    """Two phases in layers across x: along y and z the effective matrix is the volume mean of the phases' matrices,
+    across x their matrix harmonic mean (of the symmetrised matrices: diag(1, λ) times the physical ones), both
+    exact for Q1 on layers that follow the voxel faces; ξ̄ is the volume mean (the direct solves' rounding)."""
+    from aromm.homogenization.moisture_cells import mean_moisture_capacity, moisture_transport
+    from aromm.scene.geometry import VoxelGeometry
+    from aromm.scene.moisture_section import MoistureScene
+    from aromm.scene.scene_file import Scene
+
+    labels = np.zeros((4, 3, 3), dtype=int)
+    labels[2:] = 1
+    props = {"wall": (0.3, 2e-9, 1e-13, 200.0), "air": (0.025, 0.0, 2e-10, 0.017)}
+    phases = (PhaseSpec("wall", 0, props["wall"][0], 1e6), PhaseSpec("air", 1, props["air"][0], 1.2e3))
+    moisture = MoistureScene(STATE, {n: {"D_phi": v[1], "delta_p": v[2], "xi": v[3]} for n, v in props.items()},
+                             {}, 0.5)
+    scene = Scene(VoxelGeometry(labels, (1e-5, 1e-5, 1e-5)), phases, moisture=moisture)  # type: ignore[arg-type]
+    found = moisture_transport(scene)
+    weight = np.diag([1.0, STATE.weight])
+    sym = [weight @ _physical(STATE, *v[:3]) for v in props.values()]
+    series = np.linalg.inv(weight) @ np.linalg.inv((np.linalg.inv(sym[0]) + np.linalg.inv(sym[1])) / 2)
+    parallel = np.linalg.inv(weight) @ ((sym[0] + sym[1]) / 2)
+    for axis, expect in ((0, series), (1, parallel), (2, parallel)):
+        assert np.allclose(found[axis], expect, rtol=1e-9, atol=1e-12 * np.abs(expect).max()), (axis, found[axis])
+    assert mean_moisture_capacity(scene) == pytest.approx((200.0 + 0.017) / 2, rel=1e-14)

@@ -136,14 +136,23 @@ def test_a_moisture_value_outside_the_box_splits_the_cache_key(tmp_path: Path) -
 def test_reduce_and_homogenize_say_what_they_do_with_moisture(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                               monkeypatch: pytest.MonkeyPatch) -> None:
     """`aromm reduce` names the bound's units (°C, and relative humidity for the phi: outputs); `aromm homogenize`
-    says that k̄ and c̄ are the thermal ones."""
+    gives the heat and moisture transport beside k̄ and c̄."""
     monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path / "cache"))
     path = _scene(tmp_path)
     assert main(["reduce", str(path)]) == 0
     out = capsys.readouterr().out
     assert "outputs: x1, phi:x1" in out and "relative humidity for phi: outputs" in out
-    assert main(["homogenize", str(path)]) == 0
-    assert "the moisture transport is not homogenised yet" in capsys.readouterr().err
+    assert main(["homogenize", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    transport = np.asarray(out["moisture"]["transport"])
+    assert transport.shape == (3, 2, 2) and out["moisture"]["xi"] == 20.0  # one phase: its own ξ
+    # one phase: along x its own flux matrix (heat: k + L_v δ_p a, moisture: D_φ + δ_p p at constant T)
+    from aromm.physics.hygrothermal import MoistureState
+
+    state = MoistureState(20.0, 0.5)
+    expect = np.array([[0.04 + state.latent_heat * 2e-11 * state.a, state.latent_heat * 2e-11 * state.p],
+                       [2e-11 * state.a, 1e-9 + 2e-11 * state.p]])
+    assert np.allclose(transport[0], expect, rtol=1e-9)
 
 
 def test_the_shipped_moisture_scene_loads_with_its_parameters() -> None:

@@ -217,10 +217,8 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     direct = solver in ("cholmod", "splu")
     sc = engine_cli.load(scene, engine, refine, DIRECT_BYTES_PER_VOXEL if direct else REFINE_BYTES_PER_VOXEL)
     capacities = all(ph.c is not None for ph in sc.phases)
-    if getattr(sc, "moisture", None) is not None:
-        click.echo("aromm: note: the scene's [moisture] is left out: k̄ and c̄ are the thermal ones (the moisture "
-                   "transport is not homogenised yet)", err=True)
     image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
+    moisture = _moisture(sc, image is not None, solver)
     boundary = boundary or default_boundary(sc, engine)
     if image is None:
         result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
@@ -233,7 +231,7 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     shape = list(image.shape) if image is not None else None
     if as_json:
         echo_json({"k": k, "c": c, "boundary": boundary, "solver": result.method, "iterations": result.iterations,
-                   "cpu_seconds": result.cpu_seconds, "shape": shape})
+                   "cpu_seconds": result.cpu_seconds, "shape": shape, **({"moisture": moisture} if moisture else {})})
         return
     click.echo(f"{boundary} boundary, solver {result.method}"
                + (f", {'×'.join(map(str, shape))} voxels" if shape else ", mesh")
@@ -242,6 +240,28 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     for row in k:
         click.echo("  " + "  ".join(f"{v:12.6g}" for v in row))
     click.echo(f"c̄ (J/(m³ K)): {c:.6g}" if c is not None else "c̄: (a phase has no c)")
+    if moisture:
+        click.echo("heat and moisture transport, fixed (T, φ) on the two faces of each axis (rows: heat flux W/m², "
+                   "moisture flux kg/(m² s); columns: per K/m, per unit φ per m):")
+        for name, matrix in zip("xyz", moisture["transport"], strict=True):
+            click.echo(f"  {name}: " + "; ".join("  ".join(f"{v:12.6g}" for v in row) for row in matrix))
+        click.echo(f"ξ̄ (kg/m³): {moisture['xi']:.6g}")
+
+
+def _moisture(sc: Any, voxels: bool, solver: str) -> dict[str, Any] | None:
+    """The homogenised heat and moisture transport of a ``[moisture]`` scene (a voxel image on the scipy engine;
+    :mod:`aromm.homogenization.moisture_cells`), else None (said when the scene has moisture)."""
+    if getattr(sc, "moisture", None) is None:
+        return None
+    if not voxels:
+        click.echo("aromm: note: the moisture transport is homogenised on voxel images with the scipy engine only: "
+                   "k̄ and c̄ below are the thermal ones", err=True)
+        return None
+    from aromm.homogenization.moisture_cells import mean_moisture_capacity, moisture_transport
+
+    direct = solver if solver in ("cholmod", "splu") else "auto"
+    return {"transport": moisture_transport(sc, direct).tolist(), "xi": mean_moisture_capacity(sc),
+            "boundary": "temperature"}
 
 
 @click.command("measure")
