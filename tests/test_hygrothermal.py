@@ -140,6 +140,8 @@ def test_the_krylov_reduced_model_and_its_certified_bound_apply_unchanged() -> N
         bound = rom.error_bound(mu)
         assert bound is not None
         assert np.all(bound >= actual - 1e-11 * np.abs(truth).max()), (bound, actual)
+    with pytest.raises(InputError, match=r"unknown parameter 'board\.xii'"):  # initial.phi is known, a typo is not
+        rom.error_bound({"board.xii": 15.0})
 
 
 def test_finite_volumes_between_two_phases_are_refused_saying_why() -> None:

@@ -42,9 +42,11 @@ SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", sh
 
 
 def _table(obs: Observables, rows: int = 10) -> str:
+    from aromm.physics.hygrothermal import PHI_PREFIX
+
     faces = list(obs.mean_T)
-    lines = ["t (s)".rjust(10) + "".join((f"φ̄_{f[4:]} (RH)" if f.startswith("phi:") else f"T̄_{f} (°C)").rjust(14)
-                                         for f in faces)]
+    lines = ["t (s)".rjust(10) + "".join((f"φ̄_{f.removeprefix(PHI_PREFIX)} (RH)" if f.startswith(PHI_PREFIX)
+                                          else f"T̄_{f} (°C)").rjust(14) for f in faces)]
     index = np.unique(np.linspace(0, len(obs.t) - 1, min(rows, len(obs.t))).round().astype(int))
     for i in index:
         lines.append(f"{obs.t[i]:10.4g}" + "".join(f"{obs.mean_T[f][i]:14.6g}" for f in faces))
@@ -109,7 +111,9 @@ def _bound_line(bound: Mapping[str, object]) -> str:
     values = bound["error_bound"]
     if not isinstance(values, Mapping):
         return f"reduced model: no certified error bound ({bound.get('error_bound_note')})"
-    parts = ", ".join(f"{k} ≤ {float(v):.2g}{'' if k.startswith('phi:') else ' °C'}" for k, v in values.items())
+    from aromm.physics.hygrothermal import PHI_PREFIX
+
+    parts = ", ".join(f"{k} ≤ {float(v):.2g}{'' if k.startswith(PHI_PREFIX) else ' °C'}" for k, v in values.items())
     return f"reduced model: certified error against the full model at the output times: {parts}"
 
 

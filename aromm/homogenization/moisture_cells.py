@@ -8,26 +8,26 @@ the fixed face i0 for a unit jump of T, then of φ: the heat flow Q and the mois
 
     [[Q_T, Q_φ], [G_T, G_φ]] · L_i / A_i   ≈   [[k + L_v δ_p a, L_v δ_p p], [δ_p a, D_φ + δ_p p]]  (effective),
 
-its (1, 1) entry the conductivity with the humidity held (k̄ of the `temperature` probe plus the latent heat carried
-by the vapour), its (2, 2) entry the moisture conductivity at constant temperature.  On a laminate it is exactly the
-arithmetic mean of the phases' matrices along the layers and their matrix harmonic mean across them (the symmetrised
-matrices; tests/test_hygrothermal.py).  The mean moisture capacity ξ̄ is the volume average (as c̄,
-[Chavez2020, eq. 14]).  Steady direct solves: images of a few 10⁴ voxels.
+assembled by the scene's own discretisation (q1; fv within one phase).  Its (1, 1) entry is the conductivity with
+the humidity held (k̄ of the `temperature` probe plus the latent heat carried by the vapour), its (2, 2) entry the
+moisture conductivity at constant temperature.  On a laminate it is exactly the arithmetic mean of the phases'
+matrices along the layers and their matrix harmonic mean across them (the symmetrised matrices;
+tests/test_hygrothermal.py).  The mean moisture capacity ξ̄ is the volume average (as c̄, [Chavez2020, eq. 14]).
+Steady solves of the assembled system: images of a few 10⁴ voxels.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import FaceSpec
-from aromm.fem.voxel import assemble_voxels
 from aromm.full.solve import reaction_heat_flow, steady_field
-from aromm.physics.hygrothermal import coupled
-from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.moisture_section import MoistureScene
-from aromm.scene.scene_file import Scene
+from aromm.scene.scene_file import Scene, assemble
 
 AXES = "xyz"
 
@@ -36,20 +36,19 @@ def moisture_transport(scene: Scene, method: str = "auto") -> FloatArray:
     """(3, 2, 2): per axis the effective flux matrix in physical units (module docstring) of the scene's image with
     its ``[moisture]`` properties; ``method`` the steady solver (:mod:`aromm.linalg.direct`)."""
     moisture = _moisture(scene)
-    image = scene.geometry
-    assert isinstance(image, VoxelGeometry)
-    size = image.size
+    size = scene.size
     out = np.zeros((3, 2, 2))
     for axis, name in enumerate(AXES):
-        faces = [FaceSpec(f"{name}0", T=0.0), FaceSpec(f"{name}1", T=0.0)]
-        thermal = assemble_voxels(np.asarray(image.labels), image.voxel_size, scene.phases, faces)
-        system = coupled(thermal, moisture.state, moisture.phases, fixed_phi={f"{name}0": 0.0, f"{name}1": 0.0})
-        hot = np.asarray(next(d.dofs for d in thermal.dirichlet if d.param == f"{name}0.T"))
+        fixed = {f"{name}0": 0.0, f"{name}1": 0.0}
+        probe = replace(scene.with_boundary(tuple(FaceSpec(face, T=0.0) for face in fixed), ()),
+                        moisture=replace(moisture, fixed_phi=fixed, vapour={}, outputs=()))
+        system = assemble(probe)  # the scene's own discretisation and refusals
+        hot = {d.param: np.asarray(d.dofs) for d in system.dirichlet}
         area = float(np.prod(size)) / size[axis]
         for column, jump in enumerate(({f"{name}0.T": 1.0}, {f"{name}0.phi": 1.0})):
             field = steady_field(system, jump, method=method)
-            heat = reaction_heat_flow(system, field, hot, jump)
-            water = reaction_heat_flow(system, field, hot + thermal.n, jump) / moisture.state.weight
+            heat = reaction_heat_flow(system, field, hot[f"{name}0.T"], jump)
+            water = reaction_heat_flow(system, field, hot[f"{name}0.phi"], jump) / moisture.state.weight
             out[axis, :, column] = np.array([heat, water]) * size[axis] / area
     return out
 

@@ -43,6 +43,8 @@ from aromm.core.system import Affine, Coefficient, Dirichlet, FloatArray, Term, 
 
 LATENT_HEAT = 2.45e6  # J/kg, evaporation of water near 20 °C
 MOISTURE_KEYS = ("xi", "D_phi", "delta_p")
+#: The name of an output's relative-humidity twin: ``phi:<output>``.
+PHI_PREFIX = "phi:"
 
 
 def p_sat(T: float) -> float:
@@ -171,7 +173,7 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
     for name, row in thermal.observation.items():
         r = sp.csr_array(dense(row).reshape(1, -1))
         observation[name] = sp.csr_array(sp.hstack([r, sp.csr_array((1, n))]))
-        observation[f"phi:{name}"] = sp.csr_array(sp.hstack([sp.csr_array((1, n)), r]))
+        observation[PHI_PREFIX + name] = sp.csr_array(sp.hstack([sp.csr_array((1, n)), r]))
     return ThermalSystem(2 * n, Affine(tuple(conductance)), Affine(tuple(capacity)), Affine(tuple(load)),
                          tuple(dirichlet), observation, parameters, thermal.time, None,
                          None if thermal.boundary is None else sp.csr_array(sp.block_diag([thermal.boundary] * 2)),

@@ -197,8 +197,9 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     :class:`~aromm.reduction.rom.ReducedModel` carrying ``cert``) at ``values`` (module docstring); inf when a
     term's coefficient is not positive there."""
     sys_ = model.projected
-    known = sys_.parameter_names  # the model's initial terms may name parameters of their own (e.g. initial.phi)
-    v = {**values, **sys_.values({k: x for k, x in values.items() if k in known})}
+    own = model.initial.parameters - sys_.parameter_names  # the model's initial terms' own (e.g. initial.phi)
+    v = {**sys_.values({k: x for k, x in values.items() if k not in own}),
+         **{k: x for k, x in values.items() if k in own}}  # any other unknown name is refused by values()
     terms = (*sys_.conductance.terms, *sys_.capacity.terms)
     theta = np.array([float(t.coefficient(v)) for t in terms])
     nk = len(sys_.conductance.terms)

@@ -29,20 +29,18 @@ petsc engine, sensors of φ.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem
 from aromm.core.vocabulary import FACES, PhaseSpec
-from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, MoistureState, coupled
+from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, PHI_PREFIX, MoistureState, coupled
 from aromm.scene.toml import TableReader
 
 STATE_KEYS = ("T_ref", "phi_ref", "latent_heat")
 FACE_KEYS = ("phi", "beta", "phi_ext")
-#: What a moisture output is called in a coupled system's outputs (:func:`aromm.physics.hygrothermal.coupled`).
-PHI_PREFIX = "phi:"
 
 
 @dataclass(frozen=True)
@@ -78,13 +76,6 @@ class MoistureScene:
                          vapour=self.vapour)
         wanted = {*outputs, *(PHI_PREFIX + f for f in self.outputs)}
         return replace(system, observation={k: v for k, v in system.observation.items() if k in wanted})
-
-    def keyed(self, box: Collection[str]) -> tuple[Any, ...]:
-        """What a reduced model's cache key holds of it: every value, those of the parameters in ``box`` masked."""
-        values = tuple(sorted((name, "in the training box" if name in box else value)
-                              for name, value in self.parameters.items()))
-        state = (self.state.T_ref, self.state.phi_ref, self.state.latent_heat)
-        return ("moisture", state, values, self.outputs)
 
 
 def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[PhaseSpec]) -> MoistureScene | None:
