@@ -60,14 +60,23 @@ class _Level:
     c: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
+def cluster_heads(a: sp.csr_array) -> npt.NDArray[np.intp]:
+    """The first unknown of every connected cluster of the graph of ``a``: one per constant in the null space of a
+    conductance matrix without a fixed value.
+
+    >>> cluster_heads(sp.csr_array(np.array([[1.0, -1.0, 0.0], [-1.0, 1.0, 0.0], [0.0, 0.0, 0.0]]))).tolist()
+    [0, 2]
+    """
+    _, cluster = csgraph.connected_components(a, directed=False)
+    return np.unique(cluster, return_index=True)[1]
+
+
 def _pinned(a: sp.csr_array) -> sp.csr_array:
     """``a`` with the first cell of every connected cluster held at zero (its row and column replaced by the
     identity's): a periodic operator's null space (a constant per cluster) removed, its solutions for a consistent
     right-hand side unchanged up to those constants."""
-    _, cluster = csgraph.connected_components(a, directed=False)
-    _, first = np.unique(cluster, return_index=True)
     keep = np.ones(a.shape[0])
-    keep[first] = 0.0
+    keep[cluster_heads(a)] = 0.0
     mask = sp.diags_array(keep)
     return sp.csr_array(mask @ a @ mask + sp.diags_array(1.0 - keep))
 

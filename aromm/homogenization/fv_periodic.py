@@ -24,11 +24,10 @@ import logging
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import csgraph
 
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import insulating, phase_index
-from aromm.fv.multigrid import VolumeMultigrid
+from aromm.fv.multigrid import VolumeMultigrid, cluster_heads
 from aromm.fv.stencil import periodic_stencil
 from aromm.fv.volumes import conducting_phase, winding_axes
 from aromm.linalg.direct import factorize
@@ -131,15 +130,13 @@ def _assembled(scene: Scene, method: str, rtol: float,
     d = sp.csr_array(sp.coo_array((np.concatenate([-np.ones(m), np.ones(m)]),
                                    (np.tile(np.arange(m), 2), np.concatenate([link[0], link[1]]))), shape=(m, n)))
     a_full = sp.csr_array(d.T @ sp.diags_array(weights) @ d)
-    _, component = csgraph.connected_components(a_full, directed=False)
-    _, first = np.unique(component, return_index=True)
-    free = np.setdiff1d(np.arange(n), first)  # one pinned voxel per cluster
+    free = np.setdiff1d(np.arange(n), cluster_heads(a_full))  # one pinned voxel per cluster
     solver = factorize(a_full[free][:, free], method, rtol)
-    gradients = []
-    for j in range(3):
+    gradients = {}
+    for j in (a for a in range(3) if winds[a]):  # an axis that does not wind has k = 0 in its row and column
         t = np.zeros(n)
         t[free] = solver.solve(-(d.T @ (weights * s[j]))[free])
-        gradients.append(d @ t + s[j])
+        gradients[j] = d @ t + s[j]
     volume = float(np.prod(image.size))
-    return np.array([[gradients[i] @ (weights * gradients[j]) / volume if winds[i] and winds[j] else 0.0
+    return np.array([[gradients[i] @ (weights * gradients[j]) / volume if i in gradients and j in gradients else 0.0
                       for j in range(3)] for i in range(3)])
