@@ -55,6 +55,17 @@ def mpiexec(*args: str, ranks: int = RANKS, options: str = "", timeout: float = 
                           env=env, check=False)
 
 
+def worker(tmp_path_factory: pytest.TempPathFactory, module: str, ranks: int,
+           options: str = "") -> dict[str, np.ndarray]:
+    """The ``results`` of the cases module ``module`` computed under ``mpiexec -n ranks`` (petsc_worker.py)."""
+    out = tmp_path_factory.mktemp("mpi") / f"{module}_{ranks}.npz"
+    run = mpiexec(sys.executable, str(HERE / "petsc_worker.py"), str(out), module, ranks=ranks, options=options)
+    assert run.returncode == 0, run.stderr[-3000:]
+    with np.load(out) as data:
+        assert int(data["ranks"]) == ranks
+        return {k: data[k] for k in data.files}
+
+
 @pytest.fixture(scope="module")
 def four_ranks(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
     out = tmp_path_factory.mktemp("mpi") / "four_ranks.npz"

@@ -13,35 +13,24 @@ raised above round-off (:data:`petsc_krylov_cases.DROP`).  Skipped without petsc
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import petsc_cases
 import petsc_krylov_cases as cases
 import pytest
-from test_petsc_engine import mpiexec, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
+from test_petsc_engine import pytestmark, worker  # noqa: F401  (the same marks: mpi, skipped without PETSc)
 
 HERE = Path(__file__).parent
 TOL = 1e-8  # °C
-
-
-def _worker(tmp_path_factory: pytest.TempPathFactory, ranks: int, options: str = "") -> dict[str, np.ndarray]:
-    out = tmp_path_factory.mktemp("mpi") / f"krylov_{ranks}.npz"
-    run = mpiexec(sys.executable, str(HERE / "petsc_worker.py"), str(out), "petsc_krylov_cases", ranks=ranks,
-                  options=options)
-    assert run.returncode == 0, run.stderr[-3000:]
-    with np.load(out) as data:
-        assert int(data["ranks"]) == ranks
-        return {k: data[k] for k in data.files}
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
     from aromm.engines.petsc import runtime
 
-    return {"1 rank": cases.results(runtime.world()), "2 ranks": _worker(tmp_path_factory, 2),
-            "2x2x1 boxes": _worker(tmp_path_factory, 4, petsc_cases.BOXES_2x2x1)}
+    return {"1 rank": cases.results(runtime.world()), "2 ranks": worker(tmp_path_factory, "petsc_krylov_cases", 2),
+            "2x2x1 boxes": worker(tmp_path_factory, "petsc_krylov_cases", 4, petsc_cases.BOXES_2x2x1)}
 
 
 @pytest.fixture(scope="module")

@@ -173,7 +173,7 @@ def other_discretisation(scene: Scene, engine: str) -> str:
     """The discretisation ``--discretisation-check`` compares with (q1 ↔ fv), refused where it cannot model the
     scene (:func:`aromm.scene.model_section.refusal`) before any model is built."""
     if engine != "scipy":
-        raise click.UsageError("--discretisation-check runs on the scipy engine (the petsc engine assembles q1 only)")
+        raise click.UsageError("--discretisation-check runs on the scipy engine")
     other = "fv" if scene.discretisation == "q1" else "q1"
     refused = refusal(other, scene.geometry, scene.phases, scene.sensors)
     if refused is not None:

@@ -59,14 +59,12 @@ def load(path: Path, engine: str, refine: int = 1, bytes_per_voxel: float = DIRE
     """The scene for ``engine``: a Scene (refined ``refine`` times, memory checked at ``bytes_per_voxel``), or for
     petsc a VoxelProblem whose image each rank reads by boxes."""
     if engine == "petsc":
-        if discretisation() not in (None, "q1"):
-            raise InputError("--discretisation fv runs on the scipy engine; the petsc engine assembles q1 elements")
         if refine != 1:
             raise InputError("--refine works with the scipy engine; with --engine petsc refine the image file")
         from aromm.engines.petsc import runtime
         from aromm.engines.petsc.problem import load_problem
 
-        return load_problem(path, runtime.world())
+        return load_problem(path, runtime.world(), discretisation())
     from aromm.scene.scene_file import load_scene
 
     return refine_scene(load_scene(path, discretisation()), refine, bytes_per_voxel)

@@ -184,6 +184,11 @@ class VolumeGrid:
             diag[self._face_dofs[face]] = self.area(AXES.index(face[0]))
         return sp.csr_array(sp.diags_array(diag))
 
+    def face_cells(self, face: str) -> IntArray:
+        """The cell unknown under each of ``face``'s unknowns (in the order of :meth:`face_dofs`)."""
+        self.face_dofs(face)  # refuses a face without unknowns
+        return self._face_cells[face]
+
     def face_dofs(self, face: str) -> IntArray:
         if face not in self._face_dofs:
             raise ValueError(f"face {face!r} has no unknowns in this grid (faces: {self.faces})")

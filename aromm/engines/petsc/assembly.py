@@ -186,7 +186,12 @@ def node_grid(layout: BoxLayout, comm: Any) -> Any:
 
 
 def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
-    """Assemble ``problem`` by boxes (collective: every rank calls it)."""
+    """Assemble ``problem`` by boxes (collective: every rank calls it); in finite volumes by
+    :func:`aromm.engines.petsc.volume_assembly.assemble_volume_boxes`."""
+    if problem.discretisation == "fv":
+        from aromm.engines.petsc.volume_assembly import assemble_volume_boxes
+
+        return assemble_volume_boxes(problem, comm)
     layout = problem.layout(comm)
     rows = layout.rows
     template = problem.template()
@@ -255,7 +260,7 @@ def problem_key(problem: VoxelProblem, labels: np.ndarray, layout: BoxLayout, co
     the boxes the ranks read (``labels``, this rank's) with the scene's phases, faces and grids."""
     return content_key("voxel problem", problem.shape, problem.voxel_size, repr(problem.phases),
                        repr(problem.boundary), problem.initial_T, repr(problem.time), problem.outputs,
-                       image_digest(labels, layout, comm))
+                       image_digest(labels, layout, comm), problem.discretisation)
 
 
 def physics_key(problem: VoxelProblem, comm: Any, box: frozenset[str] = frozenset()) -> str:
@@ -266,7 +271,7 @@ def physics_key(problem: VoxelProblem, comm: Any, box: frozenset[str] = frozense
     digest = image_digest(problem.image.read(layout.box), layout, comm)
     return model_key.physics_key(digest, shape=problem.shape, voxel_size=problem.voxel_size, phases=problem.phases,
                                  boundary=problem.boundary, initial_T=problem.initial_T, time=problem.time,
-                                 outputs=problem.outputs, box=box)
+                                 outputs=problem.outputs, box=box, discretisation=problem.discretisation)
 
 
 def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:

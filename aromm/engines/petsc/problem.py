@@ -24,8 +24,10 @@ from aromm.engines.petsc import runtime
 from aromm.engines.petsc.images import generated_image, open_image
 from aromm.engines.petsc.layout import BoxLayout
 from aromm.fem.voxel import assemble_voxels
+from aromm.fv.volumes import assemble_volumes
 from aromm.microstructure.boxes import ImageBoxes
 from aromm.scene.geometry import VoxelGeometry
+from aromm.scene.model_section import with_discretisation
 from aromm.scene.scene_file import ReductionSettings, Scene, load_scene, read_toml, scene_from_dict
 
 #: Named sensors ([outputs.<name>], aromm.scene.sensors) are observation rows of the serial assembly only.
@@ -47,6 +49,7 @@ class VoxelProblem:
     where: str = "scene: "
     reduction: ReductionSettings = field(default_factory=ReductionSettings)  # the scene's [reduction] values
     path: Path | None = None  # the scene file
+    discretisation: str = "q1"  # "q1" elements (aromm.engines.petsc.assembly) or "fv" (volume_assembly)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -69,7 +72,8 @@ class VoxelProblem:
         """The serial system of a stand-in image holding each present label once: the same terms (names,
         coefficients, order), parameters, Dirichlet faces and outputs as the whole image's system."""
         stand_in = np.asarray(self.present, dtype=np.int32).reshape(-1, 1, 1)
-        return assemble_voxels(stand_in, self.voxel_size, self.phases, self.boundary, time=self.time,
+        assembler = assemble_volumes if self.discretisation == "fv" else assemble_voxels
+        return assembler(stand_in, self.voxel_size, self.phases, self.boundary, time=self.time,
                                initial_T=self.initial_T, outputs=self.outputs)
 
     def outline(self) -> Scene:
@@ -98,7 +102,7 @@ class VoxelProblem:
         present = tuple(sorted(geometry.present()))
         return cls(ImageBoxes.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
                    geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs,
-                   present, scene.where, scene.reduction, scene.path)
+                   present, scene.where, scene.reduction, scene.path, scene.discretisation)
 
 
 def box_layout(shape: tuple[int, int, int], comm: Any) -> BoxLayout:
@@ -113,17 +117,18 @@ def _generate(path: Path) -> np.ndarray:
     return geometry.labels
 
 
-def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
-    """Read a scene file for the petsc engine: every rank reads its box of the image (collective)."""
+def load_problem(path: str | Path, comm: Any, discretisation: str | None = None) -> VoxelProblem:
+    """Read a scene file for the petsc engine: every rank reads its box of the image (collective);
+    ``discretisation`` (``--discretisation``) replaces the file's ``[model] discretisation``."""
     path = Path(path)
-    data = read_toml(path)
+    data = with_discretisation(read_toml(path), discretisation)
     geo = data.get("geometry")
     outputs = data.get("outputs")
     named = [k for k in outputs if k != "mean_T"] if isinstance(outputs, dict) else []
     if named:  # checked before the stand-in image, whose box is not the body's
         raise InputError(f"{path}: outputs.{named[0]}: {SENSORS_REFUSED}")
     if not isinstance(geo, dict) or ("image" in geo) == ("generator" in geo):
-        return VoxelProblem.from_scene(load_scene(path))  # a mesh, or the serial reader's errors
+        return VoxelProblem.from_scene(load_scene(path, discretisation))  # a mesh, or the serial reader's errors
     if "generator" in geo:
         image = generated_image(path, geo, lambda: _generate(path), comm)
     else:
@@ -138,12 +143,9 @@ def load_problem(path: str | Path, comm: Any) -> VoxelProblem:
     present = sorted(runtime.union(image.labels_present(box_layout(image.shape, comm).box), comm))
     stand_in = np.asarray(present, dtype=np.int32).reshape(-1, 1, 1)
     scene = scene_from_dict(data, path, image=(stand_in, image.voxel_size))
-    if scene.discretisation != "q1":
-        raise InputError(f"{path}: model.discretisation: the petsc engine assembles q1 elements only; run "
-                         f"{scene.discretisation} with --engine scipy")
     if scene.moisture is not None:
         raise InputError(f"{path}: moisture: the petsc engine has no moisture model yet; run it with --engine scipy")
     geometry = scene.geometry
     assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
     return VoxelProblem(image, geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,
-                        scene.outputs, tuple(present), scene.where, scene.reduction, path)
+                        scene.outputs, tuple(present), scene.where, scene.reduction, path, scene.discretisation)
