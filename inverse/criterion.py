@@ -1,10 +1,11 @@
 """The least-squares criterion of [Chavez2020, eq. 12], evaluated for a whole swarm at once.
 
-    J(β) = ½ Σ_i Σ_j (Y_ij − Ŷ_ij(β))²
+    J(β) = ½ Σ_i Σ_j w_j² (Y_ij − Ŷ_ij(β))²
 
 over every measurement time i and observed face j (and, for a joint identification, every
-scenario).  Ŷ comes from ``model.simulate_batch`` at the measurement times, so one call
-evaluates all the particles of a swarm (m parameter sets).
+scenario); the weights w_j are 1 unless outputs of several kinds are fitted together (temperatures and relative
+humidities, :mod:`inverse.kinds`: w = 1/σ of the output's kind).  Ŷ comes from ``model.simulate_batch`` at the
+measurement times, so one call evaluates all the particles of a swarm (m parameter sets).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 from aromm.core.clock import TIME_OFFSET, TimeShifted
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.forward_model import ForwardModel
+from aromm.core.observables import output_kind
 from aromm.core.system import FloatArray
 from inverse.measurements import Measurements
 
@@ -88,7 +90,18 @@ class LeastSquares:
         self._columns = [np.array([sc.model.outputs.index(f) for f in sc.measurements.faces])
                          for sc in self.scenarios]
         self._data = [sc.measurements.as_array() for sc in self.scenarios]
+        self.kinds = [np.array([output_kind(f) for f in sc.measurements.faces]) for sc in self.scenarios]
+        self.weights = [np.ones(len(k)) for k in self.kinds]
         self.evaluations = 0
+
+    def weigh(self, noise: Mapping[str, float]) -> None:
+        """Weight every residual by 1/σ of its output's kind (``noise``: kind → σ, in the kind's unit)."""
+        self.weights = [np.array([1.0 / noise[k] for k in kinds]) for kinds in self.kinds]
+
+    def flat_weights(self) -> FloatArray:
+        """The weight of every residual, in the order of :meth:`residuals`' columns."""
+        return np.concatenate([np.broadcast_to(w, d.shape).ravel() for w, d in zip(self.weights, self._data,
+                                                                                     strict=True)])
 
     @property
     def n_observations(self) -> int:
@@ -122,11 +135,16 @@ class LeastSquares:
         self.evaluations += m
         return out
 
+    def misfits(self, theta: FloatArray) -> list[FloatArray]:
+        """Unweighted ``Y − Ŷ`` per scenario (n_times, n_faces) for one parameter set ``theta`` (p,)."""
+        preds = self.predictions(np.asarray(theta, dtype=float)[None])
+        return [d - y[0] for d, y in zip(self._data, preds, strict=True)]
+
     def residuals(self, theta: FloatArray) -> FloatArray:
-        """``Y − Ŷ`` flattened over scenarios, times and faces: shape (m, n_observations)."""
+        """``w (Y − Ŷ)`` flattened over scenarios, times and faces: shape (m, n_observations)."""
         preds = self.predictions(theta)
-        return np.concatenate([(d[None] - y).reshape(y.shape[0], -1)
-                               for d, y in zip(self._data, preds, strict=True)], axis=1)
+        return np.concatenate([(w * (d[None] - y)).reshape(y.shape[0], -1)
+                               for d, y, w in zip(self._data, preds, self.weights, strict=True)], axis=1)
 
     def __call__(self, theta: FloatArray) -> FloatArray:
         """J (eq. 12) for each row of ``theta``: shape (m,)."""

@@ -30,6 +30,7 @@ from inverse import checkpoint as ckpt
 from inverse import optimisers as opt
 from inverse.criterion import LeastSquares, ModelInput, Scenario, scenarios_of
 from inverse.defaults import DEFAULT_ITERATIONS, DEFAULT_PARTICLES
+from inverse.kinds import reweighted, several
 from inverse.measurements import Measurements
 from inverse.residuals import offset_note
 from inverse.uncertainty import Uncertainty, linearised
@@ -262,6 +263,9 @@ def identify(
         if refused is not None:
             raise InputError(f"unknown {name!r}: {refused}")
     criterion = LeastSquares(scenarios, box.names, fixed)
+    if several(criterion) and noise_std is not None:
+        raise InputError("noise_std is a temperature noise (°C); with relative-humidity outputs (phi:<face>) "
+                         "the noise of each kind is estimated from its residuals (inverse.kinds): leave it out")
     info = _describe(scenarios, description)
     problem_key = ckpt.problem_key({"format": CHECKPOINT_FORMAT, "unknowns": box.as_dict(),
                                     "fixed": dict(fixed or {}), "seed": seed,
@@ -299,12 +303,15 @@ def identify(
             best_u, best_cost = np.asarray(outcome.u, dtype=float), float(outcome.cost)
     assert best_u is not None, "an empty chain of optimisers"
     u_best = best_u
+    if several(criterion):  # temperatures and humidities: each kind weighted by its own noise
+        u_best, noise = reweighted(criterion, box, u_best)
+        info["noise_by_kind"] = noise
 
     theta = box.to_physical(u_best[None])[0]
     fits = tuple(Fit(sc.name, np.asarray(sc.measurements.t, dtype=float), sc.measurements.faces,
                      sc.measurements.as_array(), y[0])
                  for sc, y in zip(scenarios, criterion.predictions(theta[None]), strict=True))
-    r = np.concatenate([(f.measured - f.fitted).ravel() for f in fits])
+    r = criterion.residuals(theta[None])[0]  # weighted (inverse.kinds), as the sensitivity
     sensitivity = -opt.jacobian(problem.residuals, u_best) / box.dtheta_du(u_best)[None, :]
     notes = [f"{name} = {value:.6g} is at its {'lower' if u < 0.5 else 'upper'} bound: widen the bounds"
              for name, value, u in zip(box.names, theta, u_best, strict=True) if min(u, 1.0 - u) < AT_BOUND]
@@ -314,6 +321,7 @@ def identify(
     starts = np.cumsum([0] + [f.measured.size for f in fits])[:-1]  # rows of r: scenarios, then times × faces
     blocks = [s0 + np.arange(f.measured.size).reshape(f.measured.shape) for s0, f in zip(starts, fits, strict=True)]
     rise = np.concatenate([(f.fitted - y0).ravel() for f, y0 in zip(fits, starts0, strict=True)])
+    rise = rise * criterion.flat_weights()
     positive = [is_positive(n) for n in box.names]
     biases = {source: alternative_shift(other, measurements, box, fixed=fixed, start=u_best, positive=positive)
               for source, other in (alternatives or {}).items()}
@@ -321,7 +329,9 @@ def identify(
                              data_notes=offsets, scales=relative_scales(box, theta),
                              positive=positive, model_error=model_error, model_rise=rise,
                              biases=biases,
-                             **reduced_error([sc.model for sc in scenarios], dict(zip(box.names, theta, strict=True))))
+                             **reduced_error([sc.model for sc in scenarios], dict(zip(box.names, theta, strict=True)),
+                                             [dict(zip(sc.measurements.faces, w, strict=True))
+                                              for sc, w in zip(scenarios, criterion.weights, strict=True)]))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),
@@ -357,12 +367,19 @@ def alternative_shift(alternative: ModelInput, measurements: Measurements | None
     return np.where(logs, theta * np.abs(np.log(ratio)), np.abs(other - theta))
 
 
-def reduced_error(models: Sequence[object], estimates: Mapping[str, float]) -> dict[str, Any]:
+def reduced_error(models: Sequence[Any], estimates: Mapping[str, float],
+                  weights: Sequence[Mapping[str, float]] | None = None) -> dict[str, Any]:
     """The reduced models' output error for the interval (inverse.uncertainty.linearised): their certified bound at
     the estimates (°C, the largest over models and outputs; aromm.reduction.certificate) when every model has one,
-    else what they estimate of themselves (``output_error``, an estimate)."""
+    else what they estimate of themselves (``output_error``, an estimate).  With ``weights`` (per model, measured
+    output → weight of its residuals: :mod:`inverse.kinds`) each output's bound is weighted, over the measured ones."""
     bounds = [b(estimates) if callable(b := getattr(m, "error_bound", None)) else None for m in models]
     found = [b for b in bounds if b is not None]
     if found and len(found) == len(bounds):
-        return {"output_error": max(float(np.max(b)) for b in found), "output_error_certified": True}
+        if weights is None:
+            return {"output_error": max(float(np.max(b)) for b in found), "output_error_certified": True}
+        worst = max(float(b[m.outputs.index(name)]) * w for m, b, ws in zip(models, found, weights, strict=True)
+                    for name, w in ws.items())
+        return {"output_error": worst, "output_error_certified": True,
+                "output_error_unit": "× the noise of its output's kind"}
     return {"output_error": max(float(getattr(m, "output_error", 0.0)) for m in models)}

@@ -136,7 +136,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
                data_notes: Sequence[str] = (), scales: FloatArray | None = None,
                positive: Sequence[bool] | None = None, model_error: float = 0.0,
                model_rise: FloatArray | None = None, output_error: float = 0.0,
-               output_error_certified: bool = False, biases: Mapping[str, FloatArray] | None = None) -> Uncertainty:
+               output_error_certified: bool = False, output_error_unit: str = "°C",
+               biases: Mapping[str, FloatArray] | None = None) -> Uncertainty:
     """Uncertainty from ``sensitivity`` X = ∂Ŷ/∂β (N, p) and ``residuals`` Y − Ŷ (N,) at the optimum.
 
     ``blocks`` are index arrays (n_times, n_faces) into the rows of X and r, one per independent
@@ -159,8 +160,10 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     :func:`model_error_std` in quadrature to the standard errors; ``error_sources`` says what the interval includes.
     ``output_error`` (°C) bounds a bias of every model output (a reduced model's error against its full model): its
     worst-case shift of the estimates, :func:`bias_shift`, is added to the half-widths linearly (a bias does not
-    average out); ``output_error_certified``: it is a certified bound, not an estimate.  ``biases`` are further
-    bounded shifts of the estimates by source (:data:`BIAS_SOURCES`, e.g. ``"discretisation"``), added linearly too.
+    average out); ``output_error_certified``: it is a certified bound, not an estimate; ``output_error_unit`` its unit
+    as printed (the residuals' unit: °C, or each output's noise when outputs of several kinds are weighted).
+    ``biases`` are further bounded shifts of the estimates by source (:data:`BIAS_SOURCES`, e.g.
+    ``"discretisation"``), added linearly too.
     ``budget`` gives each source's 95 % half-width; the interval (``lower``, ``upper``) is the total.
     """
     names = tuple(names)
@@ -260,7 +263,8 @@ def linearised(names: Sequence[str], estimates: FloatArray, sensitivity: FloatAr
     if output_error:
         kind = ("certified output error bound", "a bound at the estimates") if output_error_certified else (
             "estimated output error", "an estimate, not a bound")
-        sources.append(f"the reduced model's {kind[0]} {output_error:.2g} °C (its worst-case shift, added linearly; "
+        sources.append(f"the reduced model's {kind[0]} {output_error:.2g} {output_error_unit} (its worst-case shift, "
+                       "added linearly; "
                        f"{kind[1]})")
     sources.extend(BIAS_SOURCES[source] for source in extra)
     return Uncertainty(names, beta, total, lower, upper, corr, math.sqrt(s2), dof, condition,

@@ -1,6 +1,6 @@
 """The scene's [moisture] vocabulary (aromm.scene.moisture_section) from the command line: the coupled slab of
 tests/test_hygrothermal.py written as a scene file, simulated by `aromm simulate --model reduced --json` against the
-exact coupled solution, bad input refused with its key, the commands that do not take moisture yet saying so, and a
+exact coupled solution, bad input refused with its key, the command that does not take moisture yet saying so, and a
 reduced model's cache key split by every moisture value outside its training box."""
 
 from __future__ import annotations
@@ -111,15 +111,12 @@ def test_bad_moisture_input_exits_2_naming_the_key(tmp_path: Path, capsys: pytes
     assert fragment in capsys.readouterr().err
 
 
-def test_measure_and_identify_say_they_do_not_take_moisture_yet(tmp_path: Path,
-                                                               capsys: pytest.CaptureFixture[str]) -> None:
+def test_measure_says_it_does_not_take_moisture_yet(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """measure's synthetic data come from the homogeneous twin, which has no moisture transport yet (identify takes
+    measured humidities: tests/test_hygrothermal_identify.py)."""
     path = _scene(tmp_path)
     assert main(["measure", str(path), "--homogeneous", "--out", str(tmp_path / "y.csv")]) == 2
     assert "`aromm measure` does not take coupled heat and moisture yet" in capsys.readouterr().err
-    (tmp_path / "m.csv").write_text("t,x1\n600,20.1\n", encoding="utf-8")
-    assert main(["identify", str(path), "--measurements", str(tmp_path / "m.csv"), "--unknown",
-                 "board.k=0.01:0.1"]) == 2
-    assert "`aromm identify` does not take coupled heat and moisture yet" in capsys.readouterr().err
 
 
 def test_a_moisture_value_outside_the_box_splits_the_cache_key(tmp_path: Path) -> None:

@@ -21,6 +21,7 @@ from aromm.core.errors import InputError
 from aromm.core.files import Input, check_folder
 from aromm.core.labchecks import PLAUSIBLE, fahrenheit_suspect, kelvin_suspect
 from aromm.core.labcsv import read_lab_csv
+from aromm.core.observables import PHI_PREFIX
 from aromm.core.vocabulary import is_positive
 from aromm.scene.model_section import refusal, with_discretisation
 from aromm.scene.scene_file import Scene, read_toml, scene_files, scene_from_dict
@@ -121,7 +122,8 @@ def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
     scene in °C (refused unless the unit is stated), and the last time (plus the largest clock offset searched)
     within ``[time] end``."""
     opts = options or ReadOptions()
-    lab = read_lab_csv(path, (*scene.outputs, *output_names(scene.sensors)), columns=opts.columns,
+    humid = () if scene.moisture is None else tuple(PHI_PREFIX + f for f in scene.moisture.outputs)
+    lab = read_lab_csv(path, (*scene.outputs, *output_names(scene.sensors), *humid), columns=opts.columns,
                        time_unit=opts.time_unit, temperature_unit=opts.temperature_unit, plausible=opts.plausible)
     data = lab.table
     rows, cols = len(data.t), len(data.outputs)
@@ -135,6 +137,8 @@ def measurements(path: Path, scene: Scene, kind: str, bounds: Bounds,
                          f"{rows} rows: these data carry nothing to identify (an unplugged sensor? the wrong column?)")
     if not lab.temperature_stated:
         for out, series in data.mean_T.items():
+            if out in humid:
+                continue
             if kelvin_suspect(series, scene.initial_T):
                 raise InputError(f"{path}, column {lab.columns[out]!r}: the values start near "
                                  f"{float(series[0]):g}, that is {float(series[0]) - 273.15:g} °C if they are "

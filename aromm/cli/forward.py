@@ -42,7 +42,7 @@ SOLVER = click.option("--solver", type=click.Choice(METHODS), default="auto", sh
 
 
 def _table(obs: Observables, rows: int = 10) -> str:
-    from aromm.physics.hygrothermal import PHI_PREFIX
+    from aromm.core.observables import PHI_PREFIX
 
     faces = list(obs.mean_T)
     lines = ["t (s)".rjust(10) + "".join((f"φ̄_{f.removeprefix(PHI_PREFIX)} (RH)" if f.startswith(PHI_PREFIX)
@@ -111,7 +111,7 @@ def _bound_line(bound: Mapping[str, object]) -> str:
     values = bound["error_bound"]
     if not isinstance(values, Mapping):
         return f"reduced model: no certified error bound ({bound.get('error_bound_note')})"
-    from aromm.physics.hygrothermal import PHI_PREFIX
+    from aromm.core.observables import PHI_PREFIX
 
     parts = ", ".join(f"{k} ≤ {float(v):.2g}{'' if k.startswith(PHI_PREFIX) else ' °C'}" for k, v in values.items())
     return f"reduced model: certified error against the full model at the output times: {parts}"

@@ -159,7 +159,6 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
     from aromm.cli import checks
     from aromm.core.files import check_output, distinct
     from aromm.core.labchecks import PLAUSIBLE
-    from aromm.scene.moisture_section import refuse_moisture
     from inverse import checkpoint as ckpt
     from inverse.identification import identify
     from inverse.posterior import PosteriorWarning, check_walkers, load_emcee, sample_posterior
@@ -184,7 +183,6 @@ def identify_cmd(*, scene: Path, measurements_path: Path, columns: tuple[str, ..
         load_emcee()  # a missing optional extra is refused first
     source = engine_cli.load(scene, engine)
     sc = engine_cli.outline(source)
-    refuse_moisture(sc, "identify")
     bounds = checks.unknowns(unknowns, sc)
     if check_representativeness:
         _check_representativeness(sc, bounds, engine)

@@ -44,8 +44,14 @@ def table(result: Identification) -> str:
                     "discretisation, q1 ↔ fv; or state it with --model-error)")
                  + ("" if "representativeness" in unc.budget else
                     "; not how far the sample may be from the image (--representativeness-check)"))
-    lines.append(f"criterion J = {result.criterion:.4g} °C² (eq. 12), residual std {unc.residual_std:.3g} °C, "
-                 f"{result.evaluations} evaluations, {result.seconds:.1f} s")
+    noise = result.model.get("noise_by_kind")
+    if isinstance(noise, Mapping):  # temperatures and humidities, each weighted by its own noise (inverse.kinds)
+        kinds = ", ".join(f"{k} {float(v):.3g}{' °C' if k == 'T' else ''}" for k, v in noise.items())
+        lines.append(f"criterion J = {result.criterion:.4g} (eq. 12, each residual divided by the noise of its kind, "
+                     f"estimated: {kinds}), {result.evaluations} evaluations, {result.seconds:.1f} s")
+    else:
+        lines.append(f"criterion J = {result.criterion:.4g} °C² (eq. 12), residual std {unc.residual_std:.3g} °C, "
+                     f"{result.evaluations} evaluations, {result.seconds:.1f} s")
     lines.append(f"residuals: {unc.residuals.describe()}: "
                  + ("systematic (see the warning)" if unc.residuals.systematic else "consistent with white noise"))
     for i, a in enumerate(unc.names):

@@ -94,7 +94,7 @@ def reduce_cmd(scene: Path, order: int, *, modes: int | None, method: str | None
     click.echo(f"outputs: {', '.join(rom.outputs)}; parameters: {', '.join(sorted(rom.parameter_names))}")
     bound = float(info.get("error_bound", float("nan")))
     where = "at worst over its training grid" if info.get("method") == "krylov" else "at the scene's values"
-    from aromm.physics.hygrothermal import PHI_PREFIX
+    from aromm.core.observables import PHI_PREFIX
 
     humid = any(o.startswith(PHI_PREFIX) for o in rom.outputs)
     unit = f" (°C, or relative humidity for {PHI_PREFIX} outputs)" if humid else " °C"

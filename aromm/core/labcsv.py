@@ -35,7 +35,7 @@ import csv
 import logging
 import os
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,7 +43,7 @@ import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.labchecks import PLAUSIBLE, Quantity, check_values
-from aromm.core.observables import Observables
+from aromm.core.observables import Observables, output_kind
 from aromm.core.system import FloatArray
 
 log = logging.getLogger(__name__)
@@ -279,12 +279,16 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
         raise InputError(f"{p}: every data row has a missing value; nothing left to read")
     data[:, 0] *= factor
     _check_times(p, data[:, 0], lines)
-    stated, kelvin_cols = _temperature_units(p, header_line, names, units, chosen=chosen,
-                                             given=temperature_unit, quantity=quantity)
+    humid = {out: name for out, name in chosen.items() if output_kind(out) == "phi"}
+    stated, kelvin_cols = _temperature_units(p, header_line, names, units, given=temperature_unit, quantity=quantity,
+                                             chosen={o: n for o, n in chosen.items() if o not in humid})
     values = {}
     for out, name in chosen.items():
         j = names.index(name)
         v = data[:, j]
+        if out in humid:
+            values[out] = _humidity(p, v, lines, name, unit=units[j], line=header_line)
+            continue
         if name in kelvin_cols:
             notes.append(f"column {name!r} converted from K to °C (− {KELVIN_OFFSET})")
         check_values(p, v, lines, name, quantity, kelvin=name in kelvin_cols, plausible=plausible)
@@ -293,6 +297,30 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
         log.info("%s: %s", p, note)
     table = Observables(data[:, 0].copy(), values, source=str(p))
     return LabTable(table, tuple(notes), tuple(lines), stated, dict(chosen))
+
+
+#: Units of a relative-humidity column (a ``phi:<face>`` output): its factor to the fraction the model uses.
+HUMIDITY_UNITS = {"1": 1.0, "-": 1.0, "rh": 1.0, "%": 0.01, "%rh": 0.01}
+#: A relative humidity read above this (a saturated sensor reads a little over 100 %RH) is refused.
+HUMIDITY_MAX = 1.05
+
+
+def _humidity(p: Path, v: FloatArray, lines: Sequence[int], name: str, *, unit: str | None, line: int) -> FloatArray:
+    """A relative-humidity column as a fraction: its unit (none: a fraction) from :data:`HUMIDITY_UNITS`, values in
+    [0, :data:`HUMIDITY_MAX`]; InputError naming the file, line and column otherwise."""
+    key = "1" if unit is None else unit.lower().replace(" ", "")
+    if key not in HUMIDITY_UNITS:
+        raise InputError(f"{p} line {line}, column {name!r}: unit {unit!r} for a relative humidity; allowed: "
+                         "1 (a fraction, the default), %RH or %")
+    check_values(p, v, lines, name, "humidity")  # sentinels and non-finite values, as every column
+    out = v * HUMIDITY_UNITS[key]
+    bad = np.flatnonzero((out < 0) | (out > HUMIDITY_MAX))
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f"{p} line {lines[i]}, column {name!r}: relative humidity {v[i]:g} {unit or ''} is outside "
+                         f"[0, {HUMIDITY_MAX:g}] as a fraction (state %RH in the units row if the column is in "
+                         "percent)")
+    return out
 
 
 def _map_columns(p: Path, line: int, names: list[str], *, outputs: Iterable[str] | None,

@@ -26,6 +26,17 @@ from aromm.core.files import OutputKind, atomic_write
 from aromm.core.system import FloatArray
 
 HEADER_TIME = "t"
+#: The name of an output's relative-humidity twin (aromm.physics.hygrothermal): ``phi:<output>``, in 1, not °C.
+PHI_PREFIX = "phi:"
+
+
+def output_kind(name: str) -> str:
+    """``"phi"`` for a relative humidity (an output named ``phi:<face>``, in 1), else ``"T"`` (°C).
+
+    >>> output_kind("z1"), output_kind("phi:z1")
+    ('T', 'phi')
+    """
+    return "phi" if name.startswith(PHI_PREFIX) else "T"
 
 
 @dataclass(frozen=True)

@@ -165,7 +165,8 @@ def parameter_values(phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], 
 
 
 #: Properties positive by nature: conductivity (or one of its axes), capacity, exchange coefficient.
-POSITIVE_PROPERTIES = ("k", "k_x", "k_y", "k_z", "k_1", "k_2", "k_3", "k_axial", "k_transverse", "c", "h")
+POSITIVE_PROPERTIES = ("k", "k_x", "k_y", "k_z", "k_1", "k_2", "k_3", "k_axial", "k_transverse", "c", "h",
+                       "xi", "D_phi", "delta_p", "beta")  # the last four: moisture (aromm.physics.hygrothermal)
 
 
 def is_positive(name: str) -> bool:

@@ -39,12 +39,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from aromm.core.errors import InputError
+from aromm.core.observables import PHI_PREFIX
 from aromm.core.system import Affine, Coefficient, Dirichlet, FloatArray, Term, ThermalSystem, dense, sparse
 
 LATENT_HEAT = 2.45e6  # J/kg, evaporation of water near 20 °C
 MOISTURE_KEYS = ("xi", "D_phi", "delta_p")
-#: The name of an output's relative-humidity twin: ``phi:<output>``.
-PHI_PREFIX = "phi:"
 
 
 def p_sat(T: float) -> float:

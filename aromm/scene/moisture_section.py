@@ -34,9 +34,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from aromm.core.errors import InputError
+from aromm.core.observables import PHI_PREFIX
 from aromm.core.system import ThermalSystem
 from aromm.core.vocabulary import FACES, PhaseSpec
-from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, PHI_PREFIX, MoistureState, coupled
+from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, MoistureState, coupled
 from aromm.scene.toml import TableReader
 
 STATE_KEYS = ("T_ref", "phi_ref", "latent_heat")
@@ -163,5 +164,5 @@ def refuse_moisture(scene: Any, command: str) -> None:
     """An InputError when ``scene`` has a ``[moisture]`` section that ``command`` cannot use yet."""
     if getattr(scene, "moisture", None) is not None:
         raise InputError(f"{scene.where}moisture: `aromm {command}` does not take coupled heat and moisture yet "
-                         "(simulate and reduce do); leave [moisture] out for a thermal run")
+                         "(simulate, reduce, homogenize and identify do); leave [moisture] out for a thermal run")
 
