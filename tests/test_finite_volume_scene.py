@@ -15,7 +15,7 @@ from aromm.core.errors import InputError
 from aromm.homogenization.cell_problems import effective_conductivity
 from aromm.reduction.model_key import scene_physics_key
 from aromm.scene.geometry import VoxelGeometry
-from aromm.scene.scene_file import assemble, scene_from_dict
+from aromm.scene.scene_file import scene_from_dict
 
 
 def _data(model: dict | None = None, k_matrix: float = 1.0, **extra: dict) -> dict:  # type: ignore[type-arg]
@@ -62,13 +62,6 @@ def test_bad_model_sections_are_refused_naming_the_key(model: dict | None, k: fl
                                                        message: str) -> None:
     with pytest.raises(InputError, match=message):
         scene_from_dict(_data(model, k))
-
-
-def test_sensors_are_refused_with_finite_volumes() -> None:
-    data = _data({"discretisation": "fv"}, boundary={"z0": {"T": 1.0}},
-                 outputs={"centre": {"point": [4e-3, 4e-3, 4e-3]}})
-    with pytest.raises(InputError, match="point sensors sit on the q1 nodes"):
-        assemble(scene_from_dict(data))
 
 
 def test_homogenize_command_takes_discretisation_and_an_insulating_phase(tmp_path: Path,

@@ -179,7 +179,7 @@ def other_discretisation(scene: Scene, engine: str) -> str:
     if engine != "scipy":
         raise click.UsageError("--discretisation-check runs on the scipy engine")
     other = "fv" if scene.discretisation == "q1" else "q1"
-    refused = refusal(other, scene.geometry, scene.phases, scene.sensors)
+    refused = refusal(other, scene.geometry, scene.phases)
     if refused is not None:
         raise click.UsageError(f"--discretisation-check: {other} cannot model this scene: {refused[0]}: {refused[1]}")
     return other

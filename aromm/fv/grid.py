@@ -106,6 +106,11 @@ class VolumeGrid:
         return self._n
 
     @property
+    def index(self) -> IntArray:
+        """The unknown of each voxel (−1: none), shaped like the image."""
+        return self._index
+
+    @property
     def cell_phase(self) -> IntArray:
         """Phase index of each cell unknown."""
         return self.phase[self.phase >= 0]

@@ -179,6 +179,17 @@ def _interface_terms(grid: VolumeGrid, phases: Sequence[PhaseSpec], present: Seq
     return terms
 
 
+def volume_grid(labels: np.ndarray, voxel_size: Sequence[float], phases: Sequence[PhaseSpec],
+                boundary: Sequence[FaceSpec], outputs: Sequence[str], *, steady: bool) -> VolumeGrid:
+    """The unknowns :func:`assemble_volumes` numbers: the conducting voxels (in a steady scene those a fixed
+    temperature or an exchange reaches), and the faces that carry a condition or an output."""
+    phase = conducting_phase(labels, phases)
+    if steady:
+        phase = pruned(phase, boundary)
+    faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
+    return VolumeGrid(phase, (float(voxel_size[0]), float(voxel_size[1]), float(voxel_size[2])), faces)
+
+
 def assemble_volumes(
     labels: np.ndarray,
     voxel_size: Sequence[float],
@@ -205,11 +216,7 @@ def assemble_volumes(
     if cold and time is not None:
         raise InputError(f"phase {cold[0]!r}: k = 0 (insulating) is for steady scenes (homogenize, rev, simulate "
                          "without [time]); a transient needs every phase to conduct")
-    phase = conducting_phase(labels, phases)
-    if time is None:
-        phase = pruned(phase, boundary)
-    faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
-    grid = VolumeGrid(phase, voxel, faces)
+    grid = volume_grid(labels, voxel, phases, boundary, outputs, steady=time is None)
     present = sorted(set(np.unique(grid.cell_phase).tolist()))
     if not present:
         raise InputError("finite volumes: no voxel conducts heat to a face with a fixed temperature or an exchange "

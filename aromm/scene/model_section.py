@@ -13,7 +13,6 @@ from typing import Any
 from aromm.core.choices import DISCRETISATIONS
 from aromm.core.vocabulary import PhaseSpec, insulating
 from aromm.scene.geometry import SceneGeometry, VoxelGeometry
-from aromm.scene.sensors import Sensor
 from aromm.scene.toml import TableReader
 
 
@@ -25,8 +24,7 @@ def with_discretisation(data: Mapping[str, Any], discretisation: str | None) -> 
     return {**data, "model": {**(model if isinstance(model, dict) else {}), "discretisation": discretisation}}
 
 
-def refusal(name: str, geometry: SceneGeometry, phases: Sequence[PhaseSpec],
-            sensors: Sequence[Sensor]) -> tuple[str, str] | None:
+def refusal(name: str, geometry: SceneGeometry, phases: Sequence[PhaseSpec]) -> tuple[str, str] | None:
     """(key, why) when discretisation ``name`` cannot model this scene, else None: the one rule that the scene
     file, the assembly of a scene built in Python and ``identify --discretisation-check`` all apply."""
     if name not in DISCRETISATIONS:
@@ -34,8 +32,6 @@ def refusal(name: str, geometry: SceneGeometry, phases: Sequence[PhaseSpec],
                                         "default), fv (cell-centred finite volumes)")
     if name == "fv" and not isinstance(geometry, VoxelGeometry):
         return "model.discretisation", "fv discretises a voxel image; a mesh scene keeps its elements (q1)"
-    if name == "fv" and sensors:
-        return "outputs", "point sensors sit on the q1 nodes; with discretisation fv use face means"
     cold = [ph.name for ph in phases if insulating(ph)]
     if cold and name != "fv":
         return f"phases.{cold[0]}.k", ('k = 0 (an insulating phase) needs the finite volumes: [model] '
@@ -43,11 +39,11 @@ def refusal(name: str, geometry: SceneGeometry, phases: Sequence[PhaseSpec],
     return None
 
 
-def parse_model(r: TableReader, data: Mapping[str, Any], geometry: SceneGeometry, phases: Sequence[PhaseSpec],
-                sensors: Sequence[Sensor]) -> str:
-    """The scene's discretisation, checked against its geometry, phases and sensors (:func:`refusal`)."""
+def parse_model(r: TableReader, data: Mapping[str, Any], geometry: SceneGeometry,
+                phases: Sequence[PhaseSpec]) -> str:
+    """The scene's discretisation, checked against its geometry and phases (:func:`refusal`)."""
     name = r.table(data, "model", ("discretisation",)).get("discretisation", "q1")
-    refused = refusal(str(name), geometry, phases, sensors)
+    refused = refusal(str(name), geometry, phases)
     if refused is not None:
         raise r.fail(*refused)
     return str(name)

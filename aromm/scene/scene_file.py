@@ -32,7 +32,7 @@ from aromm.scene.model_section import parse_model, refusal, with_discretisation
 from aromm.scene.moisture_section import FACE_KEYS as MOISTURE_FACE_KEYS
 from aromm.scene.moisture_section import MoistureScene, parse_moisture
 from aromm.scene.reduction_section import ReductionSettings, parse_reduction
-from aromm.scene.sensors import Sensor, box, parse_sensors, sensor_rows
+from aromm.scene.sensors import Sensor, box, parse_sensors, scene_rows
 from aromm.scene.time_section import AutoTime, auto_grid, parse_time
 from aromm.scene.toml import TableReader, where
 
@@ -140,7 +140,7 @@ def assemble(scene: Scene, matrix_free: bool = False) -> ThermalSystem:
     singular = singular_boundary(scene.boundary, scene.time)
     if singular:
         raise InputError(f"{scene.where}{singular}")
-    refused = refusal(scene.discretisation, scene.geometry, scene.phases, scene.sensors)
+    refused = refusal(scene.discretisation, scene.geometry, scene.phases)
     if refused is not None:
         raise InputError(f"{scene.where}{refused[0]}: {refused[1]}")
     voxels: dict[str, Any] = {"matrix_free": matrix_free, "discretisation": scene.discretisation}
@@ -150,7 +150,7 @@ def assemble(scene: Scene, matrix_free: bool = False) -> ThermalSystem:
                                      initial_T=scene.initial_T, outputs=faces, where=scene.where,
                                      **(voxels if isinstance(scene.geometry, VoxelGeometry) else {}))
     if scene.sensors:
-        rows = sensor_rows(scene.sensors, scene.geometry, system, scene.where)
+        rows = scene_rows(scene, system, faces)
         system = replace(system, observation={**system.observation, **rows})
     return system if moisture is None else moisture.coupled(system, (*scene.outputs, *(s.name for s in scene.sensors)))
 
@@ -241,7 +241,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
     reduction = parse_reduction(r, data, allowed if moisture is None else {**allowed, **moisture.parameters})
     return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report,
-                 parse_model(r, data, geometry, phases, sensors), moisture)
+                 parse_model(r, data, geometry, phases), moisture)
 
 
 def _geometry(r: TableReader, geo: dict[str, Any], path: Path | None,

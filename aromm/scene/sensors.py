@@ -346,3 +346,27 @@ def sensor_rows(sensors: Sequence[Sensor], geometry: SceneGeometry, system: Ther
     if system.geometry is None:
         raise InputError(f"{where}outputs: the system has no node coordinates to place sensors on")
     return mesh_rows(sensors, system.geometry, system.n, where)
+
+
+def scene_rows(scene: Any, system: ThermalSystem, faces: Sequence[str]) -> dict[str, sp.csr_array]:
+    """Observation rows of ``scene``'s sensors on the discretisation that produced ``system`` (whose face outputs
+    were ``faces``): Q1 nodes or mesh elements (:func:`sensor_rows`), or finite volumes (:mod:`aromm.fv.observation`:
+    the voxel centres and face temperatures)."""
+    if scene.discretisation != "fv":
+        return sensor_rows(scene.sensors, scene.geometry, system, scene.where)
+    from aromm.fv.observation import patch_row, point_row
+    from aromm.fv.volumes import volume_grid
+
+    geo = scene.geometry
+    grid = volume_grid(geo.labels, geo.voxel_size, scene.phases, scene.boundary, faces, steady=scene.time is None)
+    rows: dict[str, sp.csr_array] = {}
+    for s in scene.sensors:
+        try:
+            if isinstance(s, PointSensor):
+                rows[s.name] = point_row(grid, s.point, s.name)
+                continue
+            for out, rect in zip(s.outputs, s.rectangles(), strict=True):
+                rows[out] = patch_row(grid, s.face, rect, s.name)
+        except InputError as err:
+            raise InputError(f"{scene.where}{err}") from None
+    return rows

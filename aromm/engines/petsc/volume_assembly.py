@@ -35,7 +35,7 @@ from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fv.grid import AXES, VolumeGrid
-from aromm.fv.volumes import assemble_volumes, conducting_phase
+from aromm.fv.volumes import assemble_volumes, volume_grid
 
 Box = tuple[tuple[int, int], tuple[int, int], tuple[int, int]]
 IntArray = npt.NDArray[np.int64]
@@ -143,16 +143,10 @@ def padded_system(problem: VoxelProblem, layout: BoxLayout) -> tuple[ThermalSyst
     outputs = tuple(o for o in problem.outputs if o in touched)
     system = assemble_volumes(labels, problem.voxel_size, problem.phases, boundary, time=problem.time,
                               initial_T=problem.initial_T, outputs=outputs)
-    faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
-    grid = VolumeGrid(conducting_phase(labels, problem.phases), system_voxel(problem), faces)
+    grid = volume_grid(labels, problem.voxel_size, problem.phases, boundary, outputs, steady=problem.time is None)
     if grid.n != system.n:
         raise RuntimeError(f"padded box: {grid.n} unknowns numbered, the assembler made {system.n}")
     return system, grid, box
-
-
-def system_voxel(problem: VoxelProblem) -> tuple[float, float, float]:
-    v = problem.voxel_size
-    return (float(v[0]), float(v[1]), float(v[2]))
 
 
 def global_rows(grid: VolumeGrid, box: Box, numbering: VolumeRows) -> tuple[IntArray, npt.NDArray[np.bool_]]:
