@@ -216,3 +216,28 @@ def test_the_homogenised_moisture_transport_of_a_laminate_is_its_exact_means() -
     for axis, expect in ((0, series), (1, parallel), (2, parallel)):
         assert np.allclose(found[axis], expect, rtol=1e-9, atol=1e-12 * np.abs(expect).max()), (axis, found[axis])
     assert mean_moisture_capacity(scene) == pytest.approx((200.0 + 0.017) / 2, rel=1e-14)
+
+
+def test_a_moisture_flux_gives_the_exact_steady_profile() -> None:
+    """Steady bar: T = 20 °C and φ = 0.8 fixed on x0; on x1 a moisture flux g = 2e-7 kg/(m² s) enters, heat
+    adiabatic.  The fluxes are uniform: no heat (q = 0) and the water g flowing back to x0, so the profile is linear
+    with slopes s solving F s = (0, g) in physical units (F the phases' flux matrix: q = −F₀· ∇u, m = −F₁· ∇u);
+    Q1 reproduces a linear field exactly."""
+    from aromm.full.solve import steady_field
+
+    size = LENGTH / 6
+    thermal = assemble_voxels(np.zeros((6, 1, 1), dtype=int), (size, size, size),
+                              [PhaseSpec("board", 0, BOARD["k"], BOARD["c"])], [FaceSpec("x0", T=20.0)],
+                              outputs=["x1"])
+    moisture = {"board": {k: BOARD[k] for k in ("xi", "D_phi", "delta_p")}}
+    g = 2e-7
+    system = coupled(thermal, STATE, moisture, fixed_phi={"x0": 0.8}, moisture_flux={"x1": (g, size * size)})
+    field = steady_field(system)
+    far = np.array([float(np.asarray(system.observation[name] @ field).ravel()[0]) for name in ("x1", "phi:x1")])
+    physical = _physical(STATE, BOARD["k"], BOARD["D_phi"], BOARD["delta_p"])
+    slope = np.linalg.solve(physical, np.array([0.0, g]))  # −F s = (q, m) = (0, −g)
+    exact = np.array([20.0, 0.8]) + slope * LENGTH
+    assert exact[1] > 0.8 + 1e-3 and abs(exact[0] - 20.0) > 1e-4  # wetter, and T moved by the vapour's latent heat
+    assert np.abs(far - exact).max() <= 1e-9 * np.abs(exact).max()
+    with pytest.raises(InputError, match=r"x0\.g needs a face-mean output of x0"):
+        coupled(thermal, STATE, moisture, moisture_flux={"x0": (g, size * size)})

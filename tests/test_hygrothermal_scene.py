@@ -157,3 +157,25 @@ def test_the_shipped_moisture_scene_loads_with_its_parameters() -> None:
     scene = load_scene(Path(__file__).parents[1] / "data" / "scenes" / "wood_moisture.toml")
     assert scene.moisture is not None and scene.moisture.vapour == {"z1": (2e-8, 0.5)}
     assert scene.parameters["fibre.xi"] == 200.0 and scene.parameters["z0.phi"] == 0.8
+
+
+def test_a_moisture_flux_face_through_the_scene_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """[boundary.x1] g: its parameter joins the scene's, and the steady far face is the exact linear profile of
+    tests/test_hygrothermal.py (here on 16 cells; a linear field is exact in Q1), through `aromm simulate --json`."""
+    from test_hygrothermal import BOARD, LENGTH, STATE, _physical
+
+    path = _scene(tmp_path)
+    text = path.read_text(encoding="utf-8")
+    text = text[:text.index("[time]")] + "[outputs]\nmean_T = [\"x1\"]\nmean_phi = [\"x1\"]\n"
+    path.write_text(text.replace("[initial]", "[boundary.x1]\ng = 2.0e-7\n\n[initial]"), encoding="utf-8")
+    assert load_scene(path).parameters["x1.g"] == 2.0e-7
+    assert main(["simulate", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    far = np.array([out["mean_T"]["x1"][-1], out["mean_phi"]["x1"][-1]])
+    slope = np.linalg.solve(_physical(STATE, BOARD["k"], BOARD["D_phi"], BOARD["delta_p"]), np.array([0.0, 2.0e-7]))
+    exact = np.array([20.0, 0.8]) + slope * LENGTH
+    assert np.abs(far - exact).max() <= 1e-9 * np.abs(exact).max()
+    path.write_text(path.read_text(encoding="utf-8").replace("g = 2.0e-7", "g = 2.0e-7\nphi = 0.5"),
+                    encoding="utf-8")
+    assert main(["simulate", str(path), "--json"]) == 2
+    assert "boundary.x1: a face takes one moisture condition" in capsys.readouterr().err

@@ -23,7 +23,8 @@ coefficient, which no 2 × 2 block times a phase operator reproduces (refused, s
 
 Boundary conditions here: the thermal system's own (fixed temperatures, flux, convection: T block only), fixed
 relative humidities on faces (``fixed_phi``), vapour exchange with the air of a convective face (``vapour``: β and
-φ_ext, the latent heat of the exchanged vapour included), and sealed faces elsewhere (no moisture flux).  Outputs:
+φ_ext, the latent heat of the exchanged vapour included), a moisture flux (``moisture_flux``: g), and sealed faces
+elsewhere (no moisture flux).  Outputs:
 every thermal output on the T block, and ``phi:<output>`` the same row on the φ block.  Initial state: ``initial.T``
 on T and ``initial.phi`` on φ (uniform).  Units SI except T in °C; the model is valid near (T_ref, φ_ref), where the
 linearisation of p_v holds.
@@ -101,14 +102,17 @@ class MoistureState:
 
 def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str, Mapping[str, float]], *,
             fixed_phi: Mapping[str, float] | None = None, initial_phi: float | None = None,
-            vapour: Mapping[str, tuple[float, float]] | None = None) -> ThermalSystem:
+            vapour: Mapping[str, tuple[float, float]] | None = None,
+            moisture_flux: Mapping[str, tuple[float, float]] | None = None) -> ThermalSystem:
     """The coupled system of the thermal system ``thermal`` (isotropic phases, assembled or matrix-free terms,
     :func:`aromm.core.system.sparse`): ``moisture`` maps each phase name to its ``xi``, ``D_phi`` and ``delta_p``;
     ``fixed_phi`` maps faces (with a fixed temperature, or a face output) to a fixed relative humidity; the initial
     relative humidity is ``initial_phi`` (default φ_ref); ``vapour`` maps faces that exchange heat with the air (a
-    convection ``h``) to ``(beta, phi_ext)``, their vapour exchange (:func:`_vapour_terms`).  Parameters
-    ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``, ``<face>.phi_ext`` and
-    ``initial.phi`` join the thermal ones."""
+    convection ``h``) to ``(beta, phi_ext)``, their vapour exchange (:func:`_vapour_terms`); ``moisture_flux`` maps
+    faces with a face-mean output of ``thermal`` to ``(g, area)``: g kg/(m² s) of water entering through the face of
+    that area (m²), a load ``λ g |f| e_f`` on the moisture row (e_f the face-mean row; no latent heat: the water
+    enters as it is stored).  Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``,
+    ``<face>.beta``, ``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the thermal ones."""
     if thermal.initial or thermal.feedthrough:
         raise InputError("hygrothermal: couple the assembled thermal system, before any lifting")
     n, blocks = thermal.n, state.blocks()
@@ -157,6 +161,14 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
         conductance.append(terms[0])
         load.extend(terms[1:])
         parameters.update({f"{face}.beta": float(beta), f"{face}.phi_ext": float(phi_ext)})
+    for face, (g, area) in (moisture_flux or {}).items():
+        row = thermal.observation.get(face)
+        if row is None or not (math.isfinite(g) and area > 0.0):
+            raise InputError(f"hygrothermal: {face}.g needs a face-mean output of {face} and a finite flux "
+                             f"(kg/(m² s)), got {g!r}")
+        on_phi = np.concatenate([np.zeros(n), dense(row).ravel()])
+        load.append(Term(f"G_{face}", Coefficient((f"{face}.g",), scale=state.weight * area), on_phi, "load"))
+        parameters[f"{face}.g"] = float(g)
     dirichlet = list(thermal.dirichlet)
     for face, value in (fixed_phi or {}).items():
         if not 0.0 <= float(value) <= 1.0:

@@ -17,14 +17,16 @@ A scene without ``[moisture]`` is exactly a thermal scene; with it::
     T_ext = 20.0
     beta = 2.0e-8         # kg/(m² s Pa)
     phi_ext = 0.5
+    [boundary.z1]         # or a moisture flux into the body (kg/(m² s), constant): rain, a wetting test
+    g = 1.0e-6
     [initial]
     phi = 0.5             # default phi_ref
     [outputs]
     mean_phi = ["x1"]     # face-mean relative humidities
 
 Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``,
-``<face>.phi_ext`` and ``initial.phi`` join the scene's.  Not yet: moisture-flux faces, anisotropic phases, the
-petsc engine, sensors of φ.
+``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the scene's.  Not yet: a history of g, anisotropic phases,
+the petsc engine, sensors of φ.
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
+
+import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.observables import PHI_PREFIX
@@ -41,7 +45,7 @@ from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, MoistureState
 from aromm.scene.toml import TableReader
 
 STATE_KEYS = ("T_ref", "phi_ref", "latent_heat")
-FACE_KEYS = ("phi", "beta", "phi_ext")
+FACE_KEYS = ("phi", "beta", "phi_ext", "g")
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,7 @@ class MoistureScene:
     initial_phi: float
     outputs: tuple[str, ...] = ()
     vapour: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # face → (beta, phi_ext)
+    flux: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # face → (g kg/(m² s), its area m²)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -63,25 +68,29 @@ class MoistureScene:
         out.update({f"{face}.phi": float(v) for face, v in self.fixed_phi.items()})
         for face, (beta, phi_ext) in self.vapour.items():
             out.update({f"{face}.beta": float(beta), f"{face}.phi_ext": float(phi_ext)})
+        out.update({f"{face}.g": float(g) for face, (g, _) in self.flux.items()})
         out["initial.phi"] = float(self.initial_phi)
         return out
 
     def faces(self, outputs: Sequence[str]) -> tuple[str, ...]:
-        """The face outputs the thermal system must have: the scene's, then those of ``mean_phi``."""
-        return (*outputs, *(f for f in self.outputs if f not in outputs))
+        """The face outputs the thermal system must have: the scene's, then those of ``mean_phi`` and of the
+        moisture fluxes (their face-mean rows carry the flux)."""
+        extra = [f for f in (*self.outputs, *self.flux) if f not in outputs]
+        return (*outputs, *dict.fromkeys(extra))
 
     def coupled(self, thermal: ThermalSystem, outputs: Sequence[str]) -> ThermalSystem:
         """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal ``outputs`` and the
         ``phi:<face>`` of ``mean_phi``."""
         system = coupled(thermal, self.state, self.phases, fixed_phi=self.fixed_phi, initial_phi=self.initial_phi,
-                         vapour=self.vapour)
+                         vapour=self.vapour, moisture_flux=self.flux)
         wanted = {*outputs, *(PHI_PREFIX + f for f in self.outputs)}
         return replace(system, observation={k: v for k, v in system.observation.items() if k in wanted})
 
 
-def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[PhaseSpec]) -> MoistureScene | None:
-    """The ``[moisture]`` part of a scene (None without the section); the moisture keys of ``[phases]``,
-    ``[boundary]``, ``[initial]`` and ``[outputs]`` are refused without it."""
+def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[PhaseSpec],
+                   extent: Sequence[float]) -> MoistureScene | None:
+    """The ``[moisture]`` part of a scene (None without the section; ``extent`` the box's edge lengths, m); the
+    moisture keys of ``[phases]``, ``[boundary]``, ``[initial]`` and ``[outputs]`` are refused without it."""
     phase_tables = r.table(data, "phases", None)
     face_tables = r.table(data, "boundary", None)
     initial = r.table(data, "initial", None)
@@ -111,10 +120,16 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
         if ph.tensor is not None or isinstance(ph.k, tuple):
             raise r.fail(f"phases.{ph.name}", "an anisotropic phase is not coupled to moisture yet")
         values[ph.name] = {k: _non_negative(r, spec[k], f"phases.{ph.name}.{k}") for k in MOISTURE_KEYS}
-    fixed, vapour = {}, {}
+    fixed, vapour, flux = {}, {}, {}
     for face, spec in face_tables.items():
         if not isinstance(spec, dict):
             continue
+        if "g" in spec:
+            if "phi" in spec or "beta" in spec:
+                raise r.fail(f"boundary.{face}", "a face takes one moisture condition: phi, beta with phi_ext, or g")
+            axis = "xyz".index(face[0])
+            area = float(np.prod([e for a, e in enumerate(extent) if a != axis]))
+            flux[face] = (r.number(spec["g"], f"boundary.{face}.g"), area)
         if "phi" in spec:
             if "beta" in spec or "phi_ext" in spec:
                 raise r.fail(f"boundary.{face}", "a face takes a fixed phi, or a vapour exchange beta with phi_ext")
@@ -129,7 +144,7 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
     faces = outputs.get("mean_phi", [])
     if not isinstance(faces, list) or any(f not in FACES for f in faces):
         raise r.fail("outputs.mean_phi", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
-    return MoistureScene(state, values, fixed, initial_phi, tuple(faces), vapour)
+    return MoistureScene(state, values, fixed, initial_phi, tuple(faces), vapour, flux)
 
 
 def _non_negative(r: TableReader, value: Any, key: str) -> float:

@@ -237,7 +237,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
         raise InputError(f"{where(path)}{singular}")
     interfaces = parse_interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
-    moisture = parse_moisture(r, data, phases)
+    moisture = parse_moisture(r, data, phases, np.subtract(*box(geometry)[::-1]))
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
     reduction = parse_reduction(r, data, allowed if moisture is None else {**allowed, **moisture.parameters})
     return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report,
