@@ -46,7 +46,7 @@ def test_halves_give_the_closed_form_spread_and_half_widths(discretisation: str)
     assert one.half["a.c"] == pytest.approx(Z95 * spread_c * (CA + CB) / CA, rel=1e-12)
     both = representativeness(scene, {"a.k": KA, "b.k": KB}, axis=2, method="splu")
     assert both.half["a.k"] == pytest.approx(Z95 * spread_k, rel=1e-6) == both.half["b.k"]
-    np.testing.assert_allclose(half_widths(both, ("b.k", "a.k", "z1.h"), np.array([KB, KA, 5.0])),
+    np.testing.assert_allclose(half_widths(both.half, ("b.k", "a.k", "z1.h"), np.array([KB, KA, 5.0])),
                                [Z95 * spread_k * KB, Z95 * spread_k * KA, 0.0], rtol=1e-6)
 
 

@@ -302,7 +302,7 @@ def _representativeness(result: Identification, scene: Scene) -> Identification:
     decay = f"{rep.decay:.3g} measured" if rep.decay is not None else f"{math.sqrt(8):.3g} assumed"
     log.info("representativeness: octants' k̄ spread %.3g, the image's %.3g (decay %s per eightfold volume); c̄ %.3g",
              rep.octant_spread_k, rep.spread_k, decay, rep.spread_c)
-    uncertainty = with_spread(unc, "representativeness", half_widths(rep, unc.names, unc.estimates))
+    uncertainty = with_spread(unc, "representativeness", half_widths(rep.half, unc.names, unc.estimates))
     return dataclasses.replace(result, uncertainty=uncertainty,
                                model={**result.model, "representativeness_check": rep.as_dict()})
 

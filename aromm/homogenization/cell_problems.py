@@ -33,7 +33,7 @@ whose weight falls like 1/n with the image size n [Huet1990] [Kanit2003]:
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -102,8 +102,10 @@ def _image(scene: Scene) -> VoxelGeometry:
 
 
 def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str = "auto",
-                           rtol: float = DEFAULT_RTOL, ktol: float | None = None) -> CellResult:
-    """Apparent conductivity tensor of the scene's image under ``boundary`` (see the module docstring).
+                           rtol: float = DEFAULT_RTOL, ktol: float | None = None, *,
+                           axes: Sequence[int] = (0, 1, 2)) -> CellResult:
+    """Apparent conductivity tensor of the scene's image under ``boundary`` (see the module docstring); the flux and
+    temperature probes solve the ``axes`` asked only (the other entries stay 0).
 
     ``ktol`` (multigrid only; the direct methods are exact): stop each solve once the algebraic error of every
     tensor entry is at most ``ktol`` times a lower bound of the diagonal (aromm.homogenization.accuracy),
@@ -116,7 +118,7 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
     # fv solves stop at rtol, not ktol: CG's energy estimate, on which ktol rests, trailed the error of k by 4–40×
     # under fv's aggregation multigrid (contrast 1e3–1e4; its HS terms are not monotone there), so it would not hold
     if scene.discretisation == "fv":
-        k, fv_name, cpus, walls = fv_cell(scene, boundary, method, rtol, MG_CROSSOVER_VOXELS)
+        k, fv_name, cpus, walls = fv_cell(scene, boundary, method, rtol, MG_CROSSOVER_VOXELS, axes=axes)
         return CellResult(k, boundary, fv_name, cpu_seconds=cpus, wall_seconds=walls)
     name = resolve_solver(method, int(np.asarray(_image(scene).labels).size))
     if anisotropic(scene):  # full or per-voxel tensors: the assembled operator (aromm.homogenization.anisotropic_cells)
@@ -128,7 +130,7 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
     else:
         free = voxel_operator(scene)
         shared: dict[str, list[CoarseLevel]] = {}  # one Galerkin hierarchy and weight cache for the three axes
-        for axis in range(3):
+        for axis in axes:
             _faces(scene, free, axis, boundary, method=name, rtol=rtol, result=result, ktol=ktol, shared=shared)
     return result
 

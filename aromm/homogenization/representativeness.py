@@ -24,7 +24,7 @@ measured on 8 octants and 64 quarters, itself uncertain (``aromm rev`` shows the
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -128,7 +128,7 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
     base = with_values(scene, estimates)
 
     def k_bar(s: Scene) -> float:
-        return float(effective_conductivity(s, "temperature", method).k[axis, axis])
+        return float(effective_conductivity(s, "temperature", method, axes=(axis,)).k[axis, axis])
 
     parts = blocks(base)
     octant_k = np.array([k_bar(p) for p in parts])
@@ -148,11 +148,7 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
         if k_bar(base) <= 0:
             raise InputError(f"{scene.where}representativeness: the image has no conducting path along "
                              f"{'xyz'[axis]} at the estimates (k̄ = 0): its conductivities cannot be scaled")
-        slope = 0.0
-        for name in unknown_k:
-            up, down = ({**estimates, name: estimates[name] * (1 + sign * STEP)} for sign in (1, -1))
-            slope += (math.log(k_bar(with_values(base, up))) - math.log(k_bar(with_values(base, down)))) / (
-                math.log1p(STEP) - math.log1p(-STEP))
+        slope = conductivity_slope(base, estimates, unknown_k, k_bar)
         half.update({name: Z95 * spread_k / slope if slope > 0 else math.inf for name in unknown_k})
     if unknown_c:
         whole = base.volume_fractions()
@@ -162,12 +158,26 @@ def representativeness(scene: Scene, estimates: Mapping[str, float], axis: int,
     return Representativeness(axis, octant_k, octant_c, spread_k, spread_c, half, decay)
 
 
+def conductivity_slope(scene: Scene, estimates: Mapping[str, float], unknown_k: Sequence[str],
+                       k_bar: Callable[[Scene], float]) -> float:
+    """``S_k = Σ_j ∂ln k̄/∂ln k_j`` over the unknown conductivities ``unknown_k`` at ``estimates`` (central differences
+    of relative step :data:`STEP`; ``k_bar`` the scene's k̄ along the loaded axis): the relative change of k̄ when
+    they are scaled together, 1 when they are every phase (k̄ is homogeneous of degree 1)."""
+    slope = 0.0
+    for name in unknown_k:
+        up, down = ({**estimates, name: estimates[name] * (1 + sign * STEP)} for sign in (1, -1))
+        slope += (math.log(k_bar(with_values(scene, up))) - math.log(k_bar(with_values(scene, down)))) / (
+            math.log1p(STEP) - math.log1p(-STEP))
+    return slope
+
+
 def _spread(values: FloatArray) -> float:
     """std / mean (ddof 1) of values ≥ 0; 0 for a constant set (all 0 included)."""
     mean = float(np.mean(values))
     return float(np.std(values, ddof=1)) / mean if mean > 0 else 0.0
 
 
-def half_widths(rep: Representativeness, names: Sequence[str], estimates: FloatArray) -> FloatArray:
-    """The 95 % half-widths in the estimates' units, in the order of ``names`` (0 for the other unknowns)."""
-    return np.array([rep.half.get(n, 0.0) * abs(float(v)) for n, v in zip(names, estimates, strict=True)])
+def half_widths(relative: Mapping[str, float], names: Sequence[str], estimates: FloatArray) -> FloatArray:
+    """Relative half-widths (name → fraction of the estimate) in the estimates' units, in the order of ``names``
+    (0 for the other unknowns)."""
+    return np.array([relative.get(n, 0.0) * abs(float(v)) for n, v in zip(names, estimates, strict=True)])
