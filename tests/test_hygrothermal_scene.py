@@ -1,6 +1,6 @@
 """The scene's [moisture] vocabulary (aromm.scene.moisture_section) from the command line: the coupled slab of
 tests/test_hygrothermal.py written as a scene file, simulated by `aromm simulate --model reduced --json` against the
-exact coupled solution, bad input refused with its key, the command that does not take moisture yet saying so, and a
+exact coupled solution, bad input refused with its key, measure's coupled homogeneous twin, and a
 reduced model's cache key split by every moisture value outside its training box."""
 
 from __future__ import annotations
@@ -111,12 +111,36 @@ def test_bad_moisture_input_exits_2_naming_the_key(tmp_path: Path, capsys: pytes
     assert fragment in capsys.readouterr().err
 
 
-def test_measure_says_it_does_not_take_moisture_yet(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """measure's synthetic data come from the homogeneous twin, which has no moisture transport yet (identify takes
-    measured humidities: tests/test_hygrothermal_identify.py)."""
+def test_measure_gives_the_coupled_twin_of_a_homogeneous_bar_exactly(tmp_path: Path,
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """The homogeneous bar is its own twin: the properties measure inverts from the effective transport are the
+    board's, and its data (T and φ at the far face) are the scene's own full model (`aromm simulate --json`) to the
+    steady probes' rounding; noise per kind is added where asked; a moisture face across the loaded axis is
+    refused."""
     path = _scene(tmp_path)
-    assert main(["measure", str(path), "--homogeneous", "--out", str(tmp_path / "y.csv")]) == 2
-    assert "`aromm measure` does not take coupled heat and moisture yet" in capsys.readouterr().err
+    assert main(["simulate", str(path), "--json"]) == 0
+    full = json.loads(capsys.readouterr().out)
+    assert main(["measure", str(path), "--homogeneous", "--out", str(tmp_path / "y.csv"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    for key, value in {"xi": 20.0, "D_phi": 1.0e-9, "delta_p": 2.0e-11}.items():
+        assert summary["moisture"][key] == pytest.approx(value, rel=1e-6)
+    data = np.loadtxt(tmp_path / "y.csv", delimiter=",", skiprows=1)
+    header = (tmp_path / "y.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
+    assert header == ["t", "x1", "phi:x1"]
+    t = np.asarray(full["t"])
+    at = np.searchsorted(t, data[:, 0])
+    assert np.abs(data[:, 1] - np.asarray(full["mean_T"]["x1"])[at]).max() <= 1e-6  # °C
+    assert np.abs(data[:, 2] - np.asarray(full["mean_phi"]["x1"])[at]).max() <= 1e-7
+    assert main(["measure", str(path), "--homogeneous", "--out", str(tmp_path / "n.csv"), "--noise", "0.01",
+                 "--noise-phi", "0.002", "--seed", "1", "--json"]) == 0
+    capsys.readouterr()
+    noisy = np.loadtxt(tmp_path / "n.csv", delimiter=",", skiprows=1)
+    spread = np.std(noisy[:, 1:] - data[:, 1:], axis=0)
+    assert 0.003 < spread[0] < 0.03 and 0.0006 < spread[1] < 0.006  # 12 samples: within 3x of each sigma
+    path.write_text(path.read_text(encoding="utf-8").replace("[initial]", "[boundary.y1]\nphi = 0.6\n\n[initial]"),
+                    encoding="utf-8")
+    assert main(["measure", str(path), "--homogeneous", "--out", str(tmp_path / "z.csv")]) == 2
+    assert "boundary.y1: a moisture condition across the loaded axis x" in capsys.readouterr().err
 
 
 def test_a_moisture_value_outside_the_box_splits_the_cache_key(tmp_path: Path) -> None:

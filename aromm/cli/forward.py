@@ -277,6 +277,9 @@ def _moisture(sc: Any, voxels: bool, solver: str) -> dict[str, Any] | None:
                    "then has the sample's steady face means); flux, temperature: as `aromm homogenize --boundary`.")
 @click.option("--noise", type=FiniteFloat(min=0.0), default=0.0, show_default=True,
               help="Standard deviation of Gaussian noise added to every value (°C).")
+@click.option("--noise-phi", type=FiniteFloat(min=0.0), default=0.0, show_default=True,
+              help="Standard deviation of Gaussian noise added to every relative humidity (a [moisture] scene's "
+                   "phi:<face> outputs, as a fraction).")
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--perturb", type=FiniteFloat(min=-1.0, min_open=True), default=0.0, show_default=True,
               help="Relative change of every homogeneous property ([Chavez2020]'s +2 % study: 0.02).")
@@ -286,7 +289,8 @@ def _moisture(sc: Any, voxels: bool, solver: str) -> dict[str, Any] | None:
 @engine_cli.DISCRETISATION
 @JSON
 @FORCE
-def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: float, seed: int, perturb: float,
+def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: float, noise_phi: float, seed: int,
+                perturb: float,
                 out: Path, solver: str, engine: str, as_json: bool, force: bool) -> None:
     """Synthetic measurements: mean surface temperatures of SCENE's homogeneous model.
 
@@ -296,19 +300,20 @@ def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: flo
     from aromm.cli import checks
     from aromm.core.observables import TIME_SERIES
     from aromm.homogenization.synthetic import homogeneous_measurements
-    from aromm.scene.moisture_section import refuse_moisture
     from inverse.measurements import save_measurements
 
     solver = engine_cli.resolve(engine, solver)
     source = engine_cli.load(scene, engine)
     sc = engine_cli.outline(source)
-    refuse_moisture(sc, "measure")
     if sc.time is None:
         raise InputError(f"{scene}: [time]: measurements need a transient scene; add [time] with end and dt (s)")
     if not sc.outputs:
         raise InputError(f"{scene}: [outputs] mean_T: no face to measure; list faces, e.g. mean_T = [\"z0\", \"z1\"]")
     check_output(out, TIME_SERIES, inputs=checks.scene_inputs(scene), force=force)
-    if conductivity == "scenario":
+    moisture = _moisture_twin(sc, conductivity, solver) if sc.moisture is not None else None
+    if moisture is not None:
+        k = moisture.pop("k") * np.eye(3)
+    elif conductivity == "scenario":
         probe = fluxmetric(source, method=solver, engine=engine)
         k = probe.k * np.eye(3)  # isotropic twin = orthotropic one along the loaded axis
     else:
@@ -316,22 +321,50 @@ def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: flo
     c = mean_capacity(source, engine)
     if not is_root(engine):
         return
-    data = homogeneous_measurements(sc, k, c, perturbation=perturb, method=solver if engine == "scipy" else "auto")
+    data = homogeneous_measurements(sc, k, c, perturbation=perturb, method=solver if engine == "scipy" else "auto",
+                                    moisture=moisture)
     k, c = k * (1.0 + perturb), c * (1.0 + perturb)
-    if noise > 0:
-        data = data.with_noise(noise, np.random.default_rng(seed))
+    if noise > 0 or noise_phi > 0:
+        data = data.with_noise(noise, np.random.default_rng(seed), noise_phi)
     save_measurements(data, out)
     summary = {"out": str(out), "conductivity": conductivity, "k": k, "c": c, "noise": noise, "seed": seed,
-               "times": len(data.t), "engine": engine}
+               "times": len(data.t), "engine": engine,
+               **({} if moisture is None else {"moisture": {n: v * (1.0 + perturb) for n, v in moisture.items()},
+                                              "noise_phi": noise_phi})}
     if as_json:
         echo_json(summary)
     else:
-        if conductivity == "scenario":
+        if moisture is not None:
+            click.echo(f"coupled twin: k = {k[0, 0]:.5g} W/(m K), c̄ = {c:.5g} J/(m³ K), "
+                       + ", ".join(f"{n} = {v * (1.0 + perturb):.5g}" for n, v in moisture.items()))
+        elif conductivity == "scenario":
             click.echo(f"k̄_{probe.axis * 2} = {k[0, 0]:.5g} W/(m K) (eq. 13 under the scene's faces), "
                        f"c̄ = {c:.5g} J/(m³ K)")
         else:
             click.echo(f"k̄ = diag({k[0, 0]:.5g}, {k[1, 1]:.5g}, {k[2, 2]:.5g}) W/(m K), c̄ = {c:.5g} J/(m³ K)")
         click.echo(f"wrote {len(data.t)} times × {len(data.faces)} faces to {out}")
+
+
+def _moisture_twin(sc: Any, conductivity: str, solver: str) -> dict[str, float]:
+    """A [moisture] scene's homogeneous twin (aromm.homogenization.synthetic.moisture_twin): k, xi, D_phi and delta_p
+    from the effective transport along the loaded axis (the fixed-value probe) and ξ̄; refused where the twin would
+    not be exact (a moisture condition on a face across another axis, another --conductivity)."""
+    from aromm.core.vocabulary import loaded_axis
+    from aromm.homogenization.moisture_cells import mean_moisture_capacity, moisture_transport
+    from aromm.homogenization.synthetic import moisture_twin
+
+    if conductivity not in ("scenario", "temperature"):
+        raise InputError(f"{sc.where}moisture: the coupled twin takes the effective transport of the fixed-value "
+                         "probe along the loaded axis; --conductivity scenario (the default) or temperature")
+    axis = loaded_axis(sc.boundary, sc.size)
+    faces = {*sc.moisture.fixed_phi, *sc.moisture.vapour, *sc.moisture.flux}
+    across = sorted(f for f in faces if f[0] != "xyz"[axis])
+    if across:
+        raise InputError(f"{sc.where}boundary.{across[0]}: a moisture condition across the loaded axis "
+                         f"{'xyz'[axis]}; the homogeneous twin is one-dimensional along it")
+    direct = solver if solver in ("cholmod", "splu") else "auto"
+    k, values = moisture_twin(moisture_transport(sc, direct)[axis], sc.moisture.state)
+    return {"k": k, "xi": mean_moisture_capacity(sc), **values}
 
 
 COMMANDS: list[click.Command] = [simulate_cmd, homogenize_cmd, measure_cmd]

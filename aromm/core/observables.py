@@ -89,12 +89,14 @@ class Observables:
     def to_json(self) -> dict[str, object]:
         return {"t": np.asarray(self.t).tolist(), "mean_T": {k: np.asarray(v).tolist() for k, v in self.mean_T.items()}}
 
-    def with_noise(self, sigma: float, rng: np.random.Generator) -> Observables:
-        """Independent Gaussian noise of standard deviation ``sigma`` (°C) added to every value."""
-        if not (math.isfinite(sigma) and sigma >= 0):
-            raise InputError(f"noise sigma must be a finite non-negative temperature (°C), got {sigma!r}")
-        noisy = {f: np.asarray(v, dtype=float) + sigma * rng.standard_normal(len(self.t))
-                 for f, v in self.mean_T.items()}
+    def with_noise(self, sigma: float, rng: np.random.Generator, humidity: float = 0.0) -> Observables:
+        """Independent Gaussian noise of standard deviation ``sigma`` (°C) added to every temperature, ``humidity``
+        to every relative humidity (``phi:`` outputs, :func:`output_kind`)."""
+        for value, what in ((sigma, "a temperature (°C)"), (humidity, "a relative humidity")):
+            if not (math.isfinite(value) and value >= 0):
+                raise InputError(f"noise sigma must be a finite non-negative {what}, got {value!r}")
+        noisy = {f: np.asarray(v, dtype=float) + (humidity if output_kind(f) == "phi" else sigma)
+                 * rng.standard_normal(len(self.t)) for f, v in self.mean_T.items()}
         return Observables(np.asarray(self.t, dtype=float), noisy, source=self.source)
 
     def check_outputs(self, allowed: Iterable[str]) -> None:

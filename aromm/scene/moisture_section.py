@@ -173,11 +173,3 @@ def split_outputs(payload: Mapping[str, Any]) -> dict[str, Any]:
     if not phi:
         return dict(payload)
     return {**payload, "mean_T": {k: v for k, v in series.items() if not k.startswith(PHI_PREFIX)}, "mean_phi": phi}
-
-
-def refuse_moisture(scene: Any, command: str) -> None:
-    """An InputError when ``scene`` has a ``[moisture]`` section that ``command`` cannot use yet."""
-    if getattr(scene, "moisture", None) is not None:
-        raise InputError(f"{scene.where}moisture: `aromm {command}` does not take coupled heat and moisture yet "
-                         "(simulate, reduce, homogenize and identify do); leave [moisture] out for a thermal run")
-
