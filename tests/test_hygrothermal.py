@@ -241,3 +241,22 @@ def test_a_moisture_flux_gives_the_exact_steady_profile() -> None:
     assert np.abs(far - exact).max() <= 1e-9 * np.abs(exact).max()
     with pytest.raises(InputError, match=r"x0\.g needs a face-mean output of x0"):
         coupled(thermal, STATE, moisture, moisture_flux={"x0": (g, size * size)})
+
+
+def test_an_orthotropic_phase_uniform_across_the_field_is_the_isotropic_one() -> None:
+    """A plate held at (20 °C, 0.8) on x0 and y0 varies in x and y, not in z: an orthotropic board k = (0.04, 0.04,
+    0.7) W/(m K) gives the isotropic board's far face (k = 0.04) exactly in time, T and φ, to the dense solutions'
+    rounding.  D_φ and δ_p must act on the sum of the phase's axis operators (the isotropic one): on the x operator
+    alone, the humidity would not spread along y."""
+    def far(k: float | tuple[float, float, float]) -> np.ndarray:
+        size = LENGTH / 6
+        thermal = assemble_voxels(np.zeros((6, 6, 1), dtype=int), (size, size, size),
+                                  [PhaseSpec("board", 0, k, BOARD["c"])],
+                                  [FaceSpec("x0", T=20.0), FaceSpec("y0", T=20.0)], time=TimeGrid(TIMES[-1], 600.0),
+                                  initial_T=20.0, outputs=["x1"])
+        moisture = {"board": {key: BOARD[key] for key in ("xi", "D_phi", "delta_p")}}
+        return _far_face(coupled(thermal, STATE, moisture, fixed_phi={"x0": 0.8, "y0": 0.8}, initial_phi=0.5))
+
+    iso, ortho = far(BOARD["k"]), far((BOARD["k"], BOARD["k"], 0.7))
+    assert np.abs(iso[:, 0] - 20.0).max() > 0.1  # the sorption heat shows
+    assert np.abs(ortho - iso).max() <= 1e-9 * np.abs(iso).max()

@@ -104,7 +104,8 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
             fixed_phi: Mapping[str, float] | None = None, initial_phi: float | None = None,
             vapour: Mapping[str, tuple[float, float]] | None = None,
             moisture_flux: Mapping[str, tuple[float, float]] | None = None) -> ThermalSystem:
-    """The coupled system of the thermal system ``thermal`` (isotropic phases, assembled or matrix-free terms,
+    """The coupled system of the thermal system ``thermal`` (isotropic phases or orthotropic along the image axes,
+    assembled or matrix-free terms,
     :func:`aromm.core.system.sparse`): ``moisture`` maps each phase name to its ``xi``, ``D_phi`` and ``delta_p``;
     ``fixed_phi`` maps faces (with a fixed temperature, or a face output) to a fixed relative humidity; the initial
     relative humidity is ``initial_phi`` (default φ_ref); ``vapour`` maps faces that exchange heat with the air (a
@@ -140,7 +141,7 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
         if phase is None:
             why = ("a finite-volume link between two phases (a harmonic mean of their k, which has no 2 × 2 block "
                    "form): use q1 elements" if term.coefficient.kind == "harmonic" else
-                   "not one isotropic phase's k: anisotropic phases are not coupled yet")
+                   "not one phase's k or k along an image axis: a rotated tensor is not coupled yet")
             raise InputError(f"hygrothermal: the conduction term {term.name!r} ({term.coefficient.describe()}) is "
                              f"{why}")
         for key in ("k", "D_phi", "delta_p"):
@@ -231,12 +232,14 @@ def _phases(thermal: ThermalSystem) -> set[str]:
 
 
 def _phase_of(term: Term) -> str | None:
-    """The phase of a conduction term whose coefficient is one phase's ``k`` (times constants), else None."""
+    """The phase of a conduction term whose coefficient is one phase's ``k`` or its ``k_x``, ``k_y``, ``k_z`` (an
+    orthotropic phase along the image axes, whose three axis operators sum to the isotropic one, so D_φ and δ_p,
+    isotropic, take each with the same coefficient), else None."""
     params = term.coefficient.params
     if term.role != "conduction" or term.coefficient.kind != "product" or len(params) != 1:
         return None
     phase, _, key = params[0].rpartition(".")
-    return phase if key == "k" and phase else None
+    return phase if key in ("k", "k_x", "k_y", "k_z") and phase else None
 
 
 def _renamed(coefficient: Coefficient, name: str) -> Coefficient:

@@ -25,8 +25,9 @@ A scene without ``[moisture]`` is exactly a thermal scene; with it::
     mean_phi = ["x1"]     # face-mean relative humidities
 
 Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``,
-``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the scene's.  Not yet: a history of g, anisotropic phases,
-the petsc engine, sensors of φ.
+``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the scene's.  A phase may be orthotropic along the image
+axes (its D_phi and delta_p stay isotropic).  Not yet: a history of g, rotated tensors, the petsc engine, sensors of
+φ.
 """
 
 from __future__ import annotations
@@ -117,8 +118,9 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
         if missing:
             raise r.fail(f"phases.{ph.name}.{missing[0]}", f"missing: a [moisture] scene needs every phase's "
                                                            f"{', '.join(MOISTURE_KEYS)}")
-        if ph.tensor is not None or isinstance(ph.k, tuple):
-            raise r.fail(f"phases.{ph.name}", "an anisotropic phase is not coupled to moisture yet")
+        if ph.tensor is not None:
+            raise r.fail(f"phases.{ph.name}", "a rotated conductivity tensor (a fibre axis) is not coupled to moisture "
+                                              "yet; k = [kx, ky, kz] along the image axes is")
         values[ph.name] = {k: _non_negative(r, spec[k], f"phases.{ph.name}.{k}") for k in MOISTURE_KEYS}
     fixed, vapour, flux = {}, {}, {}
     for face, spec in face_tables.items():
