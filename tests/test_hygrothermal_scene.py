@@ -203,3 +203,25 @@ def test_a_moisture_flux_face_through_the_scene_file(tmp_path: Path, capsys: pyt
                     encoding="utf-8")
     assert main(["simulate", str(path), "--json"]) == 2
     assert "boundary.x1: a face takes one moisture condition" in capsys.readouterr().err
+
+
+def test_sensors_read_the_humidity_too(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """mean_phi may name sensors: a thermocouple-like point and a one-pixel camera on the far face of the bar read
+    its humidity (and its temperature), equal to the far face's mean (the field is uniform across the bar)."""
+    path = _scene(tmp_path)
+    size = 0.02 / 16
+    sensors = (f'[outputs.rh]\npoint = [0.02, {size / 2}, {size / 2}]\n\n'
+               '[outputs.cam]\nface = "x1"\npixels = [1, 1]\n')
+    text = path.read_text(encoding="utf-8").replace('mean_phi = ["x1"]', 'mean_phi = ["x1", "rh", "cam"]')
+    path.write_text(text.replace("[reduction]", sensors + "\n[reduction]"), encoding="utf-8")
+    assert main(["simulate", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out["mean_phi"]) == {"x1", "rh", "cam_0_0"} and set(out["mean_T"]) == {"x1", "rh", "cam_0_0"}
+    for kind in ("mean_T", "mean_phi"):
+        face = np.asarray(out[kind]["x1"])
+        for name in ("rh", "cam_0_0"):
+            assert np.abs(np.asarray(out[kind][name]) - face).max() <= 1e-12 * np.abs(face).max()
+    path.write_text(path.read_text(encoding="utf-8").replace('"x1", "rh", "cam"]', '"x1", "nope"]'),
+                    encoding="utf-8")
+    assert main(["simulate", str(path), "--json"]) == 2
+    assert "outputs.mean_phi: must be a list of faces among" in capsys.readouterr().err

@@ -22,16 +22,16 @@ A scene without ``[moisture]`` is exactly a thermal scene; with it::
     [initial]
     phi = 0.5             # default phi_ref
     [outputs]
-    mean_phi = ["x1"]     # face-mean relative humidities
+    mean_phi = ["x1"]     # face-mean relative humidities; or a sensor's name ([outputs.<name>]): its φ
 
 Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``,
 ``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the scene's.  A phase may be orthotropic along the image
-axes (its D_phi and delta_p stay isotropic).  Not yet: a history of g, rotated tensors, the petsc engine, sensors of
-φ.
+axes (its D_phi and delta_p stay isotropic).  Not yet: a history of g, rotated tensors, the petsc engine.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -74,17 +74,19 @@ class MoistureScene:
         return out
 
     def faces(self, outputs: Sequence[str]) -> tuple[str, ...]:
-        """The face outputs the thermal system must have: the scene's, then those of ``mean_phi`` and of the
+        """The face outputs the thermal system must have: the scene's, then the faces of ``mean_phi`` and of the
         moisture fluxes (their face-mean rows carry the flux)."""
-        extra = [f for f in (*self.outputs, *self.flux) if f not in outputs]
+        extra = [f for f in (*self.outputs, *self.flux) if f in FACES and f not in outputs]
         return (*outputs, *dict.fromkeys(extra))
 
     def coupled(self, thermal: ThermalSystem, outputs: Sequence[str]) -> ThermalSystem:
         """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal ``outputs`` and the
-        ``phi:<face>`` of ``mean_phi``."""
+        ``phi:<name>`` of ``mean_phi``'s faces and sensors (a camera's: every pixel, ``phi:<camera>_<i>_<j>``)."""
         system = coupled(thermal, self.state, self.phases, fixed_phi=self.fixed_phi, initial_phi=self.initial_phi,
                          vapour=self.vapour, moisture_flux=self.flux)
-        wanted = {*outputs, *(PHI_PREFIX + f for f in self.outputs)}
+        humid = [o for o in thermal.observation if any(o == f or re.fullmatch(rf"{re.escape(f)}_\d+_\d+", o)
+                                                      for f in self.outputs)]
+        wanted = {*outputs, *(PHI_PREFIX + o for o in humid)}
         return replace(system, observation={k: v for k, v in system.observation.items() if k in wanted})
 
 
@@ -144,8 +146,10 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
                             _humidity(r, spec["phi_ext"], f"boundary.{face}.phi_ext"))
     initial_phi = _humidity(r, initial.get("phi", state.phi_ref), "initial.phi")
     faces = outputs.get("mean_phi", [])
-    if not isinstance(faces, list) or any(f not in FACES for f in faces):
-        raise r.fail("outputs.mean_phi", f"must be a list of faces among {', '.join(FACES)}, got {faces!r}")
+    sensors = [name for name, spec in outputs.items() if isinstance(spec, dict)]
+    if not isinstance(faces, list) or any(f not in (*FACES, *sensors) for f in faces):
+        raise r.fail("outputs.mean_phi", f"must be a list of faces among {', '.join(FACES)} or of the scene's sensors "
+                                         f"({', '.join(sensors) or 'none'}), got {faces!r}")
     return MoistureScene(state, values, fixed, initial_phi, tuple(faces), vapour, flux)
 
 
