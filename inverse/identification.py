@@ -331,7 +331,8 @@ def identify(
                              biases=biases,
                              **reduced_error([sc.model for sc in scenarios], dict(zip(box.names, theta, strict=True)),
                                              [dict(zip(sc.measurements.faces, w, strict=True))
-                                              for sc, w in zip(scenarios, criterion.weights, strict=True)]))
+                                              for sc, w in zip(scenarios, criterion.weights, strict=True)]
+                                             if several(criterion) else None))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),
@@ -367,6 +368,10 @@ def alternative_shift(alternative: ModelInput, measurements: Measurements | None
     return np.where(logs, theta * np.abs(np.log(ratio)), np.abs(other - theta))
 
 
+#: The unit of a reduced model's output error once the residuals are weighted by their kind's noise (inverse.kinds).
+WEIGHTED = "× the noise of its output's kind"
+
+
 def reduced_error(models: Sequence[Any], estimates: Mapping[str, float],
                   weights: Sequence[Mapping[str, float]] | None = None) -> dict[str, Any]:
     """The reduced models' output error for the interval (inverse.uncertainty.linearised): their certified bound at
@@ -380,6 +385,9 @@ def reduced_error(models: Sequence[Any], estimates: Mapping[str, float],
             return {"output_error": max(float(np.max(b)) for b in found), "output_error_certified": True}
         worst = max(float(b[m.outputs.index(name)]) * w for m, b, ws in zip(models, found, weights, strict=True)
                     for name, w in ws.items())
-        return {"output_error": worst, "output_error_certified": True,
-                "output_error_unit": "× the noise of its output's kind"}
-    return {"output_error": max(float(getattr(m, "output_error", 0.0)) for m in models)}
+        return {"output_error": worst, "output_error_certified": True, "output_error_unit": WEIGHTED}
+    estimate = max(float(getattr(m, "output_error", 0.0)) for m in models)
+    if weights is None:
+        return {"output_error": estimate}
+    # one estimate for every output: weighted by the largest weight (the smallest noise), an upper bound of each
+    return {"output_error": estimate * max(w for ws in weights for w in ws.values()), "output_error_unit": WEIGHTED}
