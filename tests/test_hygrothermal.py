@@ -260,3 +260,38 @@ def test_an_orthotropic_phase_uniform_across_the_field_is_the_isotropic_one() ->
     iso, ortho = far(BOARD["k"]), far((BOARD["k"], BOARD["k"], 0.7))
     assert np.abs(iso[:, 0] - 20.0).max() > 0.1  # the sorption heat shows
     assert np.abs(ortho - iso).max() <= 1e-9 * np.abs(iso).max()
+
+
+def test_the_flux_probe_of_the_moisture_transport() -> None:
+    """The flux probe ([Chavez2020, eq. 13] for both fields): across the layers of a laminate it is the exact
+    matrix-harmonic mean (as the fixed-value probe); without vapour transport (δ_p = 0) it is, entry by entry, the
+    thermal flux probe of the image with the phases' k, then with their D_φ as conductivities (along the layers too,
+    where the flux probe is not the arithmetic mean)."""
+    from dataclasses import replace as swap
+
+    from aromm.homogenization.cell_problems import effective_conductivity
+    from aromm.homogenization.moisture_cells import moisture_transport
+    from aromm.scene.geometry import VoxelGeometry
+    from aromm.scene.moisture_section import MoistureScene
+    from aromm.scene.scene_file import Scene
+
+    labels = np.zeros((4, 3, 3), dtype=int)
+    labels[2:] = 1
+    props = {"wall": (0.3, 2e-9, 1e-13, 200.0), "air": (0.025, 5e-10, 2e-10, 0.017)}
+
+    def scene(delta: bool, k_of: int = 0) -> Scene:
+        phases = tuple(PhaseSpec(n, i, v[k_of], 1e6) for i, (n, v) in enumerate(props.items()))
+        moisture = MoistureScene(STATE, {n: {"D_phi": v[1], "delta_p": v[2] if delta else 0.0, "xi": v[3]}
+                                         for n, v in props.items()}, {}, 0.5)
+        return Scene(VoxelGeometry(labels, (1e-5, 1e-5, 1e-5)), phases, moisture=moisture)  # type: ignore[arg-type]
+
+    coupled_flux, fixed = moisture_transport(scene(True), boundary="flux"), moisture_transport(scene(True))
+    assert np.allclose(coupled_flux[0], fixed[0], rtol=1e-9, atol=1e-12 * np.abs(fixed[0]).max())  # series: exact
+    decoupled = moisture_transport(scene(False), boundary="flux")
+    thermal = np.diag(effective_conductivity(swap(scene(False), moisture=None), "flux", "splu").k)
+    water = np.diag(effective_conductivity(swap(scene(False, k_of=1), moisture=None), "flux", "splu").k)
+    assert thermal[1] < 0.9 * (0.3 + 0.025) / 2  # along the layers the flux probe is below the arithmetic mean
+    for axis in range(3):
+        assert decoupled[axis][0, 0] == pytest.approx(thermal[axis], rel=1e-9)
+        assert decoupled[axis][1, 1] == pytest.approx(water[axis], rel=1e-9)
+        assert abs(decoupled[axis][0, 1]) <= 1e-9 * decoupled[axis][0, 0]

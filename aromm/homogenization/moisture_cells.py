@@ -13,7 +13,8 @@ the humidity held (k̄ of the `temperature` probe plus the latent heat carried b
 moisture conductivity at constant temperature.  On a laminate it is exactly the arithmetic mean of the phases'
 matrices along the layers and their matrix harmonic mean across them (the symmetrised matrices;
 tests/test_hygrothermal.py).  The mean moisture capacity ξ̄ is the volume average (as c̄, [Chavez2020, eq. 14]).
-Steady solves of the assembled system: images of a few 10⁴ voxels.
+The flux probe ([Chavez2020, eq. 13] for both fields, :func:`flux_transport`) imposes a unit heat, then water, flux
+on one face and reads the mean jumps.  Steady solves of the assembled system: images of a few 10⁴ voxels.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from dataclasses import replace
 import numpy as np
 
 from aromm.core.errors import InputError
+from aromm.core.observables import PHI_PREFIX
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import FaceSpec
 from aromm.full.solve import reaction_heat_flow, steady_field
@@ -32,9 +34,14 @@ from aromm.scene.scene_file import Scene, assemble
 AXES = "xyz"
 
 
-def moisture_transport(scene: Scene, method: str = "auto") -> FloatArray:
+def moisture_transport(scene: Scene, method: str = "auto", boundary: str = "temperature") -> FloatArray:
     """(3, 2, 2): per axis the effective flux matrix in physical units (module docstring) of the scene's image with
-    its ``[moisture]`` properties; ``method`` the steady solver (:mod:`aromm.linalg.direct`)."""
+    its ``[moisture]`` properties, by the fixed-value probe (``temperature``) or the flux probe (``flux``,
+    :func:`flux_transport`); ``method`` the steady solver (:mod:`aromm.linalg.direct`)."""
+    if boundary == "flux":
+        return flux_transport(scene, method)
+    if boundary != "temperature":
+        raise InputError(f"moisture transport: boundary must be temperature or flux, got {boundary!r}")
     moisture = _moisture(scene)
     size = scene.size
     out = np.zeros((3, 2, 2))
@@ -50,6 +57,30 @@ def moisture_transport(scene: Scene, method: str = "auto") -> FloatArray:
             heat = reaction_heat_flow(system, field, hot[f"{name}0.T"], jump)
             water = reaction_heat_flow(system, field, hot[f"{name}0.phi"], jump) / moisture.state.weight
             out[axis, :, column] = np.array([heat, water]) * size[axis] / area
+    return out
+
+
+def flux_transport(scene: Scene, method: str = "auto") -> FloatArray:
+    """(3, 2, 2): per axis the effective flux matrix by the flux probe of [Chavez2020, eq. 13], for both fields: a
+    unit heat flux (W/m²), then a unit water flux (kg/(m² s), :func:`aromm.physics.hygrothermal.coupled`'s
+    ``moisture_flux``) enters through the face i0, (T, φ) = 0 is held on i1, the other faces are adiabatic and
+    sealed.  The mean jumps (T̄, φ̄ on i0) of the two solves are the columns of ``L F⁻¹``, so ``F = L M⁻¹``."""
+    moisture = _moisture(scene)
+    size = scene.size
+    out = np.zeros((3, 2, 2))
+    for axis, name in enumerate(AXES):
+        hot, cold = f"{name}0", f"{name}1"
+        area = float(np.prod(size)) / size[axis]
+        probe = replace(scene.with_boundary((FaceSpec(hot, flux=0.0), FaceSpec(cold, T=0.0)), (hot,)),
+                        moisture=replace(moisture, fixed_phi={cold: 0.0}, vapour={}, flux={hot: (0.0, area)},
+                                         outputs=(hot,)))
+        system = assemble(probe)
+        jumps = np.zeros((2, 2))
+        for column, load in enumerate(({f"{hot}.flux": 1.0}, {f"{hot}.g": 1.0})):
+            field = steady_field(system, load, method=method)
+            jumps[:, column] = [float(np.asarray(system.observation[o] @ field).ravel()[0])
+                                for o in (hot, PHI_PREFIX + hot)]
+        out[axis] = size[axis] * np.linalg.inv(jumps)
     return out
 
 
