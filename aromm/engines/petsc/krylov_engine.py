@@ -46,7 +46,7 @@ from aromm.engines.petsc.projection import project
 from aromm.reduction.column_buffer import ColumnBuffer, GrowingProjection
 from aromm.reduction.engine_protocol import SolveStats
 from aromm.reduction.rom import ReducedModel
-from aromm.reduction.scipy_engine import GRAM_DROP, input_coefficients, input_weights, pencil
+from aromm.reduction.scipy_engine import gram_orthonormal, input_coefficients, input_weights, pencil
 
 #: Capacity matrices C(μ) kept for reuse, least recently used dropped first: the reference point's (the capacity
 #: product of the basis) and the current moment point's.
@@ -266,11 +266,9 @@ class PetscKrylovEngine:
         x = np.asfortranarray(x[:, self._energies(c, x) > drop])
         if x.shape[1] == 0:
             return (basis if basis is not None else self._block(0)), 0
-        g = self.dot(x, self._apply(c, x))
-        w, u = np.linalg.eigh((g + g.T) / 2)
-        ok = w > max(GRAM_DROP * float(w.max()), drop**2)  # unit columns in: a direction below drop is noise
-        x = np.asfortranarray(x @ (u[:, ok] / np.sqrt(w[ok])))
-        self._remove(basis, x, c)
+        for _ in range(2):  # twice, as the scipy engine (aromm.reduction.scipy_engine.ScipyEngine.orthonormalise)
+            x = np.asfortranarray(x @ gram_orthonormal(self.dot(x, self._apply(c, x)), drop))
+            self._remove(basis, x, c)
         x /= self._energies(c, x)
         return self._columns.append(basis, x), int(x.shape[1])
 
