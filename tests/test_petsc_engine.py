@@ -20,6 +20,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -64,6 +65,17 @@ def worker(tmp_path_factory: pytest.TempPathFactory, module: str, ranks: int,
     with np.load(out) as data:
         assert int(data["ranks"]) == ranks
         return {k: data[k] for k in data.files}
+
+
+def decompositions(tmp_path_factory: pytest.TempPathFactory, module: ModuleType,
+                   slabs: int) -> dict[str, dict[str, np.ndarray]]:
+    """The ``results`` of the cases ``module`` at 1 rank (in this process), ``slabs`` ranks (the process grid's own
+    cut) and 4 ranks in 2×2×1 boxes."""
+    from aromm.engines.petsc import runtime
+
+    name = module.__name__
+    return {"1 rank": module.results(runtime.world()), f"{slabs} ranks": worker(tmp_path_factory, name, slabs),
+            "2x2x1 boxes": worker(tmp_path_factory, name, BOXES, petsc_cases.BOXES_2x2x1)}
 
 
 @pytest.fixture(scope="module")

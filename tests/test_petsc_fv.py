@@ -6,18 +6,14 @@ q1 engine's tests (tests/test_petsc_engine.py, test_petsc_krylov.py: the solvers
 from __future__ import annotations
 
 import numpy as np
-import petsc_cases
 import petsc_fv_cases as cases
 import pytest
-from test_petsc_engine import pytestmark, worker  # noqa: F401  (the same marks: mpi, skipped without PETSc)
+from test_petsc_engine import decompositions, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
-    from aromm.engines.petsc import runtime
-
-    return {"1 rank": cases.results(runtime.world()), "3 ranks": worker(tmp_path_factory, "petsc_fv_cases", 3),
-            "2x2x1 boxes": worker(tmp_path_factory, "petsc_fv_cases", 4, petsc_cases.BOXES_2x2x1)}
+    return decompositions(tmp_path_factory, cases, 3)
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ import numpy as np
 import petsc_cases
 import petsc_krylov_cases as cases
 import pytest
-from test_petsc_engine import pytestmark, worker  # noqa: F401  (the same marks: mpi, skipped without PETSc)
+from test_petsc_engine import decompositions, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
 
 HERE = Path(__file__).parent
 TOL = 1e-8  # °C
@@ -27,10 +27,7 @@ TOL = 1e-8  # °C
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
-    from aromm.engines.petsc import runtime
-
-    return {"1 rank": cases.results(runtime.world()), "2 ranks": worker(tmp_path_factory, "petsc_krylov_cases", 2),
-            "2x2x1 boxes": worker(tmp_path_factory, "petsc_krylov_cases", 4, petsc_cases.BOXES_2x2x1)}
+    return decompositions(tmp_path_factory, cases, 2)
 
 
 @pytest.fixture(scope="module")
