@@ -263,7 +263,8 @@ def identify(
         if refused is not None:
             raise InputError(f"unknown {name!r}: {refused}")
     criterion = LeastSquares(scenarios, box.names, fixed)
-    if several(criterion) and noise_std is not None:
+    mixed = several(criterion)  # temperatures and humidities: each kind weighted by its own noise (inverse.kinds)
+    if mixed and noise_std is not None:
         raise InputError("noise_std is a temperature noise (°C); with relative-humidity outputs (phi:<face>) "
                          "the noise of each kind is estimated from its residuals (inverse.kinds): leave it out")
     info = _describe(scenarios, description)
@@ -303,7 +304,7 @@ def identify(
             best_u, best_cost = np.asarray(outcome.u, dtype=float), float(outcome.cost)
     assert best_u is not None, "an empty chain of optimisers"
     u_best = best_u
-    if several(criterion):  # temperatures and humidities: each kind weighted by its own noise
+    if mixed:
         u_best, noise = reweighted(criterion, box, u_best)
         info["noise_by_kind"] = noise
 
@@ -332,7 +333,7 @@ def identify(
                              **reduced_error([sc.model for sc in scenarios], dict(zip(box.names, theta, strict=True)),
                                              [dict(zip(sc.measurements.faces, w, strict=True))
                                               for sc, w in zip(scenarios, criterion.weights, strict=True)]
-                                             if several(criterion) else None))
+                                             if mixed else None))
     return Identification(
         estimates=dict(zip(box.names, (float(v) for v in theta), strict=True)),
         criterion=0.5 * float(r @ r),

@@ -36,11 +36,12 @@ def several(criterion: LeastSquares) -> bool:
 
 def noise_levels(criterion: LeastSquares, theta: FloatArray) -> dict[str, float]:
     """σ_k (each kind's unit) of the unweighted residuals at the parameters ``theta``: the RMS over its outputs."""
-    squares: dict[str, list[float]] = {}
-    for r, kinds in zip(criterion.misfits(theta), criterion.kinds, strict=True):
-        for j, kind in enumerate(kinds):
-            squares.setdefault(str(kind), []).extend((r[:, j] ** 2).tolist())
-    return {k: float(np.sqrt(np.mean(v))) for k, v in squares.items()}
+    misfits = list(zip(criterion.misfits(theta), criterion.kinds, strict=True))
+    out = {}
+    for kind in sorted({str(k) for _, kinds in misfits for k in kinds}):
+        parts = [r[:, kinds == kind] for r, kinds in misfits]
+        out[kind] = float(np.sqrt(sum(float((p**2).sum()) for p in parts) / sum(p.size for p in parts)))
+    return out
 
 
 def reweighted(criterion: LeastSquares, box: opt.Box, u: FloatArray) -> tuple[FloatArray, dict[str, float]]:

@@ -10,7 +10,7 @@ import numpy as np
 
 from aromm import api
 from aromm.core.system import TimeGrid
-from aromm.core.vocabulary import FACES, FaceSpec, PhaseSpec
+from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene, assemble
 
@@ -56,9 +56,9 @@ def product_error(comm: Any) -> float:
     from aromm.engines.petsc import convert, runtime
     from aromm.engines.petsc.problem import VoxelProblem
     from aromm.engines.petsc.reduction import distributed
-    from aromm.engines.petsc.volume_assembly import VolumeRows, global_rows, unknown_faces
+    from aromm.engines.petsc.volume_assembly import VolumeRows, global_rows
     from aromm.fv.grid import VolumeGrid
-    from aromm.fv.volumes import conducting_phase
+    from aromm.fv.volumes import conducting_phase, unknown_faces
 
     scene = steady_scene()
     problem = VoxelProblem.from_scene(scene)
@@ -66,8 +66,8 @@ def product_error(comm: Any) -> float:
     whole = assemble(scene)
     k_serial = whole.conductance.evaluate(whole.values(PROBE))
     layout = problem.layout(comm)
-    faces = unknown_faces(problem)
-    grid = VolumeGrid(conducting_phase(scene.geometry.labels, PHASES), VOXEL, tuple(f for f in FACES if f in faces))
+    faces = unknown_faces(problem.boundary, problem.outputs)
+    grid = VolumeGrid(conducting_phase(scene.geometry.labels, PHASES), VOXEL, faces)
     rows, _ = global_rows(grid, ((0, SHAPE[0]), (0, SHAPE[1]), (0, SHAPE[2])), VolumeRows(layout, faces))
     x = np.random.default_rng(0).standard_normal(whole.n)
     expected, floor = np.empty(whole.n), np.empty(whole.n)

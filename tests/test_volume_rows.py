@@ -33,7 +33,7 @@ def test_owned_unknowns_are_each_ranks_row_block(shape: tuple[int, int, int], si
     for rank in range(size):
         layout = BoxLayout.split(shape, size, rank)
         numbering = VolumeRows(layout, ("x0", "y1", "z1"))
-        _, grid, box = padded_system(p, layout)
+        _, grid, box, _ = padded_system(p, layout)
         assert box == halo_box(layout)
         rows, mine = global_rows(grid, box, numbering)
         owned = np.sort(rows[mine])

@@ -266,12 +266,11 @@ def _moisture(sc: Any, voxels: bool, solver: str, boundary: str) -> dict[str, An
         return None
     from aromm.homogenization.moisture_cells import mean_moisture_capacity, moisture_transport
 
-    direct = solver if solver in ("cholmod", "splu") else "auto"
     probe = "flux" if boundary == "flux" else "temperature"
     if boundary == "periodic":
         click.echo("aromm: note: the moisture transport has no periodic cell problem yet: it is given by the "
                    "fixed-value probe (--boundary temperature)", err=True)
-    return {"transport": moisture_transport(sc, direct, probe).tolist(), "xi": mean_moisture_capacity(sc),
+    return {"transport": moisture_transport(sc, _direct(solver), probe).tolist(), "xi": mean_moisture_capacity(sc),
             "boundary": probe}
 
 
@@ -331,25 +330,30 @@ def measure_cmd(*, scene: Path, homogeneous: bool, conductivity: str, noise: flo
     data = homogeneous_measurements(sc, k, c, perturbation=perturb, method=solver if engine == "scipy" else "auto",
                                     moisture=moisture)
     k, c = k * (1.0 + perturb), c * (1.0 + perturb)
+    twin = None if moisture is None else {n: v * (1.0 + perturb) for n, v in moisture.items()}
     if noise > 0 or noise_phi > 0:
         data = data.with_noise(noise, np.random.default_rng(seed), noise_phi)
     save_measurements(data, out)
     summary = {"out": str(out), "conductivity": conductivity, "k": k, "c": c, "noise": noise, "seed": seed,
                "times": len(data.t), "engine": engine,
-               **({} if moisture is None else {"moisture": {n: v * (1.0 + perturb) for n, v in moisture.items()},
-                                              "noise_phi": noise_phi})}
+               **({} if twin is None else {"moisture": twin, "noise_phi": noise_phi})}
     if as_json:
         echo_json(summary)
     else:
-        if moisture is not None:
+        if twin is not None:
             click.echo(f"coupled twin: k = {k[0, 0]:.5g} W/(m K), c̄ = {c:.5g} J/(m³ K), "
-                       + ", ".join(f"{n} = {v * (1.0 + perturb):.5g}" for n, v in moisture.items()))
+                       + ", ".join(f"{n} = {v:.5g}" for n, v in twin.items()))
         elif conductivity == "scenario":
             click.echo(f"k̄_{probe.axis * 2} = {k[0, 0]:.5g} W/(m K) (eq. 13 under the scene's faces), "
                        f"c̄ = {c:.5g} J/(m³ K)")
         else:
             click.echo(f"k̄ = diag({k[0, 0]:.5g}, {k[1, 1]:.5g}, {k[2, 2]:.5g}) W/(m K), c̄ = {c:.5g} J/(m³ K)")
         click.echo(f"wrote {len(data.t)} times × {len(data.faces)} faces to {out}")
+
+
+def _direct(solver: str) -> str:
+    """The steady solver of the moisture cell problems (assembled: a factorisation asked for, else auto)."""
+    return solver if solver in ("cholmod", "splu") else "auto"
 
 
 def _moisture_twin(sc: Any, conductivity: str, solver: str) -> dict[str, float]:
@@ -369,8 +373,7 @@ def _moisture_twin(sc: Any, conductivity: str, solver: str) -> dict[str, float]:
     if across:
         raise InputError(f"{sc.where}boundary.{across[0]}: a moisture condition across the loaded axis "
                          f"{'xyz'[axis]}; the homogeneous twin is one-dimensional along it")
-    direct = solver if solver in ("cholmod", "splu") else "auto"
-    k, values = moisture_twin(moisture_transport(sc, direct)[axis], sc.moisture.state)
+    k, values = moisture_twin(moisture_transport(sc, _direct(solver))[axis], sc.moisture.state)
     return {"k": k, "xi": mean_moisture_capacity(sc), **values}
 
 

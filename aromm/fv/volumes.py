@@ -186,8 +186,13 @@ def volume_grid(labels: np.ndarray, voxel_size: Sequence[float], phases: Sequenc
     phase = conducting_phase(labels, phases)
     if steady:
         phase = pruned(phase, boundary)
-    faces = tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
-    return VolumeGrid(phase, (float(voxel_size[0]), float(voxel_size[1]), float(voxel_size[2])), faces)
+    return VolumeGrid(phase, (float(voxel_size[0]), float(voxel_size[1]), float(voxel_size[2])),
+                      unknown_faces(boundary, outputs))
+
+
+def unknown_faces(boundary: Sequence[FaceSpec], outputs: Sequence[str]) -> tuple[str, ...]:
+    """The box faces that carry face unknowns: those with a condition or an output, in FACES order."""
+    return tuple(f for f in FACES if f in set(outputs) | {b.face for b in boundary})
 
 
 def assemble_volumes(

@@ -31,7 +31,6 @@ axes (its D_phi and delta_p stay isotropic).  Not yet: a history of g, rotated t
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -43,6 +42,7 @@ from aromm.core.observables import PHI_PREFIX
 from aromm.core.system import ThermalSystem
 from aromm.core.vocabulary import FACES, PhaseSpec
 from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, MoistureState, coupled
+from aromm.scene.sensors import Sensor, output_names
 from aromm.scene.toml import TableReader
 
 STATE_KEYS = ("T_ref", "phi_ref", "latent_heat")
@@ -79,14 +79,14 @@ class MoistureScene:
         extra = [f for f in (*self.outputs, *self.flux) if f in FACES and f not in outputs]
         return (*outputs, *dict.fromkeys(extra))
 
-    def coupled(self, thermal: ThermalSystem, outputs: Sequence[str]) -> ThermalSystem:
-        """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal ``outputs`` and the
-        ``phi:<name>`` of ``mean_phi``'s faces and sensors (a camera's: every pixel, ``phi:<camera>_<i>_<j>``)."""
+    def coupled(self, thermal: ThermalSystem, outputs: Sequence[str], sensors: Sequence[Sensor] = ()) -> ThermalSystem:
+        """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal face ``outputs`` and
+        ``sensors``' outputs, and the ``phi:<name>`` of ``mean_phi``'s faces and sensors (a camera's: every pixel)."""
         system = coupled(thermal, self.state, self.phases, fixed_phi=self.fixed_phi, initial_phi=self.initial_phi,
                          vapour=self.vapour, moisture_flux=self.flux)
-        humid = [o for o in thermal.observation if any(o == f or re.fullmatch(rf"{re.escape(f)}_\d+_\d+", o)
-                                                      for f in self.outputs)]
-        wanted = {*outputs, *(PHI_PREFIX + o for o in humid)}
+        humid = [*(f for f in self.outputs if f in FACES), *(o for s in sensors if s.name in self.outputs
+                                                            for o in s.outputs)]
+        wanted = {*outputs, *output_names(sensors), *(PHI_PREFIX + o for o in humid)}
         return replace(system, observation={k: v for k, v in system.observation.items() if k in wanted})
 
 

@@ -32,7 +32,7 @@ from aromm.scene.model_section import parse_model, refusal, with_discretisation
 from aromm.scene.moisture_section import FACE_KEYS as MOISTURE_FACE_KEYS
 from aromm.scene.moisture_section import MoistureScene, parse_moisture
 from aromm.scene.reduction_section import ReductionSettings, parse_reduction
-from aromm.scene.sensors import Sensor, box, output_names, parse_sensors, scene_rows
+from aromm.scene.sensors import Sensor, box, parse_sensors, scene_rows
 from aromm.scene.time_section import AutoTime, auto_grid, parse_time
 from aromm.scene.toml import TableReader, where
 
@@ -152,7 +152,7 @@ def assemble(scene: Scene, matrix_free: bool = False) -> ThermalSystem:
     if scene.sensors:
         rows = scene_rows(scene, system, faces)
         system = replace(system, observation={**system.observation, **rows})
-    return system if moisture is None else moisture.coupled(system, (*scene.outputs, *output_names(scene.sensors)))
+    return system if moisture is None else moisture.coupled(system, scene.outputs, scene.sensors)
 
 
 def load_scene(path: str | Path, discretisation: str | None = None) -> Scene:

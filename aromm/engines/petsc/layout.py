@@ -147,10 +147,10 @@ class BoxLayout:
         counts = [int(self._block_rows()[self.coords(r)]) for r in range(self.size)]
         return RowLayout(tuple(int(s) for s in np.concatenate([[0], np.cumsum(counts)])), self.rank)
 
-    def faces(self) -> tuple[str, ...]:
-        """Faces of the whole box that this rank's box touches."""
+    def faces(self, box: tuple[tuple[int, int], ...] | None = None) -> tuple[str, ...]:
+        """Faces of the whole box that this rank's box (or ``box``, voxel ranges per axis) touches."""
         out = []
-        for a, ((lo, hi), n) in enumerate(zip(self.box, self.shape, strict=True)):
+        for a, ((lo, hi), n) in enumerate(zip(self.box if box is None else box, self.shape, strict=True)):
             out += [f"{AXES[a]}0"] * (lo == 0) + [f"{AXES[a]}1"] * (hi == n)
         return tuple(out)
 

@@ -30,12 +30,12 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.system import Affine, Term, ThermalSystem
-from aromm.core.vocabulary import FACES, insulating
+from aromm.core.vocabulary import insulating
 from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fv.grid import AXES, VolumeGrid
-from aromm.fv.volumes import assemble_volumes, volume_grid
+from aromm.fv.volumes import assemble_volumes, unknown_faces, volume_grid
 
 Box = tuple[tuple[int, int], tuple[int, int], tuple[int, int]]
 IntArray = npt.NDArray[np.int64]
@@ -44,14 +44,6 @@ IntArray = npt.NDArray[np.int64]
 def halo_box(layout: BoxLayout) -> Box:
     """This rank's box grown by one voxel on every side that is inside the image."""
     return tuple((max(lo - 1, 0), min(hi + 1, n)) for (lo, hi), n in zip(layout.box, layout.shape, strict=True))  # type: ignore[return-value]
-
-
-def faces_of(box: Box, shape: tuple[int, int, int]) -> tuple[str, ...]:
-    """The faces of the whole image that ``box`` touches, in :data:`~aromm.core.vocabulary.FACES` order."""
-    out = []
-    for a, ((lo, hi), n) in enumerate(zip(box, shape, strict=True)):
-        out += [f"{AXES[a]}0"] * (lo == 0) + [f"{AXES[a]}1"] * (hi == n)
-    return tuple(f for f in FACES if f in out)
 
 
 class VolumeRows:
@@ -129,16 +121,12 @@ def refuse_insulating(problem: VoxelProblem) -> None:
                          "run it with --engine scipy")
 
 
-def unknown_faces(problem: VoxelProblem) -> tuple[str, ...]:
-    """Faces of the image that carry unknowns: a condition or an output (as :func:`assemble_volumes` chooses)."""
-    return tuple(f for f in FACES if f in set(problem.outputs) | {b.face for b in problem.boundary})
-
-
-def padded_system(problem: VoxelProblem, layout: BoxLayout) -> tuple[ThermalSystem, VolumeGrid, Box]:
-    """The serial finite-volume system of this rank's padded box, the grid that numbers its unknowns, the box."""
+def padded_system(problem: VoxelProblem, layout: BoxLayout) -> tuple[ThermalSystem, VolumeGrid, Box, np.ndarray]:
+    """The serial finite-volume system of this rank's padded box, the grid that numbers its unknowns, the box and
+    its labels."""
     box = halo_box(layout)
     labels = problem.image.read(box)
-    touched = faces_of(box, problem.shape)
+    touched = layout.faces(box)
     boundary = tuple(f for f in problem.boundary if f.face in touched)
     outputs = tuple(o for o in problem.outputs if o in touched)
     system = assemble_volumes(labels, problem.voxel_size, problem.phases, boundary, time=problem.time,
@@ -146,7 +134,7 @@ def padded_system(problem: VoxelProblem, layout: BoxLayout) -> tuple[ThermalSyst
     grid = volume_grid(labels, problem.voxel_size, problem.phases, boundary, outputs, steady=problem.time is None)
     if grid.n != system.n:
         raise RuntimeError(f"padded box: {grid.n} unknowns numbered, the assembler made {system.n}")
-    return system, grid, box
+    return system, grid, box, labels
 
 
 def global_rows(grid: VolumeGrid, box: Box, numbering: VolumeRows) -> tuple[IntArray, npt.NDArray[np.bool_]]:
@@ -191,9 +179,9 @@ def assemble_volume_boxes(problem: VoxelProblem, comm: Any) -> Any:
 
     refuse_insulating(problem)
     layout = problem.layout(comm)
-    numbering = VolumeRows(layout, unknown_faces(problem))
+    numbering = VolumeRows(layout, unknown_faces(problem.boundary, problem.outputs))
     rows = numbering.rows
-    padded, grid, box = padded_system(problem, layout)
+    padded, grid, box, padded_labels = padded_system(problem, layout)
     where, mine = global_rows(grid, box, numbering)
     order = np.flatnonzero(mine)[np.argsort(where[mine], kind="stable")]
     if not np.array_equal(where[order], np.arange(rows.lo, rows.hi)):
@@ -224,15 +212,13 @@ def assemble_volume_boxes(problem: VoxelProblem, comm: Any) -> Any:
     fixed = {d.name: d.dofs for d in padded.dirichlet}
     dirichlet = {d.name: np.sort(where[np.intersect1d(fixed.get(d.name, np.zeros(0, np.int64)), order)])
                  for d in whole.dirichlet}
-    surface = sp.csr_array((grid.n, grid.n))
-    for face in grid.faces:
-        surface = surface + grid.face_mass(face)
     m_, n_, p_ = layout.grid
-    labels = problem.image.read(layout.box)
+    own = tuple(slice(lo - plo, hi - plo) for (lo, hi), (plo, _) in zip(layout.box, box, strict=True))
+    labels = padded_labels[own]  # this rank's box, for the key
     return DistributedSystem(
         whole, rows, comm,
         capacity=terms(whole.capacity, False), conductance=terms(whole.conductance, False),
         load=terms(whole.load, True), dirichlet=dirichlet, observation=observation,
-        boundary=owned(surface, False), fingerprint=problem_key(problem, labels, layout, comm),
+        boundary=owned(padded.boundary, False), fingerprint=problem_key(problem, labels, layout, comm),
         description=f"{problem.where}{problem.shape[0]}×{problem.shape[1]}×{problem.shape[2]} voxels in finite "
                     f"volumes, {m_}×{n_}×{p_} boxes")
