@@ -12,6 +12,8 @@ offline part and of one bound evaluation beside them.
 
     python benchmarks/certified_bound.py --size 8 --points 20
     python benchmarks/certified_bound.py --size 8 --points 20 --method aromm --order 12
+    python benchmarks/certified_bound.py --size 8 --points 20 --cases "fibres, fixed axis" "micro-CT crop" \
+        --image 100_fiberform.tif
 """
 
 from __future__ import annotations
@@ -22,7 +24,9 @@ import time
 import warnings
 
 import numpy as np
+import numpy.typing as npt
 
+from aromm.core.anisotropy import PhaseTensor
 from aromm.core.profiles import Profile
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
@@ -35,12 +39,39 @@ from aromm.reduction.rom import ReducedModel
 FLUX = [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)]
 
 
-def case(name: str, size: int) -> tuple[ThermalSystem, dict[str, tuple[float, float]]]:
+CASES = ("two phases", "three phases", "contrast 1e4", "four unknowns", "load history", "fixed face",
+         "fibres, fixed axis", "fibres, image axes", "micro-CT crop")
+#: Transversely isotropic fibre phases (aromm.core.anisotropy): k_axial along the axis, k_transverse across it.
+FIBRE_BOX = {"fibre.k_axial": (0.3, 3.0), "fibre.k_transverse": (0.05, 0.5)}
+
+
+def crop(path: str, size: int) -> npt.NDArray[np.int_]:
+    """The central ``size``³ crop of a grey micro-CT image (tifffile order pages, rows, columns = z, y, x, returned
+    [x, y, z]), fibre (label 1) where the grey value is ≥ 90 (NASA PuMA's FiberForm threshold)."""
+    import tifffile
+
+    image = tifffile.imread(path)
+    lo = [(n - size) // 2 for n in image.shape]
+    part = image[lo[0]:lo[0] + size, lo[1]:lo[1] + size, lo[2]:lo[2] + size]
+    return (np.transpose(part, (2, 1, 0)) >= 90).astype(int)
+
+
+def case(name: str, size: int, image: str | None = None) -> tuple[ThermalSystem, dict[str, tuple[float, float]]]:
     rng = np.random.default_rng(2)
     two = (rng.random((size,) * 3) < 0.4).astype(int)
     gas, fibre = PhaseSpec("gas", 0, 0.026, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)
     grid, outputs = TimeGrid(2.0, 0.05), ["z0", "z1"]
     box = {"fibre.k": (0.1, 1.0), "fibre.c": (1e6, 1e7)}
+    if name.startswith("fibres"):
+        axes = ((0.6, 0.0, 0.8),) if name.endswith("fixed axis") else None
+        tensor = PhaseTensor("fibre", (1.0, 0.2), axes)
+        return assemble_voxels(two, (5e-6,) * 3, [gas, PhaseSpec("fibre", 1, 1.0, 4e6, tensor=tensor)], FLUX,
+                               time=grid, outputs=outputs), FIBRE_BOX
+    if name == "micro-CT crop":  # FiberForm: carbon fibre 12 W/(m K) in air 0.0257 (PuMA's values), 5 µm voxels
+        assert image is not None
+        phases = [PhaseSpec("air", 0, 0.0257, 1.2e3), PhaseSpec("fibre", 1, 12.0, 1.6e6)]
+        return assemble_voxels(crop(image, size), (5e-6,) * 3, phases, FLUX, time=TimeGrid(0.02, 0.0005),
+                               outputs=outputs), {"fibre.k": (4.0, 36.0), "fibre.c": (8e5, 3.2e6)}
     if name == "three phases":
         three = two + (rng.random(two.shape) < 0.2) * (two == 0) * 2
         phases = [gas, fibre, PhaseSpec("filler", 2, 2.0, 2e6)]
@@ -81,14 +112,20 @@ def main() -> None:
     parser.add_argument("--points", type=int, default=20)
     parser.add_argument("--order", type=int, default=200, help="order asked (the span's width caps it)")
     parser.add_argument("--method", choices=("krylov", "aromm", "pod", "greedy"), default="krylov")
+    parser.add_argument("--image", help="a grey micro-CT image (TIFF) for the micro-CT case: NASA PuMA's "
+                        "python/pumapy/data/100_fiberform.tif (not shipped; without it the case is skipped)")
+    parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     print(f"{args.size}³ bodies, method {args.method}, {args.points} Latin-hypercube points per case, "
           f"load average {os.getloadavg()[0]:.2f}")
-    print(f"{'case':15s} {'order':>5s} {'actual max':>11s} {'bound max':>10s} {'effectivity':>13s} "
+    print(f"{'case':18s} {'order':>5s} {'actual max':>11s} {'bound max':>10s} {'effectivity':>13s} "
           f"{'build CPU s':>11s} {'cert CPU s':>10s} {'bound CPU s':>11s} {'truth floor':>11s} {'below':>5s}")
-    for name in ("two phases", "three phases", "contrast 1e4", "four unknowns", "load history", "fixed face"):
-        system, box = case(name, args.size)
+    for name in args.cases:
+        if name == "micro-CT crop" and args.image is None:
+            print(f"{name:18s} skipped: no --image")
+            continue
+        system, box = case(name, args.size, args.image)
         start = time.process_time()
         rom = reduce(system, order=args.order, method=args.method, cache=False,
                      **({"bounds": box} if args.method == "krylov" else {}))
@@ -108,7 +145,7 @@ def main() -> None:
         seen = np.array(actual) > 10 * max(floor)  # the floor varies from point to point: its worst over the case
         ratio = (np.array(bound) / np.array(actual))[seen]
         span = f"{ratio.min():6.3g}–{ratio.max():<6.3g}" if ratio.size else f"{'—':13s}"
-        print(f"{name:15s} {rom.order:5d} {max(actual):11.3g} {max(bound):10.3g} {span} {build:11.2f} "
+        print(f"{name:18s} {rom.order:5d} {max(actual):11.3g} {max(bound):10.3g} {span} {build:11.2f} "
               f"{float(rom.info.get('certify_seconds', 0)):10.2f} {np.median(seconds):11.3f} {max(floor):11.2g} "
               f"{int((~seen).sum()):5d}")
 

@@ -179,8 +179,10 @@ def test_the_gram_matrices_of_iterative_solves_are_corrected_by_their_residuals(
     """aromm.reduction.certificate.riesz: multigrid-CG solves to rtol 1e-10 leave first-order errors |RᵀZ| of about
     5e-12 of the Gram entries' scale √(G_ii G_jj) on this 12³ body (rtol √κ), far above the rounding floor of the
     quadratic forms (8 m ε ≈ 1e-13); corrected by RᵀZ they agree with the Gram matrices of direct solves, corrected
-    likewise, to second order, except at the smallest σ of the ladder (the worst conditioned N̂_σ), where the residual's
-    own rounding (ε |Z|ᵀ|N̂||Z|) leaves about 2e-12: the bound of that entry is 1e-11, the others' 1e-12."""
+    likewise, to second order and within the rounding the bound adds: 8 m ε √(G_ii G_jj) for the quadratic forms and
+    2 ε ρ_i ρ_j for each computation's residuals.  At the smallest σ of the ladder (the worst conditioned N̂_σ) the two
+    differ by 4.4e-13 of the entries' scale, 4.4× the first term alone (the residuals' rounding was left out until
+    2026-12-05), 0.008× both."""
     from aromm.reduction.certificate import certify
     from aromm.reduction.scipy_engine import ScipyEngine
 
@@ -188,14 +190,54 @@ def test_the_gram_matrices_of_iterative_solves_are_corrected_by_their_residuals(
     phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
     faces = [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)]
     reference = {"fibre.k": 0.5, "fibre.c": 5e6}
-    grams = {}
+    certs = {}
     for solver in ("mg", "cholmod"):
         system = lift(assemble_voxels(labels, (5e-6,) * 3, phases, faces, time=TimeGrid(60.0, 0.1),
                                       outputs=["z0", "z1"], matrix_free=solver == "mg"), {}, "splu")
         engine = ScipyEngine(system, solver)
         basis, _ = engine.orthonormalise(None, np.random.default_rng(0).standard_normal((system.n, 10)), reference,
                                          1e-10)
-        grams[solver] = certify(engine, system, basis, reference, 1e-10).grams
-    scale = np.sqrt(np.diagonal(grams["cholmod"], axis1=1, axis2=2))
-    gaps = [float(np.max(np.abs(a - b) / np.outer(s, s))) for a, b, s in zip(*grams.values(), scale, strict=True)]
-    assert gaps[0] <= 1e-11 and max(gaps[1:]) <= 1e-12, gaps
+        certs[solver] = certify(engine, system, basis, reference, 1e-10)
+    mg, direct = certs["mg"], certs["cholmod"]
+    assert mg.spread is not None and direct.spread is not None
+    eps, m = np.finfo(float).eps, mg.grams.shape[1]
+    for j in range(len(mg.sigmas)):
+        scale = np.sqrt(np.diagonal(direct.grams[j]))
+        floor = 8 * m * eps * np.outer(scale, scale) + 2 * eps * (np.outer(mg.spread[j], mg.spread[j])
+                                                                 + np.outer(direct.spread[j], direct.spread[j]))
+        assert np.all(np.abs(mg.grams[j] - direct.grams[j]) <= floor), j
+
+
+def test_a_wide_block_is_factorised_where_the_engine_chose_multigrid(monkeypatch: pytest.MonkeyPatch) -> None:
+    """aromm.reduction.scipy_engine: the certificate's blocks (tens to hundreds of columns at one shift) are solved by
+    a sparse Cholesky factor even where the engine chose multigrid by size (DIRECT_BELOW lowered here to make a 12³
+    body "large"); narrow blocks keep multigrid, and a solver asked for by name is kept.  Both meet the solves'
+    tolerance rtol plus their float64 floor, by the residuals the engine gives, which equal ``b − A x`` formed here
+    within their own rounding bound (riesz: 2 (k + 1) ε |A||x| per entry, whose spread ρ the engine gives too)."""
+    from aromm.linalg.factorizations import rounding_floor
+    from aromm.reduction import scipy_engine
+
+    monkeypatch.setattr(scipy_engine, "DIRECT_BELOW", 1000)
+    labels = (np.random.default_rng(2).random((12,) * 3) < 0.4).astype(int)
+    phases = [PhaseSpec("gas", 0, 0.025, 1.2e3), PhaseSpec("fibre", 1, 0.3, 4e6)]
+    system = lift(assemble_voxels(labels, (5e-6,) * 3, phases, [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)],
+                                  time=TimeGrid(60.0, 0.1), outputs=["z0", "z1"], matrix_free=True), {}, "splu")
+    reference, shift, rtol = {"fibre.k": 0.5, "fibre.c": 5e6}, 2.0, 1e-10
+    engine = scipy_engine.ScipyEngine(system, "auto")
+    wide = scipy_engine.WIDE_BLOCK
+    assert engine.method == "mg" and engine.method_for(wide - 1) == "mg" and engine.method_for(wide) != "mg"
+    assert scipy_engine.ScipyEngine(system, "mg").method_for(wide) == "mg"
+    b = np.random.default_rng(0).standard_normal((system.n, wide))
+    v = system.values(reference)
+    a = (system.conductance.evaluate(v) + shift * system.capacity.evaluate(v)).tocsr()
+    terms = int(np.diff(a.indptr).max()) + 1
+    for columns in (b, b[:, :wide - 1]):  # factorised, then by multigrid
+        x = engine.shifted_solve(reference, shift, columns, rtol)
+        r = engine.shifted_residual(reference, shift, x, columns, rtol)
+        rho = engine.residual_rounding(reference, shift, x, rtol)
+        magnitude = abs(a) @ abs(x)
+        assert np.all(np.abs(r - (columns - a @ x)) <= 2 * terms * np.finfo(float).eps * (magnitude + abs(columns)))
+        assert np.allclose(rho ** 2, terms * np.einsum("ij,ij->j", abs(x), magnitude), rtol=1e-12)
+        for j in range(columns.shape[1]):
+            nb = float(np.linalg.norm(columns[:, j]))
+            assert np.linalg.norm(r[:, j]) <= (rtol + rounding_floor(a, x[:, j], nb)) * nb

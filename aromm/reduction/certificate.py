@@ -27,7 +27,10 @@ per column of M and rung); online every point costs reduced solves and quadratic
 
 What the bound includes: the reduction error against the same semi-discrete full model solved exactly in time.  The
 Gram matrices are corrected by the solves' residuals (:func:`riesz`: their error is second order in ``rtol``, and is
-neglected), rounding of the quadratic forms is added, and it neglects
+neglected); the worst-case rounding of those residuals (:func:`riesz`) and the rounding of the quadratic forms are
+added.  The rounding of the n-term products ``MᵀZ`` is not bounded a priori (its worst case, ``n ε |M|ᵀ|Z|``, would
+be the floor of every bound); two independent computations of the Gram matrices (multigrid and direct solves) differ
+by 0.008–0.01 of the floor the bound adds (tests/test_certificate.py).  It neglects
 the contour's tail (``|e^{s t}| < e^{-40}`` there) and the quadrature error of the contour integral, which is estimated
 from half the points and added.
 """
@@ -70,6 +73,10 @@ class CertifyingEngine(Protocol):
     def dot(self, left: Any, right: Any) -> FloatArray: ...
     def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: Any, rtol: float,
                       guess: Any | None = None) -> Any: ...
+    def shifted_residual(self, values: Mapping[str, float], shift: float, solution: Any, rhs: Any,
+                         rtol: float) -> Any: ...
+    def residual_rounding(self, values: Mapping[str, float], shift: float, solution: Any,
+                          rtol: float) -> FloatArray: ...
 
 
 @dataclass(frozen=True)
@@ -79,7 +86,9 @@ class Certificate:
     (r × p), ``loads`` the number of load columns of U (the initial-state columns follow).  The rounding floor of
     the quadratic forms takes the columns' norms from ``scales`` (per σ; default √diag of ``grams``) and counts
     ``summands`` terms in its sums (default the columns): a certificate whose Gram matrices were formed from a larger
-    one's (:mod:`aromm.reduction.certificate_gram`) carries that one's."""
+    one's (:mod:`aromm.reduction.certificate_gram`) carries that one's.  ``spread`` (per σ and column, from
+    :func:`riesz`) bounds the rounding of the solves' residuals, which enters the Gram matrices through ``RᵀZ``
+    (None: a certificate cached before it was counted)."""
 
     theta: FloatArray
     sigmas: FloatArray
@@ -88,9 +97,12 @@ class Certificate:
     loads: int
     scales: FloatArray | None = None
     summands: int | None = None
+    spread: FloatArray | None = None
 
     def arrays(self) -> dict[str, np.ndarray]:
         extra = {} if self.scales is None else {"scales": self.scales, "summands": np.array(self.summands)}
+        if self.spread is not None:
+            extra["spread"] = self.spread
         return {"theta": self.theta, "sigmas": self.sigmas, "grams": self.grams, "vtu": self.vtu,
                 "loads": np.array(self.loads), **extra}
 
@@ -99,7 +111,8 @@ class Certificate:
         theta, sigmas, grams, vtu = (np.asarray(data[k], dtype=float) for k in ("theta", "sigmas", "grams", "vtu"))
         scales = np.asarray(data["scales"], dtype=float) if "scales" in data else None
         return cls(theta, sigmas, grams, vtu, int(data["loads"]), scales,
-                   int(data["summands"]) if "summands" in data else None)
+                   int(data["summands"]) if "summands" in data else None,
+                   np.asarray(data["spread"], dtype=float) if "spread" in data else None)
 
     def floor_terms(self) -> tuple[FloatArray, int]:
         """The columns' norms per σ and the number of summands of the rounding floor (class docstring)."""
@@ -140,35 +153,37 @@ def certify(engine: CertifyingEngine, system: ThermalSystem, basis: Any, referen
     v = system.values(reference)
     theta = np.array([float(t.coefficient(v)) for t in (*system.conductance.terms, *system.capacity.terms)])
     sigmas = ladder(system.time.end, system.time.dt)
-    grams = []
+    grams, spread = [], []
     for sigma in sigmas:
-        z, r = riesz(engine, reference, float(sigma), m, rtol, theta=theta, conductances=len(system.conductance.terms))
+        z, r, rho = riesz(engine, reference, float(sigma), m, rtol)
         g = engine.dot(m, z) + engine.dot(r, z)
         grams.append((g + g.T) / 2)
+        spread.append(rho)
     log.info("certificate: %d Gram matrices of %d columns, %.1f CPU s", len(sigmas), grams[0].shape[0],
              time.process_time() - start)
-    return Certificate(theta, sigmas, np.stack(grams), engine.dot(basis, u), len(system.load.terms))
+    return Certificate(theta, sigmas, np.stack(grams), engine.dot(basis, u), len(system.load.terms),
+                       spread=np.stack(spread))
 
 
-def riesz(engine: CertifyingEngine, reference: Mapping[str, float], sigma: float, rhs: FloatArray, rtol: float, *,
-          theta: FloatArray, conductances: int, chunk: int = 64) -> tuple[FloatArray, FloatArray]:
-    """``Z ≈ N̂_σ⁻¹ rhs`` solved to ``rtol`` and its residual ``R = rhs − N̂_σ Z`` (``N̂_σ = Σ_t w_t A_t``, w = θ̂ on
-    the first ``conductances`` terms, σ θ̂ on the capacity ones; applied by chunks of columns).
+def riesz(engine: CertifyingEngine, reference: Mapping[str, float], sigma: float, rhs: FloatArray,
+          rtol: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``Z ≈ N̂_σ⁻¹ rhs`` solved to ``rtol``, its residual ``R = rhs − N̂_σ Z`` (``N̂_σ = K(μ̂) + σ C(μ̂)``, the
+    engine's shifted operator at the reference) and the spread ρ of its rounding per column.
+
+    R is computed in float64: ``|fl(R) − R| ≤ γ (|rhs| + |N̂||Z|) ≈ 2 (k + 1) ε |N̂||Z|`` (k terms in a row of N̂,
+    [Higham2002, § 3.5]), so the Gram entry ``RᵢᵀZⱼ`` moves by at most ``2 ε ρᵢ ρⱼ`` with ``ρᵢ² = (k + 1) |Zᵢ|ᵀ|N̂||Zᵢ|``
+    (Cauchy–Schwarz in ``|N̂|``, which is diagonally dominant, hence positive semi-definite); the quadratic forms of
+    :func:`error_bound` add ``2 ε (|c|ᵀρ)²``.  ``|Z|ᵀ|N̂||Z|`` exceeds ``ZᵀN̂Z`` = G_ii by the ratio of the operator's
+    local to global stiffness (≈ 20 at the smallest σ on a 12³ body): there it is what limits the Gram matrices
+    (tests/test_certificate.py), not the rounding of their quadratic forms.
 
     The Gram matrix ``rhsᵀ N̂_σ⁻¹ rhs`` is then ``rhsᵀZ + RᵀZ`` up to ``RᵀN̂_σ⁻¹R``: the solves' error enters to
     second order.  Without ``RᵀZ`` it enters to first order, ``|RᵀZ|`` ≈ rtol √κ(N̂_σ) of the entries' scale: 1e-11
     with multigrid at rtol 1e-10 on a 12³ body, 100× the rounding floor of the quadratic forms
     (tests/test_certificate.py)."""
     z = np.asarray(engine.shifted_solve(reference, sigma, rhs, rtol))
-    weights = np.concatenate([theta[:conductances], sigma * theta[conductances:]])
-    r = np.array(rhs, dtype=float)
-    for start in range(0, z.shape[1], chunk):
-        block = z[:, start:start + chunk]
-        width = block.shape[1]
-        products = np.asarray(engine.term_products(block))
-        for t, w in enumerate(weights):
-            r[:, start:start + width] -= w * products[:, t * width:(t + 1) * width]
-    return z, r
+    r = np.asarray(engine.shifted_residual(reference, sigma, z, rhs, rtol))
+    return z, r, np.asarray(engine.residual_rounding(reference, sigma, z, rtol), dtype=float)
 
 
 def _pieces(profile: Profile | None) -> list[tuple[float, float, int]]:
@@ -248,6 +263,8 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
             at = weight > 0
             square[at] += weight[at] * np.einsum("ki,ki->k", c[at].conj(), c[at] @ g).real
             floor[at] += weight[at] * 8 * summands * np.finfo(float).eps * (np.abs(c[at]) @ diags[j]) ** 2
+            if cert.spread is not None:  # the residuals' rounding in the Gram matrices (riesz)
+                floor[at] += weight[at] * 2 * np.finfo(float).eps * (np.abs(c[at]) @ cert.spread[j]) ** 2
         return np.sqrt(np.maximum(square, 0.0) + floor)
 
     o = len(names)

@@ -17,7 +17,9 @@ keeps ``Z = N̂_σ⁻¹ M`` of every column in float32 (the correction is itself
 nothing that matters), ``n × columns × 4`` bytes per rung.  Rounding: ``Tᵀ G T`` is formed from the span's
 entries, so the floor of the bound's quadratic forms
 (:func:`aromm.reduction.certificate.error_bound`) takes its column norms as ``|T|ᵀ √diag G`` (an upper bound of
-``‖M T e_k‖`` by the triangle inequality) and counts the span's columns in its sums.
+``‖M T e_k‖`` by the triangle inequality) and counts the span's columns in its sums; the residuals' rounding
+(:func:`~aromm.reduction.certificate.riesz`) likewise takes ``|T|ᵀρ`` (the triangle inequality of the ``|N̂|``
+semi-norm).
 """
 
 from __future__ import annotations
@@ -50,10 +52,11 @@ class GramLedger:
         self.u = engine.input_terms()
         self.head = engine.join([self.u, engine.output_block()])
         self.loads = len(system.load.terms)
-        self.terms, self.conductances = len(terms), len(system.conductance.terms)
+        self.terms = len(terms)
         self.riesz: list[list[FloatArray]] = [[] for _ in self.sigmas]  # N̂_σ⁻¹ M per rung, float32, by extension
         self.width = 0  # basis columns accounted for
         self.grams = np.zeros((len(self.sigmas), 0, 0))  # in arrival order: the head, then each extension's block
+        self.spread = np.zeros((len(self.sigmas), 0))  # the residuals' rounding per column (riesz), arrival order
         self.labels: list[tuple[int, int]] = []  # per Gram column: (-1, j) the head's j-th, (t, k) A_t times V[:, k]
         self.vtu = np.zeros((0, 0))
         self.solves = 0
@@ -73,10 +76,10 @@ class GramLedger:
         else:
             fresh = eng.join([self.head, fresh])
             labels = [(-1, j) for j in range(int(self.head.shape[1]))] + labels
-        grown = []
+        grown, spread = [], []
         for j, sigma in enumerate(self.sigmas):
-            z, r = riesz(eng, self.reference, float(sigma), fresh, self.rtol, theta=self.theta,
-                         conductances=self.conductances)
+            z, r, rho = riesz(eng, self.reference, float(sigma), fresh, self.rtol)
+            spread.append(rho)
             corner = eng.dot(fresh, z) + eng.dot(r, z)
             if old is None:
                 grown.append((corner + corner.T) / 2)
@@ -87,6 +90,7 @@ class GramLedger:
             self.riesz[j].append(z.astype(np.float32))
         self.solves += int(fresh.shape[1]) * len(self.sigmas)
         self.grams, self.labels, self.width = np.stack(grown), self.labels + labels, width
+        self.spread = np.hstack([self.spread, np.stack(spread)])
         self.vtu = eng.dot(basis, self.u)
         log.info("certificate: Gram matrices of %d columns on %d rungs (%d solves in all), %.1f CPU s",
                  len(self.labels), len(self.sigmas), self.solves, time.process_time() - start)
@@ -99,9 +103,9 @@ class GramLedger:
     def certificate(self, coefficients: FloatArray | None = None) -> Certificate:
         """The certificate of the model on the accounted basis V, or on ``V @ coefficients`` (no solve)."""
         layout = np.argsort(self._order())  # arrival column of each term-major one
-        grams = self.grams[:, layout][:, :, layout]
+        grams, spread = self.grams[:, layout][:, :, layout], self.spread[:, layout]
         if coefficients is None:
-            return Certificate(self.theta, self.sigmas, grams, self.vtu, self.loads)
+            return Certificate(self.theta, self.sigmas, grams, self.vtu, self.loads, spread=spread)
         w = np.asarray(coefficients, dtype=float)
         head, (rows, cols) = int(self.head.shape[1]), w.shape
         t_mat = np.zeros((head + self.terms * rows, head + self.terms * cols))
@@ -111,4 +115,4 @@ class GramLedger:
         projected = t_mat.T @ grams @ t_mat  # per rung (a three-operand einsum would loop naively: O(m⁴))
         scales = np.sqrt(np.maximum(np.diagonal(grams, axis1=1, axis2=2), 0.0)) @ np.abs(t_mat)
         return Certificate(self.theta, self.sigmas, (projected + projected.transpose(0, 2, 1)) / 2, w.T @ self.vtu,
-                           self.loads, scales=scales, summands=t_mat.shape[0])
+                           self.loads, scales=scales, summands=t_mat.shape[0], spread=spread @ np.abs(t_mat))

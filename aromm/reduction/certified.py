@@ -21,8 +21,17 @@ from aromm.reduction.certificate import Certificate, CertifyingEngine, error_bou
 from aromm.reduction.certificate import certify as certificate_of
 from aromm.reduction.certificate_gram import GramLedger
 from aromm.reduction.rom import ReducedModel
-from aromm.reduction.scipy_engine import DIRECT_BELOW
 
+#: Left to itself (``certify`` None), a model is certified below this many unknowns.  The certificate's offline cost
+#: is one shifted solve per column of M and rung of the σ ladder (three on the shipped scenes), by a sparse Cholesky
+#: factor (:data:`~aromm.reduction.scipy_engine.WIDE_BLOCK`); a Krylov build that stops on the bound also runs until
+#: the bound, not only its estimate, meets the tolerance.  ``python benchmarks/certified_cost.py --sizes 24 32`` (one
+#: BLAS thread, load 0.5–0.9, 2026-12-05; records/certified_cost_24_32.txt), CPU s certified against without: the
+#: generated 24³ wood VER (15,625 unknowns) 25.7 against 4.2 (6.1×, two more greedy points), 32³ (35,937) 49.0
+#: against 10.2 (4.8×, 1.15 GB): up to 32³ the certificate costs no more, relatively, than it did by default below
+#: 20,000.  On the shipped 46³ VER (103,823; ``aromm reduce data/scenes/wood_s1.toml --certify``) 284 CPU s and
+#: 3.0 GB against 21 CPU s and 0.4 GB (13×: its bound met the tolerance only at the greedy's ten points, and not then).
+CERTIFY_BELOW = 40_000
 #: The certificate's offline matrix M (n × (inputs + outputs + terms · order)) is held whole: above this many bytes
 #: the model is returned without a bound (info says so).
 CERTIFY_BYTES = 2 * 1024 ** 3
@@ -37,12 +46,12 @@ def width(engine: CertifyingEngine, system: ThermalSystem, order: int) -> int:
 
 
 def wanted(system: ThermalSystem, certify: bool | None, columns: int) -> str | None:
-    """None when the model is to be certified (``certify``, or by size when None: below
-    :data:`~aromm.reduction.scipy_engine.DIRECT_BELOW` unknowns), else why not."""
+    """None when the model is to be certified (``certify``, or by size when None: below :data:`CERTIFY_BELOW`
+    unknowns), else why not."""
     if system.time is None:
         return "not computed: a steady model"
     rungs = len(ladder(*_grid(system)))
-    if not (system.n < DIRECT_BELOW if certify is None else certify):
+    if not (system.n < CERTIFY_BELOW if certify is None else certify):
         return (f"not computed: {system.n} unknowns, it would cost about {rungs} × {columns} "
                 "shifted solves (ask with [reduction] certify = true or aromm reduce --certify)")
     if system.n * columns * (8 + 4 * rungs) > CERTIFY_BYTES:  # M, and N̂_σ⁻¹M in float32 per rung (certificate_gram)

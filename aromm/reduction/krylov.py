@@ -92,7 +92,7 @@ class KrylovReductor:
     ``dual``: the outputs' moments too; ``solver``: the engine's linear solver (``"auto"``: by size);
     ``highest``: the largest shift is ``highest / t_first`` (the response at t_first carries frequencies above
     1/t_first); ``certify``: attach the certified output error bound (:mod:`aromm.reduction.certificate`; None:
-    below :data:`~aromm.reduction.scipy_engine.DIRECT_BELOW` unknowns, where its solves are direct and cheap).
+    below :data:`~aromm.reduction.certified.CERTIFY_BELOW` unknowns, by its measured cost).
     """
 
     bounds: Box = ()

@@ -30,6 +30,7 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray, ThermalSystem, dense, is_matrix_free, sparse
+from aromm.fem.voxel_grid import node_points
 from aromm.fem.voxel_terms import as_voxel_terms, is_voxel_family, shifted_operator, weighted_product
 from aromm.linalg.direct import check_residual, factorize, resolve_method
 from aromm.linalg.multigrid.affine_voxel import AffineLevels
@@ -53,6 +54,19 @@ from aromm.reduction.rom import ReducedModel
 #: steps), so multigrid would win from 16³ on, by < 2 CPU s per reduction at 24³ (30 set-ups); the threshold stays:
 #: below it a direct solve costs at most that and needs no rounding-floor acceptance.
 DIRECT_BELOW = 20_000
+#: A block of at least this many right-hand sides at one shift (the certificate's Gram matrices: inputs, outputs and
+#: every term times the basis, 200–600 columns) is solved by a sparse Cholesky factorisation with the voxel grid's
+#: nested dissection up to :data:`WIDE_DIRECT_BELOW` unknowns, where the engine otherwise iterates.
+#: ``python benchmarks/wide_solve.py --sizes 32 46 --columns 200`` (one BLAS thread, load 0.9, 2026-12-05): CHOLMOD
+#: set-up / a column 0.55 / 0.019 CPU s at 32³ (35,937 unknowns), 3.4 / 0.070 at 46³ (103,823), against the
+#: multigrid's 0.043 and 0.135 a column.  cvxopt's CHOLMOD solves a block column by column, so the gain stays 2–3×.
+WIDE_BLOCK = 48
+#: Unknowns up to which a wide block is factorised (≈ 58³ nodes; the factor's fill grows as n^(4/3): the process's
+#: peak 1.35 GB at 46³ in benchmarks/wide_solve.py).
+WIDE_DIRECT_BELOW = 200_000
+#: Columns of one sparse × block product (scipy's CSR × (n, m) beats m vector products up to a few tens of columns:
+#: 2.2× at 32 columns on the 46³ VER, 0.44× at 128).
+PRODUCT_COLUMNS = 32
 #: Eigenvalues of a new block's Gram matrix below this fraction of the largest are dependent directions.
 GRAM_DROP = 1e-14
 log = logging.getLogger(__name__)
@@ -102,6 +116,7 @@ class ScipyEngine:
         self.voxel = is_voxel_family(operators)  # matrix-free voxel terms: no matrix is ever assembled
         points = system.geometry.points if system.geometry is not None and not self.voxel else None
         self.points = points if points is not None and points.shape[0] == system.n else None
+        self.chosen = solver == "auto"  # the engine picks the solver (by size, and by the width of a block)
         if solver == "auto":
             on_grid = self.points is not None or self.voxel
             solver = "mg" if system.n >= DIRECT_BELOW and on_grid else resolve_method("auto")
@@ -109,6 +124,7 @@ class ScipyEngine:
         self._stats = SolveStats(method=self.method)
         self._solver: tuple[tuple[object, ...], object] | None = None
         self._ordering: npt.NDArray[np.int64] | None = None  # one nested dissection for every shifted operator
+        self._assembled: tuple[tuple[object, ...], sp.csr_array] | None = None  # K + s C at the last point asked
         self._gram: ResidualGram | None = None
         self._affine: object | None = None  # the multigrid levels of every term of K and C (built at the first solve)
         self._voxel_levels: AffineLevels | None = None  # the same for matrix-free voxel terms
@@ -174,11 +190,12 @@ class ScipyEngine:
 
     def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float,
                       guess: FloatArray | None = None) -> FloatArray:
-        key = (tuple(sorted(values.items())), float(shift), float(rtol))
+        method = self.method_for(int(rhs.shape[1]))
+        key = (tuple(sorted(values.items())), float(shift), float(rtol), method)
         if self._solver is None or self._solver[0] != key:
             self._solver = None  # release the previous hierarchy before building the next one
             start = time.process_time()
-            self._solver = (key, self._setup(values, shift, rtol))
+            self._solver = (key, self._setup(values, shift, rtol, method))
             self._stats.setups += 1
             self._stats.setup_seconds += time.process_time() - start
         start = time.process_time()
@@ -187,26 +204,79 @@ class ScipyEngine:
         self._stats.solve_seconds += time.process_time() - start
         return np.asarray(out)
 
-    def _setup(self, values: Mapping[str, float], shift: float, rtol: float) -> object:
-        if self.method != "mg":
+    def shifted_residual(self, values: Mapping[str, float], shift: float, solution: FloatArray, rhs: FloatArray,
+                         rtol: float) -> FloatArray:
+        """``rhs − (K(μ) + s C(μ)) solution`` with the assembled operator (one sparse product by blocks of
+        columns: the certificate's residuals, :func:`aromm.reduction.certificate.riesz`)."""
+        a = self._assembled_operator(values, shift)
+        r = np.array(rhs, dtype=float)
+        for start in range(0, r.shape[1], PRODUCT_COLUMNS):
+            r[:, start:start + PRODUCT_COLUMNS] -= a @ np.ascontiguousarray(solution[:, start:start + PRODUCT_COLUMNS])
+        return r
+
+    def residual_rounding(self, values: Mapping[str, float], shift: float, solution: FloatArray,
+                          rtol: float) -> FloatArray:
+        """ρ per column, ``ρ² = (k + 1) |x|ᵀ |K + s C| |x|`` (k the most terms in a row): the spread of the rounding
+        of :meth:`shifted_residual` (:func:`aromm.reduction.certificate.riesz`)."""
+        a = self._assembled_operator(values, shift)
+        magnitude = sp.csr_array((np.abs(a.data), a.indices, a.indptr), shape=a.shape)
+        terms = int(np.diff(a.indptr).max(initial=0)) + 1
+        x = np.abs(solution)
+        energy = np.concatenate([np.einsum("ij,ij->j", x[:, lo:lo + PRODUCT_COLUMNS],
+                                           magnitude @ np.ascontiguousarray(x[:, lo:lo + PRODUCT_COLUMNS]))
+                                 for lo in range(0, x.shape[1], PRODUCT_COLUMNS)] or [np.zeros(0)])
+        return np.sqrt(terms * np.maximum(energy, 0.0))
+
+    def _assembled_operator(self, values: Mapping[str, float], shift: float) -> sp.csr_array:
+        """``K(μ) + s C(μ)`` assembled, kept for the next call at the same point (a direct set-up's own)."""
+        key = (tuple(sorted(values.items())), float(shift))
+        if self._assembled is None or self._assembled[0] != key:
+            self._assembled = (key, self._operator(values, shift))
+        return self._assembled[1]
+
+    def _weights(self, values: Mapping[str, float], shift: float) -> list[float]:
+        """The coefficients of K(μ) + s C(μ) term by term (conductance terms, then capacity)."""
+        v = self.system.values(values)
+        return [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
+            shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
+
+    def method_for(self, columns: int) -> str:
+        """The solver of a block of ``columns`` right-hand sides at one shift: the engine's, except that when it
+        chose multigrid by size, a block of :data:`WIDE_BLOCK` columns or more (the certificate's) on at most
+        :data:`WIDE_DIRECT_BELOW` unknowns is factorised."""
+        if self.chosen and self.method == "mg" and columns >= WIDE_BLOCK and self.size < WIDE_DIRECT_BELOW:
+            return resolve_method("auto")
+        return self.method
+
+    def _nested_dissection(self, a: sp.csr_array) -> npt.NDArray[np.int64] | None:
+        """One geometric nested-dissection ordering for every shifted operator (the nodes' points, of the voxel
+        grid for matrix-free terms), None off a grid (CHOLMOD then orders by AMD)."""
+        if self._ordering is None:
+            points = self.points
+            if points is None and self.voxel:
+                term = as_voxel_terms([t.operator for t in self.system.conductance.terms])[0]
+                points = node_points(term.grid.shape, term.grid.voxel_size)[term.free]
+            self._ordering = None if points is None else nested_dissection(a, points)
+        return self._ordering
+
+    def _setup(self, values: Mapping[str, float], shift: float, rtol: float, method: str) -> object:
+        self._assembled = None
+        if method != "mg":
             a = self._operator(values, shift)
-            if self._ordering is None and self.points is not None:
-                self._ordering = nested_dissection(a, self.points)
-            fac = factorize(a, self.method, rtol=rtol, ordering=self._ordering)
+            fac = factorize(a, method, rtol=rtol, ordering=self._nested_dissection(a))
+            self._assembled = ((tuple(sorted(values.items())), float(shift)), a)
 
             def direct(b: FloatArray, guess: FloatArray | None) -> FloatArray:
                 x = fac.solve(b, check=False)
                 for j in range(b.shape[1]):
-                    check_residual(a, x[:, j], b[:, j], rtol, self.method)
+                    check_residual(a, x[:, j], b[:, j], rtol, method)
                 return x
 
             return direct
         from aromm.linalg.multigrid.affine import AffineGrid
 
         terms = (*self.system.conductance.terms, *self.system.capacity.terms)
-        v = self.system.values(values)
-        weights = [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
-            shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
+        weights = self._weights(values, shift)
         if self.voxel:
             voxel_terms = as_voxel_terms([t.operator for t in terms])
             if self._voxel_levels is None:

@@ -51,8 +51,8 @@ class ReductionSettings:
     upper), the identification box, over which the Krylov reduction trains (the modal methods do not use it);
     ``tolerance`` (°C): the Krylov reduction's greedy stops at this estimated error (None: the reductor's default,
     aromm.reduction.krylov.KrylovReductor; a Krylov-only option, so ``"auto"`` then picks the Krylov method);
-    ``certify``: attach the certified output error bound (None: below 20,000 unknowns; every one-process method,
-    aromm.reduction.certified);
+    ``certify``: attach the certified output error bound (None: below 40,000 unknowns, by its cost; every one-process
+    method, aromm.reduction.certified);
     ``solver`` (linear solves), ``eigensolver`` and ``basis_storage`` of the modal bases."""
 
     order: int = 200

@@ -242,6 +242,22 @@ class PetscKrylovEngine:
         self._stats.solve_seconds += time.process_time() - start
         return out
 
+    def shifted_residual(self, values: Mapping[str, float], shift: float, solution: FloatArray, rhs: FloatArray,
+                         rtol: float) -> FloatArray:
+        """``rhs − (K(μ) + s C(μ)) solution`` with the assembled operator of that shifted solve."""
+        return np.asarray(rhs, dtype=float) - self._apply(self._setup(values, shift, rtol).getOperators()[0], solution)
+
+    def residual_rounding(self, values: Mapping[str, float], shift: float, solution: FloatArray,
+                          rtol: float) -> FloatArray:
+        """ρ per column with ``ρ² = (k + 1) ‖A‖_∞ ‖x‖²`` ≥ ``(k + 1) |x|ᵀ|A||x|`` (A symmetric:
+        ``‖|A|‖₂ ≤ ‖A‖_∞``; k the most terms in a row): the spread of :meth:`shifted_residual`'s rounding
+        (:func:`aromm.reduction.certificate.riesz`), without a product by ``|A|`` across the ranks."""
+        mat = self._setup(values, shift, rtol).getOperators()[0]
+        indptr = mat.getValuesCSR()[0]
+        terms = runtime.allmax(float(np.diff(indptr).max(initial=0)), self.comm) + 1
+        norm = float(mat.norm(runtime.petsc().NormType.INFINITY))
+        return np.sqrt(terms * norm * runtime.allsum(np.einsum("ij,ij->j", solution, solution), self.comm))
+
     # ----------------------------------------------------------------- bases and projections
     def dot(self, left: FloatArray, right: FloatArray) -> FloatArray:
         return runtime.allsum(left.T @ right, self.comm)
