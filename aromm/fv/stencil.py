@@ -23,8 +23,9 @@ A *periodic* stencil (:func:`periodic_stencil`, the periodic cell problem) has n
 row of every axis, from the last cell back to the first: ``links[a]`` then has the full length of axis ``a`` (link
 ``i`` joins cells ``i`` and ``i + 1 mod n``; an axis of one cell has none).  Its operator is singular, with one
 constant per connected cluster in its null space.  Red–black colouring needs every periodic axis even (the last and
-the first cell of an odd axis share a colour), which :class:`~aromm.fv.multigrid.VolumeMultigrid` checks; 2 × 2 × 2
-aggregation of an even axis keeps the wrapped link as the coarse one.
+the first cell of an odd axis share a colour): :class:`~aromm.fv.multigrid.VolumeMultigrid` smooths a level with an
+odd periodic axis by damped Jacobi instead.  2 × 2 × 2 aggregation of an even axis keeps the wrapped link as the
+coarse one; on an odd axis the last cell is an aggregate alone, and the wrapped link joins it to the first.
 """
 
 from __future__ import annotations
@@ -154,7 +155,10 @@ def coarsen(stencil: Stencil) -> Stencil:
     """The Galerkin operator ``Pᵀ A P`` of 2 × 2 × 2 aggregation (module docstring)."""
     links = []
     for a, g in enumerate(stencil.links):
-        crossing = np.take(g, np.arange(1, g.shape[a], 2), axis=a)  # fine links between two aggregates
+        picks = np.arange(1, g.shape[a], 2)  # fine links between two aggregates
+        if stencil.periodic and g.shape[a] % 2 and g.shape[a] > 1:  # an odd periodic axis: its last cell, an
+            picks = np.append(picks, g.shape[a] - 1)  # aggregate alone, joins the first by the wrapped link
+        crossing = np.take(g, picks, axis=a)
         coarse = _pairs(crossing, tuple(b for b in range(3) if b != a)).astype(np.float32)
         if stencil.periodic and coarse.shape[a] == 1:
             coarse[...] = 0.0  # a single aggregate along the axis: its wrapped link joins it to itself

@@ -15,7 +15,7 @@ of :mod:`aromm.fv.multigrid` on the matrix-free 7-point stencil (the probes: fix
 flux ≈ 80 with its right-hand side; links in float32: k̄ within 6e-8 relatively of the float64 operator's); or ``amg``
 (pyamg CG on the assembled matrix).  All to the relative residual ``rtol``.  ``auto`` takes ``mg`` from
 :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on (the periodic cell: ``amg`` where the
-matrix-free multigrid cannot run, odd sizes or a rotated tensor).
+matrix-free multigrid cannot run: a rotated tensor).
 """
 
 from __future__ import annotations

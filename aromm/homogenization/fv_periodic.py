@@ -14,7 +14,7 @@ Two ways to solve it:
   by its aggregation multigrid (:class:`aromm.fv.multigrid.VolumeMultigrid`), one direction at a time: the diagonal by
   the energy form, the off-diagonal terms by ``k_ij |Ω| = s_iᵀ W (D T̃_j + s_j)`` (equal to the energy form by
   Galerkin orthogonality, ``Dᵀ W (D T̃_j + s_j) = 0``; its error is linear in the solve's, ``|T̃_iᵀ r_j|``),
-  symmetrised.  Needs an even number of voxels along every axis and axis-aligned phases; otherwise ``amg``.
+  symmetrised.  Needs axis-aligned phases; otherwise ``amg``.
 * the assembled incidence with the first voxel of every cluster pinned, by a direct method or ``amg`` (pyamg CG).
 """
 
@@ -44,7 +44,7 @@ def axis_k(scene: Scene) -> FloatArray:
 
 def periodic_k(scene: Scene, method: str, rtol: float) -> tuple[FloatArray, str]:
     """(k tensor W/(m K), the method that ran) of the periodic cell; ``mg`` falls back to ``amg`` where the
-    matrix-free multigrid cannot run (odd sizes, a rotated tensor), saying so in the log."""
+    matrix-free multigrid cannot run (a rotated tensor), saying so in the log."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
     winds = (True, True, True)
@@ -55,10 +55,9 @@ def periodic_k(scene: Scene, method: str, rtol: float) -> tuple[FloatArray, str]
                      "its row and column", "xyz"[axis], "xyz"[axis] * 2)
     if method == "mg":
         shape = np.asarray(image.labels).shape
-        if any(n % 2 for n in shape) or any(p.tensor is not None for p in scene.phases):
-            log.info("homogenisation: the periodic cell of %s voxels%s runs on the assembled operator (pyamg): "
-                     "the matrix-free multigrid needs even sizes and axis-aligned phases", "×".join(map(str, shape)),
-                     "" if all(p.tensor is None for p in scene.phases) else " with a rotated tensor")
+        if any(p.tensor is not None for p in scene.phases):
+            log.info("homogenisation: the periodic cell of %s voxels with a rotated tensor runs on the assembled "
+                     "operator (pyamg): the matrix-free multigrid needs axis-aligned phases", "×".join(map(str, shape)))
             method = "amg"
         else:
             return _stencil(scene, rtol, winds), method
