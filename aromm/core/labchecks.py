@@ -30,7 +30,7 @@ import numpy as np
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 
-Quantity = Literal["temperature", "flux", "humidity"]
+Quantity = Literal["temperature", "flux", "humidity", "moisture_flux"]
 ABSOLUTE_ZERO = -273.15  # °C
 #: Default plausible range of a measured temperature (°C): a laboratory thermal test, from liquid-nitrogen
 #: cooling to a furnace; a wider one is stated with ``--plausible``.

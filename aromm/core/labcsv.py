@@ -56,8 +56,9 @@ TIME_UNITS = {"ms": 1e-3, "s": 1.0, "sec": 1.0, "min": 60.0, "h": 3600.0, "hr": 
 CELSIUS = ("°c", "degc", "deg c", "c", "ºc", "celsius")
 KELVIN = ("k", "kelvin")
 TEMPERATURE_UNITS = ("°C", "K")
-#: Units of a non-temperature history (heat flux): read as they are.
+#: Units of a non-temperature history (heat flux, or a moisture flux g): read as they are.
 FLUX_UNITS = ("w/m2", "w/m²", "w m-2", "w/(m2)", "w/(m²)")
+MOISTURE_FLUX_UNITS = ("kg/(m2 s)", "kg/(m² s)", "kg/m2/s", "kg/m²/s", "kg m-2 s-1", "kg/(m2.s)", "kg/(m²·s)")
 MISSING = ("", "na", "n/a", "-", "--", "null", "none")
 KELVIN_OFFSET = 273.15
 SNIFF_LINES = 20
@@ -210,8 +211,9 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
     """Read a laboratory CSV (module docstring); ``outputs`` lists the allowed output names, ``columns`` maps
     file columns onto them (file name → output), ``time_unit`` / ``temperature_unit`` state units the file
     does not carry (a unit in the file wins only when it agrees; a conflict is refused).  ``quantity`` is what the
-    value columns hold (``"temperature"`` in °C or K; ``"flux"`` in W/m², a load history); ``plausible`` the range
-    (°C) a temperature may take.
+    value columns hold (``"temperature"`` in °C or K; ``"flux"`` in W/m², a load history; ``"humidity"`` a
+    relative humidity, a fraction or %RH; ``"moisture_flux"`` in kg/(m² s)); ``plausible`` the range (°C) a
+    temperature may take.
 
     >>> import tempfile, pathlib
     >>> f = pathlib.Path(tempfile.mkdtemp()) / "log.csv"
@@ -279,7 +281,7 @@ def read_lab_csv(path: str | os.PathLike[str], outputs: Iterable[str] | None = N
         raise InputError(f"{p}: every data row has a missing value; nothing left to read")
     data[:, 0] *= factor
     _check_times(p, data[:, 0], lines)
-    humid = {out: name for out, name in chosen.items() if output_kind(out) == "phi"}
+    humid = {out: name for out, name in chosen.items() if output_kind(out) == "phi" or quantity == "humidity"}
     stated, kelvin_cols = _temperature_units(p, header_line, names, units, given=temperature_unit, quantity=quantity,
                                              chosen={o: n for o, n in chosen.items() if o not in humid})
     values = {}
@@ -401,6 +403,10 @@ def _temperature_units(p: Path, line: int, names: list[str], units: list[str | N
         if unit is None:
             if given_kelvin:
                 kelvin.add(name)
+            continue
+        if quantity == "moisture_flux":
+            if unit.lower() not in MOISTURE_FLUX_UNITS:
+                raise InputError(f"{where}: unit {unit!r} for a moisture flux history; allowed: kg/(m2 s)")
             continue
         if quantity != "temperature":
             if unit.lower() not in FLUX_UNITS:

@@ -41,7 +41,9 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.observables import PHI_PREFIX
+from aromm.core.profiles import Profile
 from aromm.core.system import Affine, Coefficient, Dirichlet, FloatArray, Term, ThermalSystem, dense, sparse
+from aromm.core.vocabulary import Load, scale_of
 
 LATENT_HEAT = 2.45e6  # J/kg, evaporation of water near 20 °C
 MOISTURE_KEYS = ("xi", "D_phi", "delta_p")
@@ -101,9 +103,9 @@ class MoistureState:
 
 
 def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str, Mapping[str, float]], *,
-            fixed_phi: Mapping[str, float] | None = None, initial_phi: float | None = None,
-            vapour: Mapping[str, tuple[float, float]] | None = None,
-            moisture_flux: Mapping[str, tuple[float, float]] | None = None) -> ThermalSystem:
+            fixed_phi: Mapping[str, Load] | None = None, initial_phi: float | None = None,
+            vapour: Mapping[str, tuple[float, Load]] | None = None,
+            moisture_flux: Mapping[str, tuple[Load, float]] | None = None) -> ThermalSystem:
     """The coupled system of the thermal system ``thermal`` (isotropic phases or orthotropic along the image axes,
     assembled or matrix-free terms,
     :func:`aromm.core.system.sparse`): ``moisture`` maps each phase name to its ``xi``, ``D_phi`` and ``delta_p``;
@@ -113,7 +115,9 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
     faces with a face-mean output of ``thermal`` to ``(g, area)``: g kg/(m² s) of water entering through the face of
     that area (m²), a load ``λ g |f| e_f`` on the moisture row (e_f the face-mean row; no latent heat: the water
     enters as it is stored).  Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``,
-    ``<face>.beta``, ``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the thermal ones."""
+    ``<face>.beta``, ``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the thermal ones.  A fixed φ, a
+    φ_ext or a g may be a history (:class:`~aromm.core.profiles.Profile`): its parameter is then its scale, 1, and
+    the profile is the Dirichlet value's or the load term's time function."""
     if thermal.initial or thermal.feedthrough:
         raise InputError("hygrothermal: couple the assembled thermal system, before any lifting")
     n, blocks = thermal.n, state.blocks()
@@ -155,28 +159,29 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
     load = [Term(t.name, t.coefficient, np.concatenate([np.asarray(t.operator, dtype=float), np.zeros(n)]), t.role,
                  t.time) for t in thermal.load.terms]
     for face, (beta, phi_ext) in (vapour or {}).items():
-        if not (math.isfinite(beta) and beta > 0.0 and 0.0 <= phi_ext <= 1.0):
+        if not (math.isfinite(beta) and beta > 0.0 and _within(phi_ext, 0.0, 1.0)):
             raise InputError(f"hygrothermal: {face}.beta must be > 0 (kg/(m² s Pa)) and {face}.phi_ext in [0, 1], got "
                              f"{beta!r} and {phi_ext!r}")
-        terms = _vapour_terms(thermal, face, state)
+        terms = _vapour_terms(thermal, face, state, _timing(phi_ext))
         conductance.append(terms[0])
         load.extend(terms[1:])
-        parameters.update({f"{face}.beta": float(beta), f"{face}.phi_ext": float(phi_ext)})
+        parameters.update({f"{face}.beta": float(beta), f"{face}.phi_ext": scale_of(phi_ext)})
     for face, (g, area) in (moisture_flux or {}).items():
         row = thermal.observation.get(face)
-        if row is None or not (math.isfinite(g) and area > 0.0):
+        if row is None or not (_within(g, -math.inf, math.inf) and area > 0.0):
             raise InputError(f"hygrothermal: {face}.g needs a face-mean output of {face} and a finite flux "
                              f"(kg/(m² s)), got {g!r}")
         on_phi = np.concatenate([np.zeros(n), dense(row).ravel()])
-        load.append(Term(f"G_{face}", Coefficient((f"{face}.g",), scale=state.weight * area), on_phi, "load"))
-        parameters[f"{face}.g"] = float(g)
+        load.append(Term(f"G_{face}", Coefficient((f"{face}.g",), scale=state.weight * area), on_phi, "load",
+                         _timing(g)))
+        parameters[f"{face}.g"] = scale_of(g)
     dirichlet = list(thermal.dirichlet)
-    for face, value in (fixed_phi or {}).items():
-        if not 0.0 <= float(value) <= 1.0:
-            raise InputError(f"hygrothermal: {face}.phi must lie in [0, 1], got {value!r}")
+    for face, phi in (fixed_phi or {}).items():
+        if not _within(phi, 0.0, 1.0):
+            raise InputError(f"hygrothermal: {face}.phi must lie in [0, 1], got {phi!r}")
         dofs = _face_dofs(thermal, face)
-        dirichlet.append(Dirichlet(f"{face}_phi", (dofs + n).astype(np.int64), f"{face}.phi"))
-        parameters[f"{face}.phi"] = float(value)
+        dirichlet.append(Dirichlet(f"{face}_phi", (dofs + n).astype(np.int64), f"{face}.phi", _timing(phi)))
+        parameters[f"{face}.phi"] = scale_of(phi)
     parameters["initial.phi"] = state.phi_ref if initial_phi is None else float(initial_phi)
     on_phi = np.concatenate([np.zeros(n), np.ones(n)])
     initial = [Term("initial_phi", Coefficient(("initial.phi",)), on_phi, "initial"),
@@ -192,12 +197,25 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
                          Affine(tuple(initial)))
 
 
-def _vapour_terms(thermal: ThermalSystem, face: str, state: MoistureState) -> list[Term]:
+def _within(value: Load, low: float, high: float) -> bool:
+    """Whether a boundary value (a number, or every value of a history) is finite and in [low, high]."""
+    values = value.values if isinstance(value, Profile) else (value,)
+    return all(math.isfinite(float(v)) and low <= float(v) <= high for v in values)
+
+
+def _timing(value: Load) -> Profile | None:
+    """The time function of a boundary value: its history, or None for a number."""
+    return value if isinstance(value, Profile) else None
+
+
+def _vapour_terms(thermal: ThermalSystem, face: str, state: MoistureState,
+                  humidity: Profile | None = None) -> list[Term]:
     """The vapour exchange ``j = β (p_v,ext − p_v)`` (kg/(m² s)) through ``face``, with the outside air's
     ``p_v,ext`` linearised like ``p_v`` (``p_v,ext − p_v = p (φ_ext − φ) + a (T_ext − T)``, T_ext the face's
     convection temperature): it enters the moisture row (× λ) and, as latent heat L_v j, the heat row.  The operator
     ``β [[L_v a, L_v p], [λ a, λ p]] ⊗ M_f`` is β times the δ_p block (symmetric, as λ a = L_v p); the loads
-    ``β (p φ_ext + a T_ext) (L_v, λ) ⊗ M_f 1``.  ``M_f`` is the face mass of the face's convection term."""
+    ``β (p φ_ext + a T_ext) (L_v, λ) ⊗ M_f 1``, φ_ext's with the time function ``humidity`` (None: constant).
+    ``M_f`` is the face mass of the face's convection term."""
     exchange = next((t for t in thermal.conductance.terms if t.role == "exchange" and t.coefficient.params ==
                      (f"{face}.h",)), None)
     if exchange is None:
@@ -209,7 +227,8 @@ def _vapour_terms(thermal: ThermalSystem, face: str, state: MoistureState) -> li
     heat = next(t for t in thermal.load.terms if t.coefficient.params == (f"{face}.h", f"{face}.T_ext"))
     block = state.latent_heat / state.a * np.outer([state.a, state.p], [state.a, state.p])
     return [Term(f"B_{face}", Coefficient((f"{face}.beta",)), sp.csr_array(sp.kron(block, mass)), "exchange"),
-            Term(f"UB_{face}_phi", Coefficient((f"{face}.beta", f"{face}.phi_ext"), scale=state.p), rows, "load"),
+            Term(f"UB_{face}_phi", Coefficient((f"{face}.beta", f"{face}.phi_ext"), scale=state.p), rows, "load",
+                 humidity),
             Term(f"UB_{face}_T", Coefficient((f"{face}.beta", f"{face}.T_ext"), scale=state.a), rows, "load",
                  heat.time)]
 

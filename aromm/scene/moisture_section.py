@@ -17,7 +17,7 @@ A scene without ``[moisture]`` is exactly a thermal scene; with it::
     T_ext = 20.0
     beta = 2.0e-8         # kg/(m² s Pa)
     phi_ext = 0.5
-    [boundary.z1]         # or a moisture flux into the body (kg/(m² s), constant): rain, a wetting test
+    [boundary.z1]         # or a moisture flux into the body (kg/(m² s)): rain, a wetting test
     g = 1.0e-6
     [initial]
     phi = 0.5             # default phi_ref
@@ -26,7 +26,10 @@ A scene without ``[moisture]`` is exactly a thermal scene; with it::
 
 Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``,
 ``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the scene's.  A phase may be orthotropic along the image
-axes (its D_phi and delta_p stay isotropic).  Not yet: a history of g, rotated tensors, the petsc engine.
+axes (its D_phi and delta_p stay isotropic).  ``phi``, ``phi_ext`` and ``g`` may be histories, as temperatures and
+heat fluxes are: the name of a CSV file ``t,<value>`` (:mod:`aromm.scene.histories`; a relative humidity as a
+fraction or in %RH, a moisture flux in kg/(m² s)), whose parameter is then its scale, 1.  Not yet: rotated tensors,
+the petsc engine.
 """
 
 from __future__ import annotations
@@ -39,9 +42,11 @@ import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.observables import PHI_PREFIX
+from aromm.core.profiles import Profile
 from aromm.core.system import ThermalSystem
-from aromm.core.vocabulary import FACES, PhaseSpec
+from aromm.core.vocabulary import FACES, Load, PhaseSpec, scale_of
 from aromm.physics.hygrothermal import LATENT_HEAT, MOISTURE_KEYS, MoistureState, coupled
+from aromm.scene.histories import history
 from aromm.scene.sensors import Sensor, output_names
 from aromm.scene.toml import TableReader
 
@@ -56,20 +61,26 @@ class MoistureScene:
 
     state: MoistureState
     phases: Mapping[str, Mapping[str, float]]
-    fixed_phi: Mapping[str, float]
+    fixed_phi: Mapping[str, Load]
     initial_phi: float
     outputs: tuple[str, ...] = ()
-    vapour: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # face → (beta, phi_ext)
-    flux: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # face → (g kg/(m² s), its area m²)
+    vapour: Mapping[str, tuple[float, Load]] = field(default_factory=dict)  # face → (beta, phi_ext)
+    flux: Mapping[str, tuple[Load, float]] = field(default_factory=dict)  # face → (g kg/(m² s), its area m²)
+
+    @property
+    def varies(self) -> bool:
+        """Whether a moisture boundary value is a history."""
+        values = [*self.fixed_phi.values(), *(v for _, v in self.vapour.values()), *(g for g, _ in self.flux.values())]
+        return any(isinstance(v, Profile) for v in values)
 
     @property
     def parameters(self) -> dict[str, float]:
         """Its named parameter values (module docstring)."""
         out = {f"{phase}.{key}": float(v) for phase, values in self.phases.items() for key, v in values.items()}
-        out.update({f"{face}.phi": float(v) for face, v in self.fixed_phi.items()})
+        out.update({f"{face}.phi": scale_of(v) for face, v in self.fixed_phi.items()})
         for face, (beta, phi_ext) in self.vapour.items():
-            out.update({f"{face}.beta": float(beta), f"{face}.phi_ext": float(phi_ext)})
-        out.update({f"{face}.g": float(g) for face, (g, _) in self.flux.items()})
+            out.update({f"{face}.beta": float(beta), f"{face}.phi_ext": scale_of(phi_ext)})
+        out.update({f"{face}.g": scale_of(g) for face, (g, _) in self.flux.items()})
         out["initial.phi"] = float(self.initial_phi)
         return out
 
@@ -133,17 +144,19 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
                 raise r.fail(f"boundary.{face}", "a face takes one moisture condition: phi, beta with phi_ext, or g")
             axis = "xyz".index(face[0])
             area = float(np.prod([e for a, e in enumerate(extent) if a != axis]))
-            flux[face] = (r.number(spec["g"], f"boundary.{face}.g"), area)
+            g = spec["g"]
+            key = f"boundary.{face}.g"
+            flux[face] = (history(r, g, key, "moisture_flux") if isinstance(g, str) else r.number(g, key), area)
         if "phi" in spec:
             if "beta" in spec or "phi_ext" in spec:
                 raise r.fail(f"boundary.{face}", "a face takes a fixed phi, or a vapour exchange beta with phi_ext")
-            fixed[face] = _humidity(r, spec["phi"], f"boundary.{face}.phi")
+            fixed[face] = _humidity_value(r, spec["phi"], f"boundary.{face}.phi")
         elif "beta" in spec or "phi_ext" in spec:
             if "beta" not in spec or "phi_ext" not in spec or "h" not in spec:
                 raise r.fail(f"boundary.{face}", "a vapour exchange takes beta (kg/(m² s Pa)) and phi_ext, on a face "
                                                  "that exchanges heat with the same air (h, T_ext)")
             vapour[face] = (r.number(spec["beta"], f"boundary.{face}.beta", positive=True),
-                            _humidity(r, spec["phi_ext"], f"boundary.{face}.phi_ext"))
+                            _humidity_value(r, spec["phi_ext"], f"boundary.{face}.phi_ext"))
     initial_phi = _humidity(r, initial.get("phi", state.phi_ref), "initial.phi")
     faces = outputs.get("mean_phi", [])
     sensors = [name for name, spec in outputs.items() if isinstance(spec, dict)]
@@ -165,6 +178,17 @@ def _humidity(r: TableReader, value: Any, key: str) -> float:
     if not 0.0 <= number <= 1.0:
         raise r.fail(key, f"a relative humidity lies in [0, 1] (not %), got {value!r}")
     return number
+
+
+def _humidity_value(r: TableReader, value: Any, key: str) -> Load:
+    """A boundary relative humidity: a number in [0, 1], or a history file (fractions or %RH) within [0, 1]."""
+    if not isinstance(value, str):
+        return _humidity(r, value, key)
+    profile = history(r, value, key, "humidity")
+    if max(profile.values) > 1.0:
+        raise r.fail(key, f"{profile.source}: a boundary relative humidity lies in [0, 1]; the history reaches "
+                          f"{max(profile.values):g}")
+    return profile
 
 
 def split_outputs(payload: Mapping[str, Any]) -> dict[str, Any]:

@@ -18,8 +18,6 @@ import numpy as np
 from aromm.core.anisotropy import FIBRE_KEYS, phase_tensor
 from aromm.core.errors import InputError
 from aromm.core.labchecks import ABSOLUTE_ZERO
-from aromm.core.labcsv import read_lab_csv
-from aromm.core.profiles import Profile
 from aromm.core.resources import available_memory
 from aromm.core.system import ThermalSystem, TimeGrid
 from aromm.core.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
@@ -28,6 +26,7 @@ from aromm.microstructure.segmentation import SegmentationReport, prepare_image
 from aromm.physics.hygrothermal import MOISTURE_KEYS
 from aromm.scene.contact_resistances import parse_interfaces
 from aromm.scene.geometry import MESH_LABEL_KEY, MeshGeometry, SceneGeometry, VoxelGeometry
+from aromm.scene.histories import history
 from aromm.scene.model_section import parse_model, refusal, with_discretisation
 from aromm.scene.moisture_section import FACE_KEYS as MOISTURE_FACE_KEYS
 from aromm.scene.moisture_section import MoistureScene, parse_moisture
@@ -238,6 +237,8 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     interfaces = parse_interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     moisture = parse_moisture(r, data, phases, np.subtract(*box(geometry)[::-1]))
+    if moisture is not None and moisture.varies and time is None:
+        raise r.fail("boundary", "a moisture history (CSV file) needs a transient scene: add [time] end and dt")
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
     reduction = parse_reduction(r, data, allowed if moisture is None else {**allowed, **moisture.parameters})
     return Scene(geometry, phases, boundary, initial_T, time, outputs, interfaces, path, reduction, sensors, report,
@@ -416,24 +417,12 @@ def _celsius(r: TableReader, value: float, key: str) -> float:
 
 
 def _load(r: TableReader, value: Any, key: str) -> Load:
-    """A face value: a number, or the name of a CSV file ``t,<value>`` (relative to the scene file, a laboratory
-    export read by :func:`aromm.core.labcsv.read_lab_csv`) read as a piecewise-linear history held at its last value
-    (:class:`~aromm.core.profiles.Profile`)."""
-    if not isinstance(value, str):
-        number = r.number(value, key)
-        return number if key.endswith(".flux") else _celsius(r, number, key)
-    file = Path(value)
-    if not file.is_absolute() and r.path is not None:
-        file = r.path.parent / file
-    if not file.is_file():
-        raise r.fail(key, f"history file not found: {file} (a number, or a CSV file t,<value> relative to the scene)")
-    # a logger export is read as such (aromm.core.labcsv): a fixed or exterior temperature in °C or K, a flux in W/m²
-    table = read_lab_csv(file, quantity="flux" if key.endswith(".flux") else "temperature",
-                         what=f"history file ({key})").table
-    if len(table.outputs) != 1:
-        raise r.fail(key, f"{file}: a history has two columns t,<value>, got {', '.join(('t', *table.outputs))}")
-    values = np.asarray(next(iter(table.mean_T.values())), dtype=float)
-    return Profile(tuple(np.asarray(table.t, dtype=float).tolist()), tuple(values.tolist()), source=str(file))
+    """A face value: a number, or a history file (:func:`aromm.scene.histories.history`): a fixed or exterior
+    temperature in °C or K, a flux in W/m²."""
+    if isinstance(value, str):
+        return history(r, value, key, "flux" if key.endswith(".flux") else "temperature")
+    number = r.number(value, key)
+    return number if key.endswith(".flux") else _celsius(r, number, key)
 
 
 def _outputs(r: TableReader, data: Mapping[str, Any],
