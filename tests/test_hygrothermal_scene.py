@@ -225,3 +225,29 @@ def test_sensors_read_the_humidity_too(tmp_path: Path, capsys: pytest.CaptureFix
                     encoding="utf-8")
     assert main(["simulate", str(path), "--json"]) == 2
     assert "outputs.mean_phi: must be a list of faces among" in capsys.readouterr().err
+
+
+def test_a_fibre_phase_is_coupled_as_its_orthotropic_twin(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A rotated tensor phase (a fibre axis) couples to moisture with isotropic D_phi and delta_p, whose operator is
+    the sum of its unit tensors' (a aᵀ + (I − a aᵀ) = I): a fibre along x is exactly the orthotropic phase
+    k = [k_axial, k_t, k_t] along the image axes, on a two-phase 6 × 4 × 4 body (outputs equal to the rounding
+    of the two assemblies, a few ε of the outputs times the steps); the axis matters (along y it differs)."""
+    labels = (np.random.default_rng(3).random((6, 4, 4)) < 0.5).astype(np.int32)
+    np.save(tmp_path / "bar.npy", labels)
+    text = SCENE.format(size=0.02 / 6, xi=20.0).replace(
+        "[moisture]", "[phases.pore]\nlabel = 1\nk = 0.026\nc = 1.2e3\nxi = 0.5\nD_phi = 1.0e-10\n"
+                      "delta_p = 1.9e-10\n\n[moisture]")
+    text = text[:text.index("[reduction]")]
+    outputs = {}
+    for name, k in [("orthotropic", "k = [0.08, 0.04, 0.04]"),
+                    ("fibre x", "k_axial = 0.08\nk_transverse = 0.04\naxis = [1.0, 0.0, 0.0]"),
+                    ("fibre y", "k_axial = 0.08\nk_transverse = 0.04\naxis = [0.0, 1.0, 0.0]")]:
+        path = tmp_path / "s.toml"
+        path.write_text(text.replace("k = 0.04\n", k + "\n", 1), encoding="utf-8")
+        assert main(["simulate", str(path), "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        outputs[name] = np.array([out["mean_T"]["x1"], out["mean_phi"]["x1"]])
+    scale = np.abs(outputs["orthotropic"]).max()
+    floor = 64 * np.finfo(float).eps * scale * outputs["orthotropic"].shape[1]
+    assert np.abs(outputs["fibre x"] - outputs["orthotropic"]).max() <= floor
+    assert np.abs(outputs["fibre y"] - outputs["orthotropic"]).max() > 1e3 * floor

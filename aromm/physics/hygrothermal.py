@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from aromm.core.anisotropy import FIBRE_NAMES, TENSOR_NAMES
 from aromm.core.errors import InputError
 from aromm.core.observables import PHI_PREFIX
 from aromm.core.profiles import Profile
@@ -106,9 +107,9 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
             fixed_phi: Mapping[str, Load] | None = None, initial_phi: float | None = None,
             vapour: Mapping[str, tuple[float, Load]] | None = None,
             moisture_flux: Mapping[str, tuple[Load, float]] | None = None) -> ThermalSystem:
-    """The coupled system of the thermal system ``thermal`` (isotropic phases or orthotropic along the image axes,
-    assembled or matrix-free terms,
-    :func:`aromm.core.system.sparse`): ``moisture`` maps each phase name to its ``xi``, ``D_phi`` and ``delta_p``;
+    """The coupled system of the thermal system ``thermal`` (isotropic phases, orthotropic along the image axes, or
+    rotated tensors; assembled or matrix-free terms, :func:`aromm.core.system.sparse`): ``moisture`` maps each phase
+    name to its ``xi``, ``D_phi`` and ``delta_p``;
     ``fixed_phi`` maps faces (with a fixed temperature, or a face output) to a fixed relative humidity; the initial
     relative humidity is ``initial_phi`` (default φ_ref); ``vapour`` maps faces that exchange heat with the air (a
     convection ``h``) to ``(beta, phi_ext)``, their vapour exchange (:func:`_vapour_terms`); ``moisture_flux`` maps
@@ -145,7 +146,7 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
         if phase is None:
             why = ("a finite-volume link between two phases (a harmonic mean of their k, which has no 2 × 2 block "
                    "form): use q1 elements" if term.coefficient.kind == "harmonic" else
-                   "not one phase's k or k along an image axis: a rotated tensor is not coupled yet")
+                   "not one phase's conductivity (k, its axis values, its tensor's or fibre's)")
             raise InputError(f"hygrothermal: the conduction term {term.name!r} ({term.coefficient.describe()}) is "
                              f"{why}")
         for key in ("k", "D_phi", "delta_p"):
@@ -250,15 +251,21 @@ def _phases(thermal: ThermalSystem) -> set[str]:
     return {name for name in map(_phase_of, thermal.conductance.terms) if name is not None}
 
 
+#: The conductivity parameters of one phase whose operators sum to the phase's isotropic one: ``k``; ``k_x``, ``k_y``,
+#: ``k_z`` along the image axes; ``k_1``, ``k_2``, ``k_3`` of a tensor (Σ v_i v_iᵀ = I, orthonormal axes);
+#: ``k_axial``, ``k_transverse`` of a fibre (a aᵀ + (I − a aᵀ) = I, per voxel for the image's axes)
+#: [aromm.core.anisotropy].
+CONDUCTIVITY_KEYS = ("k", "k_x", "k_y", "k_z", *TENSOR_NAMES, *FIBRE_NAMES)
+
+
 def _phase_of(term: Term) -> str | None:
-    """The phase of a conduction term whose coefficient is one phase's ``k`` or its ``k_x``, ``k_y``, ``k_z`` (an
-    orthotropic phase along the image axes, whose three axis operators sum to the isotropic one, so D_φ and δ_p,
-    isotropic, take each with the same coefficient), else None."""
+    """The phase of a conduction term whose coefficient is one of a phase's :data:`CONDUCTIVITY_KEYS`: its unit
+    operators sum to the isotropic one, so D_φ and δ_p, isotropic, take each with the same coefficient; else None."""
     params = term.coefficient.params
     if term.role != "conduction" or term.coefficient.kind != "product" or len(params) != 1:
         return None
     phase, _, key = params[0].rpartition(".")
-    return phase if key in ("k", "k_x", "k_y", "k_z") and phase else None
+    return phase if key in CONDUCTIVITY_KEYS and phase else None
 
 
 def _renamed(coefficient: Coefficient, name: str) -> Coefficient:

@@ -26,10 +26,10 @@ A scene without ``[moisture]`` is exactly a thermal scene; with it::
 
 Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi``, ``<face>.beta``,
 ``<face>.phi_ext``, ``<face>.g`` and ``initial.phi`` join the scene's.  A phase may be orthotropic along the image
-axes (its D_phi and delta_p stay isotropic).  ``phi``, ``phi_ext`` and ``g`` may be histories, as temperatures and
-heat fluxes are: the name of a CSV file ``t,<value>`` (:mod:`aromm.scene.histories`; a relative humidity as a
-fraction or in %RH, a moisture flux in kg/(m² s)), whose parameter is then its scale, 1.  Not yet: rotated tensors,
-the petsc engine.
+axes or a rotated tensor (a fibre axis; its D_phi and delta_p stay isotropic).  ``phi``, ``phi_ext`` and ``g`` may
+be histories, as temperatures and heat fluxes are: the name of a CSV file ``t,<value>``
+(:mod:`aromm.scene.histories`; a relative humidity as a fraction or in %RH, a moisture flux in kg/(m² s)), whose
+parameter is then its scale, 1.  Not yet: the petsc engine.
 """
 
 from __future__ import annotations
@@ -131,9 +131,6 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
         if missing:
             raise r.fail(f"phases.{ph.name}.{missing[0]}", f"missing: a [moisture] scene needs every phase's "
                                                            f"{', '.join(MOISTURE_KEYS)}")
-        if ph.tensor is not None:
-            raise r.fail(f"phases.{ph.name}", "a rotated conductivity tensor (a fibre axis) is not coupled to moisture "
-                                              "yet; k = [kx, ky, kz] along the image axes is")
         values[ph.name] = {k: _non_negative(r, spec[k], f"phases.{ph.name}.{k}") for k in MOISTURE_KEYS}
     fixed, vapour, flux = {}, {}, {}
     for face, spec in face_tables.items():
