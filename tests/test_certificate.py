@@ -180,9 +180,9 @@ def test_the_gram_matrices_of_iterative_solves_are_corrected_by_their_residuals(
     5e-12 of the Gram entries' scale √(G_ii G_jj) on this 12³ body (rtol √κ), far above the rounding floor of the
     quadratic forms (8 m ε ≈ 1e-13); corrected by RᵀZ they agree with the Gram matrices of direct solves, corrected
     likewise, to second order and within the rounding the bound adds: 8 m ε √(G_ii G_jj) for the quadratic forms and
-    2 ε ρ_i ρ_j for each computation's residuals.  At the smallest σ of the ladder (the worst conditioned N̂_σ) the two
-    differ by 4.4e-13 of the entries' scale, 4.4× the first term alone (the residuals' rounding was left out until
-    2026-12-05), 0.008× both."""
+    2 ε ρ_i ρ_j for each computation's residuals.  At the smallest σ of the ladder (the worst conditioned N̂_σ) the
+    residuals formed in float64 left the two 4.4e-13 of the entries' scale apart, 4.4× the first term; formed in
+    extended precision (ScipyEngine.shifted_residual), 1.6e-14: 0.16× the first term, 0.085× both."""
     from aromm.reduction.certificate import certify
     from aromm.reduction.scipy_engine import ScipyEngine
 
@@ -212,8 +212,9 @@ def test_a_wide_block_is_factorised_where_the_engine_chose_multigrid(monkeypatch
     """aromm.reduction.scipy_engine: the certificate's blocks (tens to hundreds of columns at one shift) are solved by
     a sparse Cholesky factor even where the engine chose multigrid by size (DIRECT_BELOW lowered here to make a 12³
     body "large"); narrow blocks keep multigrid, and a solver asked for by name is kept.  Both meet the solves'
-    tolerance rtol plus their float64 floor, by the residuals the engine gives, which equal ``b − A x`` formed here
-    within their own rounding bound (riesz: 2 (k + 1) ε |A||x| per entry, whose spread ρ the engine gives too)."""
+    tolerance rtol plus their float64 floor, by the residuals the engine gives (in extended precision), which equal
+    ``b − A x`` formed here in float64 within this one's rounding bound, 2 (k + 1) ε |A||x| per entry; the spread ρ
+    of the engine's own rounding is that bound's with the extended precision's ε."""
     from aromm.linalg.factorizations import rounding_floor
     from aromm.reduction import scipy_engine
 
@@ -237,7 +238,8 @@ def test_a_wide_block_is_factorised_where_the_engine_chose_multigrid(monkeypatch
         rho = engine.residual_rounding(reference, shift, x, rtol)
         magnitude = abs(a) @ abs(x)
         assert np.all(np.abs(r - (columns - a @ x)) <= 2 * terms * np.finfo(float).eps * (magnitude + abs(columns)))
-        assert np.allclose(rho ** 2, terms * np.einsum("ij,ij->j", abs(x), magnitude), rtol=1e-12)
+        extended = np.finfo(np.longdouble).eps / np.finfo(float).eps
+        assert np.allclose(rho ** 2, terms * extended * np.einsum("ij,ij->j", abs(x), magnitude), rtol=1e-12)
         for j in range(columns.shape[1]):
             nb = float(np.linalg.norm(columns[:, j]))
             assert np.linalg.norm(r[:, j]) <= (rtol + rounding_floor(a, x[:, j], nb)) * nb

@@ -170,12 +170,15 @@ def riesz(engine: CertifyingEngine, reference: Mapping[str, float], sigma: float
     """``Z ≈ N̂_σ⁻¹ rhs`` solved to ``rtol``, its residual ``R = rhs − N̂_σ Z`` (``N̂_σ = K(μ̂) + σ C(μ̂)``, the
     engine's shifted operator at the reference) and the spread ρ of its rounding per column.
 
-    R is computed in float64: ``|fl(R) − R| ≤ γ (|rhs| + |N̂||Z|) ≈ 2 (k + 1) ε |N̂||Z|`` (k terms in a row of N̂,
-    [Higham2002, § 3.5]), so the Gram entry ``RᵢᵀZⱼ`` moves by at most ``2 ε ρᵢ ρⱼ`` with ``ρᵢ² = (k + 1) |Zᵢ|ᵀ|N̂||Zᵢ|``
-    (Cauchy–Schwarz in ``|N̂|``, which is diagonally dominant, hence positive semi-definite); the quadratic forms of
-    :func:`error_bound` add ``2 ε (|c|ᵀρ)²``.  ``|Z|ᵀ|N̂||Z|`` exceeds ``ZᵀN̂Z`` = G_ii by the ratio of the operator's
-    local to global stiffness (≈ 20 at the smallest σ on a 12³ body): there it is what limits the Gram matrices
-    (tests/test_certificate.py), not the rounding of their quadratic forms.
+    R computed with machine epsilon u has ``|fl(R) − R| ≤ γ (|rhs| + |N̂||Z|) ≈ 2 (k + 1) u |N̂||Z|`` (k terms in a
+    row of N̂, [Higham2002, § 3.5]), so the Gram entry ``RᵢᵀZⱼ`` moves by at most ``2 ε ρᵢ ρⱼ`` with
+    ``ρᵢ² = (k + 1) (u / ε) |Zᵢ|ᵀ|N̂||Zᵢ|`` (Cauchy–Schwarz in ``|N̂|``, which is diagonally dominant, hence positive
+    semi-definite; ε float64's); the quadratic forms of :func:`error_bound` add ``2 ε (|c|ᵀρ)²``.  ``|Z|ᵀ|N̂||Z|``
+    exceeds ``ZᵀN̂Z`` = G_ii by the ratio of the operator's local to global stiffness (10⁵ at the smallest σ on a 12³
+    body, growing as h⁻²): in float64 (u = ε) this term, not the quadratic forms, limited the Gram matrices, and
+    its worst case raised the certified bound of the 46³ VER at eight greedy points from 1.9e-5 to 3.4e-5 °C
+    (commit ca697a4).  The scipy engine forms R in extended precision
+    (``np.longdouble``: u = ε / 2048 on x86-64), the petsc engine in float64 (its KSP's operator).
 
     The Gram matrix ``rhsᵀ N̂_σ⁻¹ rhs`` is then ``rhsᵀZ + RᵀZ`` up to ``RᵀN̂_σ⁻¹R``: the solves' error enters to
     second order.  Without ``RᵀZ`` it enters to first order, ``|RᵀZ|`` ≈ rtol √κ(N̂_σ) of the entries' scale: 1e-11
