@@ -26,11 +26,12 @@ from aromm.reduction.rom import ReducedModel
 #: is one shifted solve per column of M and rung of the σ ladder (three on the shipped scenes), by a sparse Cholesky
 #: factor (:data:`~aromm.reduction.scipy_engine.WIDE_BLOCK`); a Krylov build that stops on the bound also runs until
 #: the bound, not only its estimate, meets the tolerance.  ``python benchmarks/certified_cost.py --sizes 24 32`` (one
-#: BLAS thread, load 0.5–0.9, 2026-12-05; records/certified_cost_24_32.txt), CPU s certified against without: the
-#: generated 24³ wood VER (15,625 unknowns) 25.7 against 4.2 (6.1×, two more greedy points), 32³ (35,937) 49.0
-#: against 10.2 (4.8×, 1.15 GB): up to 32³ the certificate costs no more, relatively, than it did by default below
-#: 20,000.  On the shipped 46³ VER (103,823; ``aromm reduce data/scenes/wood_s1.toml --certify``) 284 CPU s and
-#: 3.0 GB against 21 CPU s and 0.4 GB (13×: its bound met the tolerance only at the greedy's ten points, and not then).
+#: BLAS thread, beside a CI run: load 1.7–2.0, 2026-12-05; records/certified_cost_24_32.txt), CPU s certified against
+#: without: the generated 24³ wood VER (15,625 unknowns) 32.3 against 4.3 (7.5×, two more greedy points), 32³
+#: (35,937) 57.5 against 11.0 (5.2×, 1.27 GB): up to 32³ the certificate costs no more, relatively, than it did by
+#: default below 20,000.  On the shipped 46³ VER (103,823; ``aromm reduce data/scenes/wood_s1.toml --certify``, load
+#: 2.0–3.3) 311 CPU s and 3.4 GB against 21 CPU s and 0.4 GB (15×: its bound met the tolerance only at the greedy's
+#: ten points, and not then).
 CERTIFY_BELOW = 40_000
 #: The certificate's offline matrix M (n × (inputs + outputs + terms · order)) is held whole: above this many bytes
 #: the model is returned without a bound (info says so).
