@@ -6,49 +6,34 @@ histories are refused naming their key or file."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-from test_hygrothermal_scene import _scene
+from test_hygrothermal_scene import _scene, far_face, rounding_floor
 
 from aromm.cli import main
 from aromm.core.profiles import Profile
 from aromm.scene.scene_file import load_scene
 
-EPS = np.finfo(float).eps
-
-
-def _run(path: Path, capsys: pytest.CaptureFixture[str], *options: str) -> np.ndarray:
-    assert main(["simulate", str(path), "--json", *options]) == 0
-    out = json.loads(capsys.readouterr().out)
-    return np.array([out["mean_T"]["x1"], out["mean_phi"]["x1"]])
-
-
-def _floor(y: np.ndarray) -> float:
-    """Two runs whose systems differ only by a time function equal to 1 (or a value times 1) differ by rounding
-    of the loads and of the solves' products: a few ε of the outputs' size, times the steps they accumulate over."""
-    return 64 * EPS * float(np.abs(y).max()) * y.shape[1]
-
 
 def test_a_history_that_holds_one_value_gives_the_constant(tmp_path: Path,
                                                            capsys: pytest.CaptureFixture[str]) -> None:
     path = _scene(tmp_path)
-    constant = _run(path, capsys)
+    constant = far_face(path, capsys)
     (tmp_path / "phi.csv").write_text("t,phi\ns,%RH\n0,80\n7200,80\n", encoding="utf-8")
     path.write_text(path.read_text(encoding="utf-8").replace("phi = 0.8", 'phi = "phi.csv"'), encoding="utf-8")
     scene = load_scene(path)
     assert scene.parameters["x0.phi"] == 1.0 and isinstance(scene.moisture.fixed_phi["x0"], Profile)
-    assert np.abs(_run(path, capsys) - constant).max() <= _floor(constant)
+    assert np.abs(far_face(path, capsys) - constant).max() <= rounding_floor(constant)
     exchange = "[boundary.x1]\nh = 8.0\nT_ext = 20.0\nbeta = 2.0e-8\nphi_ext = 0.6\n\n[initial]"
     path.write_text(path.read_text(encoding="utf-8").replace("[initial]", exchange), encoding="utf-8")
-    constant = _run(path, capsys)
+    constant = far_face(path, capsys)
     (tmp_path / "air.csv").write_text("t,phi_ext\n0,0.6\n3600,0.6\n", encoding="utf-8")
     path.write_text(path.read_text(encoding="utf-8").replace("phi_ext = 0.6", 'phi_ext = "air.csv"'),
                     encoding="utf-8")
     assert load_scene(path).parameters["x1.phi_ext"] == 1.0
-    assert np.abs(_run(path, capsys) - constant).max() <= _floor(constant)
+    assert np.abs(far_face(path, capsys) - constant).max() <= rounding_floor(constant)
 
 
 def test_a_delayed_moisture_flux_delays_the_response(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -60,13 +45,13 @@ def test_a_delayed_moisture_flux_delays_the_response(tmp_path: Path, capsys: pyt
     text = path.read_text(encoding="utf-8").replace("phi = 0.8", "phi = 0.5")
     path.write_text(text.replace("[initial]", '[boundary.x1]\ng = "g.csv"\n\n[initial]'), encoding="utf-8")
     (tmp_path / "g.csv").write_text("t,g\ns,kg/(m2 s)\n0,0\n1200,2e-7\n", encoding="utf-8")
-    first = _run(path, capsys, "--scheme", "euler")
+    first = far_face(path, capsys, "--scheme", "euler")
     (tmp_path / "g.csv").write_text("t,g\ns,kg/(m2 s)\n0,0\n1800,0\n3000,2e-7\n", encoding="utf-8")
-    delayed = _run(path, capsys, "--scheme", "euler")
+    delayed = far_face(path, capsys, "--scheme", "euler")
     rest = np.array([[20.0], [0.5]])
     assert np.abs(first[:, -1:] - rest).max() > 1e-3  # the flux moves the far face
-    assert np.abs(delayed[:, :3] - rest).max() <= _floor(first)  # the outputs at 600, 1200 and 1800 s
-    assert np.abs(delayed[:, 3:] - first[:, :-3]).max() <= _floor(first)
+    assert np.abs(delayed[:, :3] - rest).max() <= rounding_floor(first)  # the outputs at 600, 1200 and 1800 s
+    assert np.abs(delayed[:, 3:] - first[:, :-3]).max() <= rounding_floor(first)
 
 
 def test_bad_moisture_histories_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -15,9 +15,9 @@ last and first cells of that axis are neighbours of one colour): such a level is
 of Jacobi damped by ``JACOBI_DAMPING`` before and after its coarse correction instead (symmetric, as each step is
 self-adjoint in the energy product; its inverse diagonal is 8 more bytes per cell).  The coarsest periodic
 operator, singular, is factorised with the first cell of every cluster held at zero.  CG then runs on the
-consistent singular system: the right-hand side
-has no component in the null space (a divergence), so neither has the residual, and the constants per cluster that
-the iterate picks up are irrelevant to the cell problem (it uses the field's differences).
+consistent singular system: the right-hand side has no component in the null space (a divergence), so neither has
+the residual, and the constants per cluster that the iterate picks up are irrelevant to the cell problem (it uses
+the field's differences).
 
 Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the V-cycle's residual, which
 CG's update step shares (8), the links (12, float32), the live-cell byte (1), coarse levels ≈ (12 + 1 + 40) / 7 ≈

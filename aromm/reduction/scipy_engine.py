@@ -249,12 +249,6 @@ class ScipyEngine:
             self._extended = self._assembled[1].astype(dtype)
         return self._extended
 
-    def _weights(self, values: Mapping[str, float], shift: float) -> list[float]:
-        """The coefficients of K(μ) + s C(μ) term by term (conductance terms, then capacity)."""
-        v = self.system.values(values)
-        return [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
-            shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
-
     def method_for(self, columns: int) -> str:
         """The solver of a block of ``columns`` right-hand sides at one shift: the engine's, except that when it
         chose multigrid by size, a block of :data:`WIDE_BLOCK` columns or more (the certificate's) on at most
@@ -275,11 +269,10 @@ class ScipyEngine:
         return self._ordering
 
     def _setup(self, values: Mapping[str, float], shift: float, rtol: float, method: str) -> object:
-        self._assembled, self._extended = None, None
+        self._assembled, self._extended = None, None  # released before the next set-up; a direct one keeps its own
         if method != "mg":
-            a = self._operator(values, shift)
+            a = self._assembled_operator(values, shift)
             fac = factorize(a, method, rtol=rtol, ordering=self._nested_dissection(a))
-            self._assembled = ((tuple(sorted(values.items())), float(shift)), a)
 
             def direct(b: FloatArray, guess: FloatArray | None) -> FloatArray:
                 x = fac.solve(b, check=False)
@@ -291,7 +284,9 @@ class ScipyEngine:
         from aromm.linalg.multigrid.affine import AffineGrid
 
         terms = (*self.system.conductance.terms, *self.system.capacity.terms)
-        weights = self._weights(values, shift)
+        v = self.system.values(values)
+        weights = [float(t.coefficient(v)) for t in self.system.conductance.terms] + [
+            shift * float(t.coefficient(v)) for t in self.system.capacity.terms]
         if self.voxel:
             voxel_terms = as_voxel_terms([t.operator for t in terms])
             if self._voxel_levels is None:
