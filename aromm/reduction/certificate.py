@@ -30,9 +30,9 @@ Gram matrices are corrected by the solves' residuals (:func:`riesz`: their error
 neglected); the worst-case rounding of those residuals (:func:`riesz`) and the rounding of the quadratic forms are
 added.  The rounding of the n-term products ``MᵀZ`` is not bounded a priori (its worst case, ``n ε |M|ᵀ|Z|``, would
 be the floor of every bound); two independent computations of the Gram matrices (multigrid and direct solves) differ
-by at most 0.09 of the floor the bound adds (tests/test_certificate.py).  It neglects
-the contour's tail (``|e^{s t}| < e^{-40}`` there) and the quadrature error of the contour integral, which is estimated
-from half the points and added.
+by at most 0.09 of the floor the bound adds (tests/test_certificate.py, benchmarks/gram_rounding.py).  It
+neglects the contour's tail (``|e^{s t}| < e^{-40}`` there) and the quadrature error of the contour integral, which
+is estimated from half the points and added.
 """
 
 from __future__ import annotations
