@@ -73,3 +73,20 @@ def test_bad_moisture_histories_are_refused(tmp_path: Path, capsys: pytest.Captu
     path.write_text(steady.replace("phi = 0.8", 'phi = "phi.csv"'), encoding="utf-8")
     assert main(["simulate", str(path), "--json"]) == 2
     assert "a moisture history (CSV file) needs a transient scene" in capsys.readouterr().err
+
+
+def test_a_moisture_history_enters_the_model_key(tmp_path: Path) -> None:
+    """Its parameter is the scale 1 whatever it holds: the key must hold the history itself (issue 35's rule: every
+    input that changes the outputs changes the key), as it does a thermal face's.  Failed before 2026-12-05's review:
+    two histories of one scale shared a key, so a cached model answered for the other."""
+    from aromm.reduction.model_key import scene_physics_key
+
+    keys = []
+    for name, humidity in (("a", "0.8"), ("b", "0.9")):
+        folder = tmp_path / name
+        folder.mkdir()
+        path = _scene(folder)
+        (folder / "phi.csv").write_text(f"t,phi\n0,0.5\n600,{humidity}\n", encoding="utf-8")
+        path.write_text(path.read_text(encoding="utf-8").replace("phi = 0.8", 'phi = "phi.csv"'), encoding="utf-8")
+        keys.append(scene_physics_key(load_scene(path)))
+    assert keys[1] != keys[0]

@@ -134,9 +134,11 @@ def scene_physics_key(scene: Scene, box: Collection[str] = ()) -> str | None:
 
 def _moisture(moisture: Any, box: Collection[str]) -> tuple[Any, ...]:
     """A scene's moisture part (:class:`~aromm.scene.moisture_section.MoistureScene`) as key data: its reference
-    state, its outputs and every parameter value, those in ``box`` replaced by :data:`BOXED`."""
+    state, its outputs, every parameter value, those in ``box`` replaced by :data:`BOXED`, and its boundary histories
+    whole (their parameter is only their scale; a thermal face keeps its profile likewise, :func:`masked`)."""
     values = tuple(sorted((name, BOXED if name in box else value) for name, value in moisture.parameters.items()))
-    return "moisture", plain(moisture.state), values, tuple(moisture.outputs)
+    histories = plain(moisture.histories)
+    return ("moisture", plain(moisture.state), values, tuple(moisture.outputs), *((histories,) if histories else ()))
 
 
 def system_key(system: ThermalSystem, box: Sequence[tuple[str, float, float]], *parts: Any,

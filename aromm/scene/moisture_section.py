@@ -68,19 +68,24 @@ class MoistureScene:
     flux: Mapping[str, tuple[Load, float]] = field(default_factory=dict)  # face → (g kg/(m² s), its area m²)
 
     @property
-    def varies(self) -> bool:
-        """Whether a moisture boundary value is a history."""
-        values = [*self.fixed_phi.values(), *(v for _, v in self.vapour.values()), *(g for g, _ in self.flux.values())]
-        return any(isinstance(v, Profile) for v in values)
+    def boundary_values(self) -> dict[str, Load]:
+        """The moisture boundary values by parameter name (``<face>.phi``, ``.phi_ext``, ``.g``): numbers or
+        histories."""
+        return {**{f"{face}.phi": v for face, v in self.fixed_phi.items()},
+                **{f"{face}.phi_ext": v for face, (_, v) in self.vapour.items()},
+                **{f"{face}.g": g for face, (g, _) in self.flux.items()}}
+
+    @property
+    def histories(self) -> dict[str, Profile]:
+        """The boundary values that are histories, by parameter name (their parameter is the scale 1)."""
+        return {name: v for name, v in self.boundary_values.items() if isinstance(v, Profile)}
 
     @property
     def parameters(self) -> dict[str, float]:
         """Its named parameter values (module docstring)."""
         out = {f"{phase}.{key}": float(v) for phase, values in self.phases.items() for key, v in values.items()}
-        out.update({f"{face}.phi": scale_of(v) for face, v in self.fixed_phi.items()})
-        for face, (beta, phi_ext) in self.vapour.items():
-            out.update({f"{face}.beta": float(beta), f"{face}.phi_ext": scale_of(phi_ext)})
-        out.update({f"{face}.g": scale_of(g) for face, (g, _) in self.flux.items()})
+        out.update({name: scale_of(v) for name, v in self.boundary_values.items()})
+        out.update({f"{face}.beta": float(beta) for face, (beta, _) in self.vapour.items()})
         out["initial.phi"] = float(self.initial_phi)
         return out
 

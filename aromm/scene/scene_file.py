@@ -237,7 +237,7 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     interfaces = parse_interfaces(r, data, {ph.name for ph in phases})
     # the reduction may name capacities even in a material-only scene (a time grid is added later)
     moisture = parse_moisture(r, data, phases, np.subtract(*box(geometry)[::-1]))
-    if moisture is not None and moisture.varies and time is None:
+    if moisture is not None and moisture.histories and time is None:
         raise r.fail("boundary", "a moisture history (CSV file) needs a transient scene: add [time] end and dt")
     allowed = parameter_values(phases, boundary, initial_T, transient=True)
     reduction = parse_reduction(r, data, allowed if moisture is None else {**allowed, **moisture.parameters})
