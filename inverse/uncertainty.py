@@ -280,34 +280,44 @@ BIAS_SOURCES = {"discretisation": "the discretisation (the shift of the estimate
                                 "by another standard method, Otsu's ↔ Li's; added linearly)"}
 #: Sources of the budget that are biases (bounded, not random): added linearly, the others in quadrature.
 BIASES = frozenset({"reduced model", *BIAS_SOURCES})
-#: Random sources added after the fit (:func:`with_spread`) and what the interval then says of them.
+#: Random sources added after the fit (:func:`with_source`) and what the interval then says of them.
 SPREAD_SOURCES = {"representativeness": "the representativeness of the image (how far a sample's k̄ and c̄ may be "
                                         "from the image's: the spread between its octants, scaled to its size; in "
                                         "quadrature)"}
+#: Bias sources estimated after the fit (:func:`with_source`), beside a re-fit's (:data:`BIAS_SOURCES`).
+ESTIMATED_BIASES = {"discretisation": "the discretisation, estimated through k̄ (the shift of the unknown phase "
+                                      "conductivities that gives the other discretisation, q1 ↔ fv, the model's "
+                                      "fluxmetric k̄; the two bracket the voxel geometry's; added linearly; the "
+                                      "capacities are not moved: --discretisation-check re-fits them too)"}
 
 
-def with_spread(u: Uncertainty, source: str, half: FloatArray) -> Uncertainty:
-    """``u`` with a random source of 95 % half-widths ``half`` (per parameter, in the estimates' units) added to its
-    budget: in quadrature to the total (:func:`budget_total`) and to the HAC interval's half-width.
+def with_source(u: Uncertainty, source: str, half: FloatArray) -> Uncertainty:
+    """``u`` with a source of 95 % half-widths ``half`` (per parameter, in the estimates' units) added to its budget:
+    a random one (:data:`SPREAD_SOURCES`) in quadrature to the total (:func:`budget_total`) and to the HAC interval's
+    half-width, a bias (:data:`ESTIMATED_BIASES`) linearly to both.
 
     >>> u = Uncertainty(("k",), np.array([1.0]), np.array([0.1]), np.array([0.8]), np.array([1.2]), np.eye(1), 0.1,
     ...                 10, 1.0, (), np.array([0.1]), np.array([0.8]), np.array([1.2]), 1.0, None,  # type: ignore
     ...                 budget={"measurement noise": np.array([0.3])})
-    >>> v = with_spread(u, "representativeness", np.array([0.4]))
+    >>> v = with_source(u, "representativeness", np.array([0.4]))
     >>> round(float(v.upper[0] - 1.0), 12), list(v.budget)
     (0.5, ['measurement noise', 'representativeness'])
+    >>> round(float(with_source(u, "discretisation", np.array([0.4])).upper[0] - 1.0), 12)  # a bias: 0.3 + 0.4
+    0.7
     """
-    if source not in SPREAD_SOURCES:
-        raise InputError(f"unknown spread source {source!r}; allowed: {', '.join(SPREAD_SOURCES)}")
+    described = {**SPREAD_SOURCES, **ESTIMATED_BIASES}
+    if source not in described:
+        raise InputError(f"unknown source {source!r} of the budget; allowed: {', '.join(described)}")
     half = np.asarray(half, dtype=float)
     budget = {**u.budget, source: half}
     positive = np.array(u.log_scale, dtype=bool) if u.log_scale else np.zeros(len(u.names), dtype=bool)
     lower, upper = domain_interval(u.estimates, budget_total(budget), positive)
     hac = np.where(positive, np.log(u.upper_hac / np.where(positive, u.estimates, 1.0)) * u.estimates,
                    u.upper_hac - u.estimates)
-    lower_hac, upper_hac = domain_interval(u.estimates, np.sqrt(hac**2 + half**2), positive)
+    widened = hac + half if source in BIASES else np.sqrt(hac**2 + half**2)
+    lower_hac, upper_hac = domain_interval(u.estimates, widened, positive)
     return replace(u, lower=lower, upper=upper, lower_hac=lower_hac, upper_hac=upper_hac, budget=budget,
-                   error_sources=(*u.error_sources, SPREAD_SOURCES[source]))
+                   error_sources=(*u.error_sources, described[source]))
 
 
 def budget_total(budget: Mapping[str, FloatArray]) -> FloatArray:

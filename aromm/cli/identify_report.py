@@ -40,8 +40,9 @@ def table(result: Identification) -> str:
     lines += _budget_lines(unc)
     lines.append("the intervals include: " + "; ".join(unc.error_sources)
                  + ("" if unc.model_error or "discretisation" in unc.budget else
-                    "; not the discretisation error of the voxel model (--discretisation-check re-fits with the other "
-                    "discretisation, q1 ↔ fv; or state it with --model-error)")
+                    "; not the discretisation error of the voxel model" + _gap_note(result.model)
+                    + " (--discretisation-check re-fits with the other discretisation, q1 ↔ fv; or state it with "
+                    "--model-error)")
                  + ("" if "representativeness" in unc.budget else
                     "; not how far the sample may be from the image (--representativeness-check)"))
     noise = result.model.get("noise_by_kind")
@@ -91,6 +92,12 @@ def _budget_lines(unc: Uncertainty) -> list[str]:
             lines.append(f"the {source} makes {100 * share[j]:.0f} % of the interval of {unc.names[j]}: "
                          f"{REMEDIES[source]}")
     return lines
+
+
+def _gap_note(model: Mapping[str, object]) -> str:
+    """Why the default discretisation row is missing (aromm.cli.identify), when it was tried."""
+    gap = model.get("discretisation_gap")
+    return f", {gap}" if isinstance(gap, str) else ""
 
 
 def _reduction_note(model: Mapping[str, object]) -> str:

@@ -194,6 +194,23 @@ class VolumeGrid:
         self.face_dofs(face)  # refuses a face without unknowns
         return self._face_cells[face]
 
+    def points(self) -> npt.NDArray[np.float64]:
+        """Where the unknowns sit (n, 3), m: the voxel centres, then each face unknown on its box face over its
+        voxel (the geometric nested-dissection ordering of a direct solve orders them by it).
+
+        >>> VolumeGrid(np.zeros((2, 1, 1), dtype=np.int64), (1.0, 1.0, 1.0), ("x0",)).points().tolist()
+        [[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [0.0, 0.5, 0.5]]
+        """
+        h = np.asarray(self.voxel_size, dtype=float)
+        centres = (np.argwhere(self.phase >= 0) + 0.5) * h
+        out = [centres]
+        for face in self.faces:
+            axis = AXES.index(face[0])
+            at = centres[self._face_cells[face]].copy()
+            at[:, axis] = 0.0 if face[1] == "0" else self.phase.shape[axis] * h[axis]
+            out.append(at)
+        return np.concatenate(out)
+
     def face_dofs(self, face: str) -> IntArray:
         if face not in self._face_dofs:
             raise ValueError(f"face {face!r} has no unknowns in this grid (faces: {self.faces})")

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aromm.core.errors import InputError
-from aromm.core.system import Coefficient, Term, ThermalSystem, TimeGrid
+from aromm.core.system import Coefficient, Geometry, Term, ThermalSystem, TimeGrid
 from aromm.core.vocabulary import (
     FACES,
     FaceSpec,
@@ -229,4 +229,5 @@ def assemble_volumes(
     faces_terms, dirichlet = face_terms(grid, boundary)
     terms = phase_terms(grid, phases, present, transient=time is not None) + _interface_terms(grid, phases, present)
     return system_of(grid, terms + faces_terms, dirichlet, outputs=outputs, time=time,
-                     parameters=parameter_values([phases[i] for i in present], boundary, initial_T, time is not None))
+                     parameters=parameter_values([phases[i] for i in present], boundary, initial_T, time is not None),
+                     geometry=Geometry(grid.points(), np.arange(grid.n)[:, None], "vertex"))

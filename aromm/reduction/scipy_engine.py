@@ -118,7 +118,9 @@ class ScipyEngine:
         self.points = points if points is not None and points.shape[0] == system.n else None
         self.chosen = solver == "auto"  # the engine picks the solver (by size, and by the width of a block)
         if solver == "auto":
-            on_grid = self.points is not None or self.voxel
+            geometry = system.geometry
+            nodes = self.points is not None and geometry is not None and geometry.cell_type == "hexahedron"
+            on_grid = nodes or self.voxel  # Q1 nodes on a voxel grid (finite volumes' points only order a factor)
             solver = "mg" if system.n >= DIRECT_BELOW and on_grid else resolve_method("auto")
         self.method = resolve_method(solver) if solver != "mg" else "mg"
         self._stats = SolveStats(method=self.method)
