@@ -118,13 +118,14 @@ def _cross_case(folder, data_by: str, refine: int = 1):  # type: ignore[no-untyp
 
 
 @pytest.mark.parametrize(("data_by", "model_by"), [("fv", "q1"), ("q1", "fv")])
-def test_the_default_row_covers_the_truth_and_agrees_with_the_refit(tmp_path, capsys,  # type: ignore[no-untyped-def]
+def test_the_default_row_covers_the_truth_and_agrees_with_the_refit(tmp_path, capsys, monkeypatch,  # type: ignore[no-untyped-def]
                                                                    data_by, model_by) -> None:
     """By default identify adds the shift of the unknown conductivity that gives the other discretisation the
     model's fluxmetric k̄ (aromm.homogenization.discretisation_gap): the total interval of k covers the truth that
     the noise-only one misses, and the row is within a factor 1.5 of the re-fit's (1.42-1.43 measured on this 6³
     image, 1.20-1.29 at 12³-18³: benchmarks/discretisation_gap.py).  It leaves the capacity alone (both
     discretisations hold the same c̄); the re-fit moves it by less than 1 %."""
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path / "cache"))
     scene, csv = _cross_case(tmp_path, data_by)
     args = ["identify", str(scene), "--measurements", str(csv), "--unknown", "fibre.k=0.05:1", "--unknown",
             "fibre.c=1e5:1e7", "--model", "full", "--discretisation", model_by, "--particles", "8",
@@ -149,14 +150,20 @@ def test_the_default_row_covers_the_truth_and_agrees_with_the_refit(tmp_path, ca
     assert 1 / 1.5 < row / refitted["fibre.k"] < 1.5
 
 
-def test_the_default_row_covers_data_of_the_resolved_geometry(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+def test_the_default_row_covers_data_of_the_resolved_geometry(tmp_path, capsys, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     """Data of the voxels split 2³ ways (q1, nearer the resolved geometry's value) fitted with the 1× q1 model: the
-    noise-only interval misses the truth, the total one (q1 and fv bracket the resolved value) covers it."""
+    noise-only interval misses the truth, the total one (q1 and fv bracket the resolved value) covers it.  A second
+    run reads the row from the cache (the same numbers, no steady solve)."""
+    monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path / "cache"))
     scene, csv = _cross_case(tmp_path, "q1", refine=2)
     args = ["identify", str(scene), "--measurements", str(csv), "--unknown", "fibre.k=0.05:1", "--unknown",
             "fibre.c=1e5:1e7", "--model", "full", "--particles", "8", "--iterations", "4", "--json"]
     assert main(args) == 0
     out = json.loads(capsys.readouterr().out)
+    assert len(list((tmp_path / "cache").glob("discretisation-gap-*.npz"))) == 1
+    monkeypatch.setattr("aromm.homogenization.discretisation_gap.fluxmetric", None)  # a solve would now fail
+    assert main(args) == 0
+    assert json.loads(capsys.readouterr().out)["uncertainty"] == out["uncertainty"]
     unc = out["uncertainty"]
     noise = unc["budget"]["measurement noise"]["fibre.k"]  # the noise-only half-width
     assert abs(out["estimates"]["fibre.k"] - TRUTH["fibre.k"]) > 2 * noise

@@ -314,10 +314,16 @@ def _representativeness(result: Identification, scene: Scene) -> Identification:
                                model={**result.model, "representativeness_check": rep.as_dict()})
 
 
+#: The cache kind of identify's default discretisation row (aromm.core.cache.KINDS).
+GAP_KIND = "discretisation-gap"
+
+
 def _discretisation_gap(result: Identification, scene: Scene, engine: str) -> Identification:
     """The default discretisation row (aromm.homogenization.discretisation_gap) added to the budget, or why it is
-    not, recorded in the result's model description either way."""
-    from aromm.homogenization.discretisation_gap import discretisation_gap
+    not, recorded in the result's model description either way; kept in the cache (``discretisation-gap``) at
+    estimates rounded to six digits, so that a repeated identification does not solve again."""
+    from aromm.core.cache import NpzCache
+    from aromm.homogenization.discretisation_gap import DiscretisationGap, discretisation_gap
     from aromm.homogenization.representativeness import half_widths
     from aromm.scene.geometry import VoxelGeometry
     from inverse.uncertainty import with_source
@@ -326,17 +332,39 @@ def _discretisation_gap(result: Identification, scene: Scene, engine: str) -> Id
     if engine != "scipy" or not isinstance(scene.geometry, VoxelGeometry):
         why = "the petsc engine holds no whole image" if engine != "scipy" else "a mesh scene has one discretisation"
         return dataclasses.replace(result, model={**result.model, "discretisation_gap": f"not estimated: {why}"})
+    key, store = gap_key(scene, result.estimates), NpzCache()
+    found = store.load(GAP_KIND, key) if key is not None else None
     try:
-        gap = discretisation_gap(scene, dict(result.estimates))
+        gap = DiscretisationGap.from_arrays(found) if found is not None else \
+            discretisation_gap(scene, dict(result.estimates))
     except (InputError, NumericalError) as err:
         log.info("discretisation gap not estimated: %s", err)
         return dataclasses.replace(result, model={**result.model, "discretisation_gap": f"not estimated: {err}"})
+    if found is None and key is not None:
+        try:
+            store.save(GAP_KIND, key, gap.arrays())
+        except OSError as err:  # a read-only cache: the row is there, only the next run recomputes it
+            log.info("discretisation gap not cached: %s", err)
     log.info("discretisation gap: fluxmetric k̄ %.5g (%s) against %.5g (%s), matched by %.4g × the unknown "
              "conductivities, %.2g CPU s", gap.k_model, gap.discretisation, gap.k_other, gap.other, gap.scale,
              gap.seconds)
     uncertainty = with_source(unc, "discretisation", half_widths(gap.half, unc.names, unc.estimates))
     return dataclasses.replace(result, uncertainty=uncertainty,
                                model={**result.model, "discretisation_gap": gap.as_dict()})
+
+
+def gap_key(scene: Scene, estimates: Mapping[str, float]) -> str | None:
+    """The cache key of the discretisation row of ``scene`` at the ``estimates`` (rounded as the row computes them):
+    the scene's physics key with the estimates' names as its box (aromm.reduction.model_key.scene_physics_key: the
+    image, the phases, faces and discretisation) and the rounded estimates; None where the scene has no such key."""
+    from aromm.core.cache import content_key
+    from aromm.homogenization.discretisation_gap import rounded
+    from aromm.reduction.model_key import scene_physics_key
+
+    physics = scene_physics_key(scene, frozenset(estimates))
+    if physics is None:
+        return None
+    return content_key("discretisation gap", 1, physics, sorted(rounded(estimates).items()))
 
 
 def _repeated(problem: Problem, repeat: int, seed: int, farm: Farm, as_json: bool) -> None:

@@ -48,6 +48,8 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
     "krylov-basis": ("the Krylov model's basis Ψ, for temperature fields (aromm.reduction.krylov_offline)", ("psi",)),
     "model-order": ("the order of the model last built for a scene and its settings, whatever the order asked "
                     "(aromm.api.built_order)", ("order",)),
+    "discretisation-gap": ("identify's default discretisation row at estimates rounded to six digits "
+                           "(aromm.homogenization.discretisation_gap)", ("k_model", "k_other", "slope")),
 }
 
 log = logging.getLogger(__name__)

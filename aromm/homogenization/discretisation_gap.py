@@ -27,8 +27,9 @@ Measured against the re-fit by ``python benchmarks/discretisation_gap.py`` (reco
 benchmarks/records/discretisation_gap.txt).
 
 Cost: a steady solve in the model's discretisation and a factorisation with three solves in the other, about
-5 CPU s on the shipped 46³ VER.  What it leaves out: the transient part of the gap (the capacity matrix:
-consistent in q1, lumped in fv), which moves the capacities too; the re-fit measures it.
+5 CPU s on the shipped 46³ VER (``aromm identify`` caches the row at the rounded estimates).  What it leaves out:
+the transient part of the gap (the capacity matrix: consistent in q1, lumped in fv), which moves the capacities
+too; the re-fit measures it.
 """
 
 from __future__ import annotations
@@ -72,12 +73,36 @@ class DiscretisationGap:
                 "estimated_by": "one Newton step matching the other discretisation's fluxmetric k̄ to the "
                                 "model's at the estimates"}
 
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The entry of the cache kind ``discretisation-gap`` (``aromm identify`` keeps it)."""
+        return {"k_model": np.array(self.k_model), "k_other": np.array(self.k_other), "slope": np.array(self.slope),
+                "names": np.array(sorted(self.half)), "discretisations": np.array([self.discretisation, self.other]),
+                "seconds": np.array(self.seconds)}
+
+    @classmethod
+    def from_arrays(cls, data: Mapping[str, np.ndarray]) -> DiscretisationGap:
+        k_model, k_other, slope = (float(data[k]) for k in ("k_model", "k_other", "slope"))
+        x = -math.log(k_other / k_model) / slope
+        model, other = (str(d) for d in data["discretisations"])
+        return cls(model, other, k_model, k_other, slope, math.exp(x), {str(n): abs(x) for n in data["names"]},
+                   float(data["seconds"]))
+
+
+#: Significant digits of the estimates at which the row is computed and cached (its own accuracy is ±15–45 %).
+DIGITS = 6
+
+
+def rounded(estimates: Mapping[str, float]) -> dict[str, float]:
+    """The estimates to :data:`DIGITS` significant digits: the row is computed there, so that a cached row and a
+    computed one are the same number."""
+    return {n: float(f"{float(v):.{DIGITS}g}") for n, v in estimates.items()}
+
 
 def discretisation_gap(scene: Scene, estimates: Mapping[str, float], method: str = "auto") -> DiscretisationGap:
     """The module docstring's relative half-widths for the unknowns ``estimates`` (name → value) of an
     identification on ``scene`` (a voxel scene); InputError (saying why) where it cannot be estimated: a mesh scene,
     an insulating phase (q1 has none), no unknown isotropic phase conductivity, not a heated/cooled scenario, no
-    conducting path.
+    conducting path.  The estimates are first rounded to :data:`DIGITS` significant digits (:func:`rounded`).
 
     >>> import numpy as np
     >>> from aromm.core.vocabulary import FaceSpec, PhaseSpec
@@ -90,6 +115,7 @@ def discretisation_gap(scene: Scene, estimates: Mapping[str, float], method: str
     (1.5, 1.5, 0.0)
     """
     start = time.process_time()
+    estimates = rounded(estimates)
     unknown_k, _ = phase_unknowns(scene, estimates)
     if not unknown_k:
         raise InputError("no unknown phase conductivity absorbs the gap of k̄ (it would move other parameters: "
