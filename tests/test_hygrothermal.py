@@ -295,3 +295,44 @@ def test_the_flux_probe_of_the_moisture_transport() -> None:
         assert decoupled[axis][0, 0] == pytest.approx(thermal[axis], rel=1e-9)
         assert decoupled[axis][1, 1] == pytest.approx(water[axis], rel=1e-9)
         assert abs(decoupled[axis][0, 1]) <= 1e-9 * decoupled[axis][0, 0]
+
+
+def test_the_periodic_cell_of_the_moisture_transport() -> None:
+    """The periodic cell of the coupled problem: on a laminate its diagonal blocks are the exact means (as the
+    fixed-value probe: the arithmetic mean along the layers, the matrix-harmonic mean across) and its off-diagonal
+    blocks vanish; without vapour transport (δ_p = 0) its heat block is, entry by entry and off the diagonal too, the
+    thermal periodic tensor of the image (aromm.homogenization.cell_problems, another solver), and its moisture
+    block the thermal one with the phases' D_φ as conductivities.  Tolerances: the direct solves' rounding."""
+    from dataclasses import replace as swap
+
+    from aromm.homogenization.cell_problems import effective_conductivity
+    from aromm.homogenization.moisture_cells import moisture_transport, periodic_transport
+    from aromm.scene.geometry import VoxelGeometry
+    from aromm.scene.moisture_section import MoistureScene
+    from aromm.scene.scene_file import Scene
+
+    props = {"wall": (0.3, 2e-9, 1e-13, 200.0), "air": (0.025, 5e-10, 2e-10, 0.017)}
+
+    def scene(labels: np.ndarray, delta: bool = True, k_of: int = 0) -> Scene:
+        phases = tuple(PhaseSpec(n, i, v[k_of], 1e6) for i, (n, v) in enumerate(props.items()))
+        moisture = MoistureScene(STATE, {n: {"D_phi": v[1], "delta_p": v[2] if delta else 0.0, "xi": v[3]}
+                                         for n, v in props.items()}, {}, 0.5)
+        return Scene(VoxelGeometry(labels, (1e-5, 1e-5, 1e-5)), phases, moisture=moisture)  # type: ignore[arg-type]
+
+    layers = np.zeros((4, 3, 3), dtype=int)
+    layers[2:] = 1
+    periodic, fixed = periodic_transport(scene(layers)), moisture_transport(scene(layers))
+    for i in range(3):
+        scale = np.abs(fixed[i]).max()
+        assert np.allclose(periodic[i, i], fixed[i], rtol=1e-9, atol=1e-12 * scale), (i, periodic[i, i])
+        for j in set(range(3)) - {i}:
+            assert np.abs(periodic[i, j]).max() <= 1e-12 * scale
+    rng = np.random.default_rng(3)
+    grains = (rng.random((5, 4, 3)) < 0.45).astype(int)  # no symmetry: off-diagonal entries of order 1e-2 of k̄
+    decoupled = periodic_transport(scene(grains, delta=False))
+    thermal = effective_conductivity(swap(scene(grains, False), moisture=None), "periodic", "splu").k
+    water = effective_conductivity(swap(scene(grains, False, k_of=1), moisture=None), "periodic", "splu").k
+    assert np.abs(thermal - np.diag(np.diag(thermal))).max() > 1e-3 * thermal.max()
+    assert np.allclose(decoupled[:, :, 0, 0], thermal, rtol=0, atol=1e-10 * thermal.max())
+    assert np.allclose(decoupled[:, :, 1, 1], water, rtol=0, atol=1e-10 * water.max())
+    assert np.abs(decoupled[:, :, 0, 1]).max() <= 1e-10 * thermal.max()

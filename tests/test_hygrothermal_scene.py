@@ -171,7 +171,7 @@ def test_a_moisture_value_outside_the_box_splits_the_cache_key(tmp_path: Path) -
 def test_reduce_and_homogenize_say_what_they_do_with_moisture(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                               monkeypatch: pytest.MonkeyPatch) -> None:
     """`aromm reduce` names the bound's units (°C, and relative humidity for the phi: outputs); `aromm homogenize`
-    gives the heat and moisture transport beside k̄ and c̄."""
+    gives the heat and moisture transport beside k̄ and c̄ (by default the periodic cell, with its whole tensor)."""
     monkeypatch.setenv("AROMM_CACHE_DIR", str(tmp_path / "cache"))
     path = _scene(tmp_path)
     assert main(["reduce", str(path)]) == 0
@@ -181,6 +181,7 @@ def test_reduce_and_homogenize_say_what_they_do_with_moisture(tmp_path: Path, ca
     out = json.loads(capsys.readouterr().out)
     transport = np.asarray(out["moisture"]["transport"])
     assert transport.shape == (3, 2, 2) and out["moisture"]["xi"] == 20.0  # one phase: its own ξ
+    assert out["moisture"]["boundary"] == "periodic" and np.asarray(out["moisture"]["tensor"]).shape == (3, 3, 2, 2)
     # one phase: along x its own flux matrix (heat: k + L_v δ_p a, moisture: D_φ + δ_p p at constant T)
     from aromm.physics.hygrothermal import MoistureState
 

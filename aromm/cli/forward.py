@@ -245,8 +245,10 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
         click.echo("  " + "  ".join(f"{v:12.6g}" for v in row))
     click.echo(f"c̄ (J/(m³ K)): {c:.6g}" if c is not None else "c̄: (a phase has no c)")
     if moisture:
-        probe = ("fixed (T, φ) on the two faces of each axis" if moisture["boundary"] == "temperature" else
-                 "a heat, then a water flux in through one face of each axis, (T, φ) fixed on the other")
+        probe = {"temperature": "fixed (T, φ) on the two faces of each axis",
+                 "flux": "a heat, then a water flux in through one face of each axis, (T, φ) fixed on the other",
+                 "periodic": "the periodic cell, per axis (the off-diagonal blocks in --json: tensor)"}[
+                     moisture["boundary"]]
         click.echo(f"heat and moisture transport, {probe} (rows: heat flux W/m², moisture flux kg/(m² s); columns: "
                    "per K/m, per unit φ per m):")
         for name, matrix in zip("xyz", moisture["transport"], strict=True):
@@ -256,20 +258,26 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
 
 def _moisture(sc: Any, voxels: bool, solver: str, boundary: str) -> dict[str, Any] | None:
     """The homogenised heat and moisture transport of a ``[moisture]`` scene (a voxel image on the scipy engine;
-    :mod:`aromm.homogenization.moisture_cells`) by the ``flux`` probe, else the fixed-value one (the periodic cell of
-    the coupled problem is not done: said); None without moisture (said when the scene has some)."""
+    :mod:`aromm.homogenization.moisture_cells`) by ``boundary``'s cell problem (periodic: Q1, the whole tensor too;
+    finite volumes take the fixed-value probe instead, said); None without moisture (said when the scene has
+    some)."""
     if getattr(sc, "moisture", None) is None:
         return None
     if not voxels:
         click.echo("aromm: note: the moisture transport is homogenised on voxel images with the scipy engine only: "
                    "k̄ and c̄ below are the thermal ones", err=True)
         return None
-    from aromm.homogenization.moisture_cells import mean_moisture_capacity, moisture_transport
+    from aromm.homogenization.moisture_cells import mean_moisture_capacity, moisture_transport, periodic_transport
 
-    probe = "flux" if boundary == "flux" else "temperature"
-    if boundary == "periodic":
-        click.echo("aromm: note: the moisture transport has no periodic cell problem yet: it is given by the "
-                   "fixed-value probe (--boundary temperature)", err=True)
+    probe = boundary
+    if boundary == "periodic" and sc.discretisation != "q1":
+        click.echo("aromm: note: the periodic cell of the moisture transport is solved in q1: in finite volumes it is "
+                   "given by the fixed-value probe (--boundary temperature)", err=True)
+        probe = "temperature"
+    if probe == "periodic":
+        tensor = periodic_transport(sc, _direct(solver))
+        return {"transport": [tensor[i, i].tolist() for i in range(3)], "tensor": tensor.tolist(),
+                "xi": mean_moisture_capacity(sc), "boundary": probe}
     return {"transport": moisture_transport(sc, _direct(solver), probe).tolist(), "xi": mean_moisture_capacity(sc),
             "boundary": probe}
 

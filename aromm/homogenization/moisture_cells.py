@@ -14,7 +14,9 @@ moisture conductivity at constant temperature.  On a laminate it is exactly the 
 matrices along the layers and their matrix harmonic mean across them (the symmetrised matrices;
 tests/test_hygrothermal.py).  The mean moisture capacity ξ̄ is the volume average (as c̄, [Chavez2020, eq. 14]).
 The flux probe ([Chavez2020, eq. 13] for both fields, :func:`flux_transport`) imposes a unit heat, then water, flux
-on one face and reads the mean jumps.  Steady solves of the assembled system: images of a few 10⁴ voxels.
+on one face and reads the mean jumps.  The periodic cell (:func:`periodic_transport`, Q1) gives the full effective
+tensor of the periodic medium the image tiles, off-diagonal blocks included.  Steady solves of the assembled system:
+images of a few 10⁴ voxels.
 """
 
 from __future__ import annotations
@@ -22,12 +24,19 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.observables import PHI_PREFIX
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import FaceSpec
+from aromm.fem.voxel import assemble_voxels
+from aromm.fem.voxel_grid import node_points
 from aromm.full.solve import reaction_heat_flow, steady_field
+from aromm.homogenization.anisotropic_cells import periodic_map
+from aromm.linalg.direct import factorize
+from aromm.physics.hygrothermal import coupled
+from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.moisture_section import MoistureScene
 from aromm.scene.scene_file import Scene, assemble
 
@@ -36,12 +45,16 @@ AXES = "xyz"
 
 def moisture_transport(scene: Scene, method: str = "auto", boundary: str = "temperature") -> FloatArray:
     """(3, 2, 2): per axis the effective flux matrix in physical units (module docstring) of the scene's image with
-    its ``[moisture]`` properties, by the fixed-value probe (``temperature``) or the flux probe (``flux``,
-    :func:`flux_transport`); ``method`` the steady solver (:mod:`aromm.linalg.direct`)."""
+    its ``[moisture]`` properties, by the fixed-value probe (``temperature``), the flux probe (``flux``,
+    :func:`flux_transport`) or the periodic cell (``periodic``, the diagonal blocks of :func:`periodic_transport`);
+    ``method`` the steady solver (:mod:`aromm.linalg.direct`)."""
     if boundary == "flux":
         return flux_transport(scene, method)
+    if boundary == "periodic":
+        full = periodic_transport(scene, method)
+        return np.stack([full[axis, axis] for axis in range(3)])
     if boundary != "temperature":
-        raise InputError(f"moisture transport: boundary must be temperature or flux, got {boundary!r}")
+        raise InputError(f"moisture transport: boundary must be periodic, temperature or flux, got {boundary!r}")
     moisture = _moisture(scene)
     size = scene.size
     out = np.zeros((3, 2, 2))
@@ -82,6 +95,46 @@ def flux_transport(scene: Scene, method: str = "auto") -> FloatArray:
                                 for o in (hot, PHI_PREFIX + hot)]
         out[axis] = size[axis] * np.linalg.inv(jumps)
     return out
+
+
+def periodic_transport(scene: Scene, method: str = "auto") -> FloatArray:
+    """(3, 3, 2, 2): the effective flux tensor of the periodic medium the image tiles, in physical units: block
+    [i, j] maps the macroscopic gradients along j of (T, φ) to the (heat, moisture) fluxes along i (the module
+    docstring's matrix when i = j).
+
+    As the thermal periodic cell (:mod:`aromm.homogenization.anisotropic_cells`), on the coupled Q1 operator K of the
+    box (2n unknowns, all faces free: the symmetrised one of :mod:`aromm.physics.hygrothermal`, whose moisture rows
+    are the moisture balance times λ): opposite nodes identified by P (both fields), for each field f and axis j the
+    gradient g = x_j on the f block, and PᵀKP T̃ = b = −PᵀK g with T̃ periodic (one node of each field pinned: the
+    constants of both fields are its null space).  The symmetrised tensor is ``S[(f,i),(h,j)] |Ω| = g_{f,i}ᵀ K g_{h,j}
+    − b_{f,i}ᵀ T̃_{h,j}`` (energy identity); its moisture rows divided by λ are the physical fluxes."""
+    image, moisture = scene.geometry, _moisture(scene)
+    if not isinstance(image, VoxelGeometry) or scene.discretisation != "q1":
+        raise InputError(f"{scene.where}moisture transport: the periodic cell is solved on the Q1 elements of a voxel "
+                         "image (finite volumes: --boundary temperature or flux)")
+    system = coupled(assemble_voxels(image.labels, image.voxel_size, scene.phases), moisture.state, moisture.phases)
+    k_box = sp.csr_array(system.conductance.evaluate(system.values()))
+    nodes = k_box.shape[0] // 2
+    p_one = periodic_map(image.shape)
+    p_map = sp.csr_array(sp.block_diag([p_one, p_one]))
+    k_per = sp.csr_array(p_map.T @ k_box @ p_map)
+    cells = p_one.shape[1]
+    keep = np.ones(2 * cells)
+    keep[[0, cells]] = 0.0  # T̃ and φ̃ pinned at node 0: the loads sum to zero in each field
+    pin = sp.diags_array(keep)
+    points = node_points(image.shape, image.voxel_size)
+    first = np.unique(p_one.indices, return_index=True)[1]
+    factor = factorize(sp.csr_array(pin @ k_per @ pin + sp.diags_array(1.0 - keep)), method,
+                       points=np.vstack([points[first], points[first]]) if method != "amg" else None)
+    grads = [np.concatenate([points[:, j], np.zeros(nodes)] if f == 0 else [np.zeros(nodes), points[:, j]])
+             for f in range(2) for j in range(3)]  # (T, x), (T, y), (T, z), (φ, x), …
+    loads = [-(p_map.T @ (k_box @ g)) for g in grads]
+    fields = [factor.solve(b * keep) for b in loads]
+    sym = np.array([[float(gi @ (k_box @ gj)) - float(bi @ fj) for gj, fj in zip(grads, fields, strict=True)]
+                    for gi, bi in zip(grads, loads, strict=True)]) / float(np.prod(scene.size))
+    physical = sym.reshape(2, 3, 2, 3).transpose(1, 3, 0, 2)  # [i, j, f, h]
+    physical[:, :, 1, :] /= moisture.state.weight
+    return physical
 
 
 def mean_moisture_capacity(scene: Scene) -> float:
