@@ -11,7 +11,7 @@ from aromm.core.errors import InputError
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.engines.petsc.layout import BoxLayout
 from aromm.engines.petsc.problem import VoxelProblem
-from aromm.engines.petsc.volume_assembly import VolumeRows, global_rows, halo_box, padded_system, refuse_insulating
+from aromm.engines.petsc.volume_assembly import VolumeRows, global_rows, halo_box, padded_system
 from aromm.fv.grid import VolumeGrid
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
@@ -58,4 +58,4 @@ def test_an_insulating_phase_is_refused_with_the_way_out() -> None:
     scene = Scene(VoxelGeometry(labels, (1.0, 1.0, 1.0)), (PhaseSpec("a", 0, 1.0), PhaseSpec("pore", 1, 0.0)),
                   (FaceSpec("x0", T=1.0), FaceSpec("x1", T=0.0)), 0.0, None, ("x1",), discretisation="fv")
     with pytest.raises(InputError, match=r"phases\.pore: k = 0.*--engine scipy"):
-        refuse_insulating(VoxelProblem.from_scene(scene))
+        VoxelProblem.from_scene(scene).refuse_insulating()

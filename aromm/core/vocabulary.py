@@ -311,7 +311,7 @@ def check_phases(phases: Sequence[PhaseSpec], labels_present: Mapping[int, objec
 
 
 def insulating(phase: PhaseSpec) -> bool:
-    """A phase that conducts no heat: a scalar ``k = 0`` (finite volumes only, :mod:`aromm.fv`)."""
+    """A phase that conducts no heat: a scalar ``k = 0`` (steady scenes; fv, and q1 where it stays non-singular)."""
     return phase.tensor is None and not isinstance(phase.k, tuple) and phase.k == 0.0
 
 

@@ -34,7 +34,30 @@ from aromm.core.vocabulary import (
     phase_terms,
     system_of,
 )
+from aromm.fem.insulation import singular_insulation
 from aromm.fem.voxel_grid import VoxelGrid
+
+
+def anchors(boundary: Sequence[FaceSpec]) -> list[str]:
+    """The faces that fix the temperature level: a fixed temperature or an exchange."""
+    return [f.face for f in boundary if f.T is not None or f.h is not None]
+
+
+def refuse_singular_insulation(labels: np.ndarray, phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec], *,
+                               transient: bool) -> None:
+    """Refuse an insulating phase (k = 0) where the Q1 system would be singular (:mod:`aromm.fem.insulation`), and in
+    a transient (as the finite volumes do: every phase must conduct there).  :func:`assemble_voxels` checks a steady
+    system only when a face fixes its temperature level: without one it is a cell problem's box, all faces free
+    (:mod:`aromm.homogenization.anisotropic_cells`), which its probe checks (``refuse_singular_cells``)."""
+    cold = [ph for ph in phases if insulating(ph)]
+    if transient:
+        raise InputError(f"phase {cold[0].name!r}: k = 0 (insulating) is for steady scenes (homogenize, rev, simulate "
+                         "without [time]); a transient needs every phase to conduct")
+    conducting = ~np.isin(labels, [ph.label for ph in cold])
+    why = singular_insulation(conducting, anchors(boundary))
+    if why is not None:
+        raise InputError(f"phase {cold[0].name!r}: k = 0 (insulating) in q1: {why}; the finite volumes remove such "
+                         "voxels (discretisation fv)")
 
 
 def assemble_voxels(
@@ -64,8 +87,8 @@ def assemble_voxels(
     labels = np.asarray(labels)
     voxel_size = tuple(float(v) for v in voxel_size)
     check_image(labels, voxel_size, phases)
-    if cold := [ph.name for ph in phases if insulating(ph)]:
-        raise InputError(f"phase {cold[0]!r}: k = 0 (insulating) needs the finite volumes (discretisation fv)")
+    if any(insulating(ph) for ph in phases) and (time is not None or any(anchors(boundary))):
+        refuse_singular_insulation(labels, phases, boundary, transient=time is not None)
     shape = (int(labels.shape[0]), int(labels.shape[1]), int(labels.shape[2]))
     phase = phase_index(labels, phases).ravel(order="C")
     grid = VoxelGrid(shape, (voxel_size[0], voxel_size[1], voxel_size[2]), phase)

@@ -18,6 +18,8 @@ Every solve reaches ``‖b − A x‖ ≤ rtol ‖b‖`` or raises NumericalErro
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
@@ -54,9 +56,10 @@ def periodic_map(shape: tuple[int, int, int]) -> sp.csr_array:
     return sp.csr_array((np.ones(target.size), (np.arange(target.size), target)), shape=(target.size, nx * ny * nz))
 
 
-def assembled_cell(scene: Scene, boundary: str, method: str, rtol: float) -> FloatArray:
+def assembled_cell(scene: Scene, boundary: str, method: str, rtol: float,
+                   axes: Sequence[int] = (0, 1, 2)) -> FloatArray:
     """Apparent conductivity tensor (W/(m K)) under ``boundary`` (module docstring); ``method`` a direct solver or
-    ``"amg"`` of aromm.linalg.direct."""
+    ``"amg"`` of aromm.linalg.direct; the flux and temperature probes solve the ``axes`` asked only."""
     image = scene.geometry
     assert isinstance(image, VoxelGeometry)
     k_box = box_conductance(image, scene)
@@ -79,7 +82,7 @@ def assembled_cell(scene: Scene, boundary: str, method: str, rtol: float) -> Flo
             for i in range(3):
                 out[i, j] = (float(grads[i] @ (k_box @ grads[j])) - float(loads[i] @ field)) / volume
         return out
-    for axis in range(3):
+    for axis in axes:
         out[axis, axis] = _faces(scene, image, k_box, points, axis, boundary=boundary, method=method, rtol=rtol)
     return out
 

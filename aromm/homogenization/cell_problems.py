@@ -41,6 +41,8 @@ import numpy as np
 from aromm.core.choices import BOUNDARIES
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
+from aromm.core.vocabulary import insulating
+from aromm.fem.insulation import singular_insulation
 from aromm.homogenization.accuracy import arithmetic_bound, harmonic_bound, periodic_energy_tolerances
 from aromm.homogenization.anisotropic_cells import anisotropic, assembled_cell
 from aromm.homogenization.fv_cells import fv_cell
@@ -121,9 +123,12 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
         k, fv_name, cpus, walls = fv_cell(scene, boundary, method, rtol, MG_CROSSOVER_VOXELS, axes=axes)
         return CellResult(k, boundary, fv_name, cpu_seconds=cpus, wall_seconds=walls)
     name = resolve_solver(method, int(np.asarray(_image(scene).labels).size))
-    if anisotropic(scene):  # full or per-voxel tensors: the assembled operator (aromm.homogenization.anisotropic_cells)
+    refuse_singular_cells(scene, boundary, axes)
+    if anisotropic(scene) or any(insulating(ph) for ph in scene.phases):
+        # full or per-voxel tensors, or an insulating phase (the multigrid's smoother divides by every voxel's k):
+        # the assembled operator (aromm.homogenization.anisotropic_cells)
         name = "amg" if name == "mg" else name
-        return CellResult(assembled_cell(scene, boundary, name, rtol), boundary, name)
+        return CellResult(assembled_cell(scene, boundary, name, rtol, axes), boundary, name)
     result = CellResult(np.zeros((3, 3)), boundary, name)
     if boundary == "periodic":
         _periodic(scene, name, rtol, result, ktol)
@@ -133,6 +138,24 @@ def effective_conductivity(scene: Scene, boundary: str = "periodic", method: str
         for axis in axes:
             _faces(scene, free, axis, boundary, method=name, rtol=rtol, result=result, ktol=ktol, shared=shared)
     return result
+
+
+def refuse_singular_cells(scene: Scene, boundary: str, axes: Sequence[int]) -> None:
+    """Refuse an insulating phase (k = 0) where a Q1 cell problem would be singular (:mod:`aromm.fem.insulation`):
+    the periodic cell with the opposite faces identified; the fixed-temperature probe of each axis with its two
+    faces fixed, the flux probe with the cooled face."""
+    cold = [ph for ph in scene.phases if insulating(ph)]
+    if not cold:
+        return
+    conducting = ~np.isin(np.asarray(_image(scene).labels), [ph.label for ph in cold])
+    probes = [("", (), True)] if boundary == "periodic" else [
+        (f" along {'xyz'[a]}", (f"{'xyz'[a]}0", f"{'xyz'[a]}1") if boundary == "temperature" else (f"{'xyz'[a]}1",),
+         False) for a in axes]
+    for where, anchors, periodic in probes:
+        why = singular_insulation(conducting, anchors, periodic=periodic)
+        if why is not None:
+            raise InputError(f"{scene.where}phase {cold[0].name!r}: k = 0 (insulating) in q1, the {boundary} cell "
+                             f"problem{where}: {why}; the finite volumes remove such voxels (--discretisation fv)")
 
 
 Solve = Callable[[FloatArray, "float | None"], FloatArray]  # (b, energy tolerance or None) → x

@@ -2,7 +2,8 @@
 
 ``discretisation = "q1"`` (the default, the trilinear elements of [Chavez2020], :mod:`aromm.fem.voxel`) or ``"fv"``
 (the cell-centred two-point finite volumes of taufactor and PuMA, :mod:`aromm.fv`); ``--discretisation`` on the
-command line overrides it.  A phase with ``k = 0`` (insulating) needs ``fv``.
+command line overrides it.  A phase with ``k = 0`` (insulating) needs a voxel image: ``fv`` removes the voxels it cuts
+off; ``q1`` takes it where its system stays non-singular (:mod:`aromm.fem.insulation`, checked at assembly).
 """
 
 from __future__ import annotations
@@ -33,9 +34,8 @@ def refusal(name: str, geometry: SceneGeometry, phases: Sequence[PhaseSpec]) -> 
     if name == "fv" and not isinstance(geometry, VoxelGeometry):
         return "model.discretisation", "fv discretises a voxel image; a mesh scene keeps its elements (q1)"
     cold = [ph.name for ph in phases if insulating(ph)]
-    if cold and name != "fv":
-        return f"phases.{cold[0]}.k", ('k = 0 (an insulating phase) needs the finite volumes: [model] '
-                                       'discretisation = "fv", or --discretisation fv')
+    if cold and not isinstance(geometry, VoxelGeometry):
+        return f"phases.{cold[0]}.k", "k = 0 (an insulating phase) is for voxel images"
     return None
 
 
@@ -46,4 +46,8 @@ def parse_model(r: TableReader, data: Mapping[str, Any], geometry: SceneGeometry
     refused = refusal(str(name), geometry, phases)
     if refused is not None:
         raise r.fail(*refused)
+    cold = [ph.name for ph in phases if insulating(ph)]
+    if cold and "time" in data:
+        raise r.fail(f"phases.{cold[0]}.k", "k = 0 (an insulating phase) is for steady scenes (no [time] section): "
+                                             "a transient needs every phase to conduct")
     return str(name)

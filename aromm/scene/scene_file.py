@@ -368,7 +368,7 @@ def _phases(r: TableReader, data: Mapping[str, Any], present: set[int]) -> tuple
             kx, ky, kz = (r.number(v, f"{key}.k", positive=True, plausible="k") for v in k_raw)
             k = (kx, ky, kz)
         elif (k := r.number(k_raw, f"{key}.k", plausible="k")) < 0:
-            raise r.fail(f"{key}.k", f"must be >= 0 (0: an insulating phase, with discretisation fv), got {k_raw!r}")
+            raise r.fail(f"{key}.k", f"must be >= 0 (0: an insulating phase, in a steady scene), got {k_raw!r}")
         c = r.number(spec["c"], f"{key}.c", positive=True, plausible="c") if "c" in spec else None
         q = None
         if name in sources:

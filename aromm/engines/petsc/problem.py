@@ -19,7 +19,7 @@ import numpy as np
 
 from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem, TimeGrid
-from aromm.core.vocabulary import FaceSpec, PhaseSpec
+from aromm.core.vocabulary import FaceSpec, PhaseSpec, insulating
 from aromm.engines.petsc import runtime
 from aromm.engines.petsc.images import generated_image, open_image
 from aromm.engines.petsc.layout import BoxLayout
@@ -68,9 +68,18 @@ class VoxelProblem:
     def layout(self, comm: Any) -> BoxLayout:
         return box_layout(self.shape, comm)
 
+    def refuse_insulating(self) -> None:
+        """Refuse an insulating phase (k = 0): fv removes the voxels it cuts off and q1 checks that it stays
+        non-singular, both on the connectivity of the whole image, which the boxes do not compute."""
+        cold = [ph.name for ph in self.phases if insulating(ph)]
+        if cold:
+            raise InputError(f"{self.where}phases.{cold[0]}: k = 0 (insulating) needs the connectivity of the whole "
+                             "image, which the petsc engine does not compute; run it with --engine scipy")
+
     def template(self) -> ThermalSystem:
         """The serial system of a stand-in image holding each present label once: the same terms (names,
         coefficients, order), parameters, Dirichlet faces and outputs as the whole image's system."""
+        self.refuse_insulating()
         stand_in = np.asarray(self.present, dtype=np.int32).reshape(-1, 1, 1)
         assembler = assemble_volumes if self.discretisation == "fv" else assemble_voxels
         return assembler(stand_in, self.voxel_size, self.phases, self.boundary, time=self.time,

@@ -28,9 +28,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from aromm.core.errors import InputError
 from aromm.core.system import Affine, Term, ThermalSystem
-from aromm.core.vocabulary import insulating
 from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
@@ -113,14 +111,6 @@ class VolumeRows:
         return self.starts[rank] + volume + before + local[:, b] + size[:, b] * local[:, c]
 
 
-def refuse_insulating(problem: VoxelProblem) -> None:
-    cold = [ph.name for ph in problem.phases if insulating(ph)]
-    if cold:
-        raise InputError(f"{problem.where}phases.{cold[0]}: k = 0 (insulating) needs the connectivity of the whole "
-                         "image to remove isolated clusters, which the petsc engine's finite volumes do not compute; "
-                         "run it with --engine scipy")
-
-
 def padded_system(problem: VoxelProblem, layout: BoxLayout) -> tuple[ThermalSystem, VolumeGrid, Box, np.ndarray]:
     """The serial finite-volume system of this rank's padded box, the grid that numbers its unknowns, the box and
     its labels."""
@@ -177,7 +167,7 @@ def assemble_volume_boxes(problem: VoxelProblem, comm: Any) -> Any:
     engine then falls back to GAMG)."""
     from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, problem_key
 
-    refuse_insulating(problem)
+    problem.refuse_insulating()
     layout = problem.layout(comm)
     numbering = VolumeRows(layout, unknown_faces(problem.boundary, problem.outputs))
     rows = numbering.rows
