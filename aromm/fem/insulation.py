@@ -20,8 +20,6 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
-from scipy import ndimage
-from scipy.sparse.csgraph import connected_components
 
 BoolArray = npt.NDArray[np.bool_]
 #: Voxels sharing a face, an edge or a corner share at least one node.
@@ -41,6 +39,8 @@ def singular_insulation(conducting: BoolArray, anchors: Sequence[str] = (), *, p
     '25 % of the volume is conducting voxels that reach no face with'
 
     """
+    from scipy import ndimage  # only where an insulating phase asks (not on every command's import path)
+
     conducting = np.asarray(conducting, dtype=bool)
     untouched = _untouched_nodes(conducting, periodic)
     if untouched:
@@ -84,6 +84,9 @@ def _untouched_nodes(conducting: BoolArray, periodic: bool) -> int:
 def _periodic_clusters(conducting: BoolArray) -> int:
     """Clusters of 26-connected conducting voxels with opposite faces identified: the image padded by one wrapped
     layer is labelled, and the label of each padded position is joined with its voxel's label in the interior."""
+    from scipy import ndimage
+    from scipy.sparse.csgraph import connected_components
+
     padded = np.pad(conducting, 1, mode="wrap")
     labels, count = ndimage.label(padded, structure=COUPLED)
     if count <= 1:

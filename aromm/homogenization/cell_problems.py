@@ -50,12 +50,19 @@ from aromm.linalg.direct import DEFAULT_RTOL, METHODS, check_residual, factorize
 from aromm.linalg.multigrid.hierarchy import CoarseLevel, assembled_matrix
 from aromm.linalg.multigrid.operator import VoxelOperator
 from aromm.linalg.multigrid.pcg import MultigridSolver, pinned
+from aromm.linalg.multigrid.q1_kernel import slab_product
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
 
 SOLVERS = METHODS
 MG_CROSSOVER_VOXELS = 20**3  # multigrid beats CHOLMOD and pyamg SA from 16³–24³ on (homogenize_peers.py)
 PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
+#: From this many voxels on, a cell problem's operator does not keep its gathered per-voxel weights (84 B/voxel in
+#: float64 and float32) when the compiled product (numba, aromm.linalg.multigrid.q1_kernel) reads them by phase code
+#: instead: the periodic tensor of a 200³ random medium (contrast 10, one thread, load 0.5-1.0, 2026-12-05) took
+#: 222 B/voxel all-in against 294, in 26-32 CPU s against 30-34 (two runs each).  The Krylov reduction keeps them:
+#: its block products share each slab's weights across columns.
+KEEP_WEIGHTS_BELOW = 64**3
 
 
 @dataclass
@@ -94,7 +101,8 @@ def voxel_operator(scene: Scene, periodic: bool = False, fixed: tuple[str, ...] 
         lookup[label - int(present.min())] = known[label]
     phase = np.ascontiguousarray(lookup[labels - int(present.min())].transpose(2, 1, 0))
     table = np.array([ph.k if isinstance(ph.k, tuple) else (ph.k,) * 3 for ph in scene.phases], dtype=float)
-    return VoxelOperator(phase, table, image.voxel_size, periodic=periodic, fixed=fixed)
+    keep = phase.size < KEEP_WEIGHTS_BELOW or slab_product() is None
+    return VoxelOperator(phase, table, image.voxel_size, periodic=periodic, fixed=fixed, keep_weights=keep)
 
 
 def _image(scene: Scene) -> VoxelGeometry:
@@ -203,17 +211,20 @@ def _periodic(scene: Scene, method: str, rtol: float, result: CellResult, ktol: 
     solve = _solver(op, method, rtol, result)
     volume = float(np.prod(scene.size))
     fractions = np.bincount(op.phase.ravel(), minlength=len(op.conductivity)) / op.phase.size
-    loads = [-op.spread(op.conductances[:, j][op.phase] * op.voxel_size[j] / 4.0, pattern)  # −Qᵀ A g_j
-             for j, pattern in enumerate(("DSS", "SDS", "SSD"))]
+
+    def load(j: int) -> FloatArray:  # b_j = −Qᵀ A g_j, formed when needed: one float64 node vector held, not three
+        return -op.spread(op.conductances[:, j][op.phase] * op.voxel_size[j] / 4.0, ("DSS", "SDS", "SSD")[j])
+
     energy = periodic_energy_tolerances(op, ktol, volume)
     earlier: list[FloatArray] = []  # T̃_i of the directions solved so far (float32: k_ij is stationary in them)
     for j in range(3):
-        field_ = _timed(result, solve, loads[j], energy[j])  # T̃_j
-        result.k[j, j] = float(fractions @ op.conductivity[:, j]) - float(loads[j] @ field_) / volume
+        b = load(j)
+        field_ = _timed(result, solve, b, energy[j])  # T̃_j
+        result.k[j, j] = float(fractions @ op.conductivity[:, j]) - float(b @ field_) / volume
         if earlier:  # k_ij V = T_iᵀ A T_j = −b_iᵀT̃_j − b_jᵀT̃_i + T̃_iᵀ A T̃_j: error e_iᵀ A e_j, quadratic
             product = op.matvec(field_)
             for i, other in enumerate(earlier):
-                value = (float(other @ product) - float(loads[i] @ field_) - float(loads[j] @ other)) / volume
+                value = (float(other @ product) - float(load(i) @ field_) - float(b @ other)) / volume
                 result.k[i, j] = result.k[j, i] = value
         if j < 2:
             earlier.append(field_.astype(np.float32))

@@ -46,8 +46,4 @@ def parse_model(r: TableReader, data: Mapping[str, Any], geometry: SceneGeometry
     refused = refusal(str(name), geometry, phases)
     if refused is not None:
         raise r.fail(*refused)
-    cold = [ph.name for ph in phases if insulating(ph)]
-    if cold and "time" in data:
-        raise r.fail(f"phases.{cold[0]}.k", "k = 0 (an insulating phase) is for steady scenes (no [time] section): "
-                                             "a transient needs every phase to conduct")
     return str(name)

@@ -20,7 +20,7 @@ from aromm.core.errors import InputError
 from aromm.core.labchecks import ABSOLUTE_ZERO
 from aromm.core.resources import available_memory
 from aromm.core.system import ThermalSystem, TimeGrid
-from aromm.core.vocabulary import FACES, FaceSpec, Load, PhaseSpec, parameter_values, singular_boundary
+from aromm.core.vocabulary import FACES, FaceSpec, Load, PhaseSpec, insulating, parameter_values, singular_boundary
 from aromm.microstructure.generators import GENERATORS
 from aromm.microstructure.segmentation import SegmentationReport, prepare_image
 from aromm.physics.hygrothermal import MOISTURE_KEYS
@@ -217,6 +217,9 @@ def scene_from_dict(data: Mapping[str, Any], path: Path | None = None, *,
     initial = r.table(data, "initial", ("T", "phi"))
     initial_T = _celsius(r, r.number(initial.get("T", 0.0), "initial.T"), "initial.T")
     time = parse_time(r, data)
+    if time is not None and (cold := [ph.name for ph in phases if insulating(ph)]):
+        raise r.fail(f"phases.{cold[0]}.k", "k = 0 (an insulating phase) is for steady scenes (no [time] section): "
+                                             "a transient needs every phase to conduct")
     varying = [f.face for f in boundary if f.varies]
     if varying and time is None:
         raise r.fail(f"boundary.{varying[0]}", "a history (CSV file) needs a transient scene: add [time] end and dt")

@@ -22,10 +22,10 @@ microstructure,
   carries the conductivities' signature on the loaded face, and a hundred in all.
 
 The spread of the two bounds (a laminate across the axis reaches ``k_⊥``, one along it ``k_∥``) is the price of
-knowing nothing of the microstructure: ``aromm homogenize`` gives k_eff, and with it a tighter grid by hand.  An
-insulating phase (k = 0) makes ``k_⊥ = 0``; no end is then long enough for every microstructure and ``"auto"`` is
-refused for ``end``.  ``dt`` is rounded to two significant digits and ``end`` to a whole number of steps; the rule
-and its numbers are logged (the command line always shows them).
+knowing nothing of the microstructure: ``aromm homogenize`` gives k_eff, and with it a tighter grid by hand (a
+transient scene has no insulating phase: every phase conducts, so ``k_⊥ > 0``).  ``dt`` is rounded to two
+significant digits and ``end`` to a whole number of steps; the rule and its numbers are logged (the command line
+always shows them).
 
 >>> from aromm.core.vocabulary import FaceSpec, PhaseSpec, loaded_axis
 >>> phases = (PhaseSpec("a", 0, 1.0, 1e6), PhaseSpec("b", 1, 1.0, 1e6))
@@ -110,7 +110,6 @@ def checked_grid(end: float, dt: float, path: Any = None) -> TimeGrid:
 def time_scales(fractions: Mapping[str, float], phases: Sequence[PhaseSpec], boundary: Sequence[FaceSpec],
                 size: tuple[float, float, float]) -> tuple[tuple[float, float], float, str]:
     """``((t_D(k_∥), t_D(k_⊥)), τ_h)`` (s) of the module docstring, and the sentence that says how they were obtained.
-    ``t_D(k_⊥)`` is infinite when a phase is insulating.
 
     >>> (fast, slow), tau, why = time_scales({"a": 1.0}, (PhaseSpec("a", 0, 2.0, 4e6),), (FaceSpec("y1", h=10.0),),
     ...                                      (0.01, 0.02, 0.01))
@@ -154,10 +153,6 @@ def auto_grid(request: AutoTime, fractions: Mapping[str, float], phases: Sequenc
     """The grid a request with ``"auto"`` asks for (module docstring) and the sentence that explains it (also logged
     at INFO)."""
     (fast, slow), tau, reason = time_scales(fractions, phases, boundary, size)
-    if request.end is None and math.isinf(slow):
-        raise TableReader(path).fail("time.end", '"auto" needs every phase to conduct: with an insulating phase '
-                                                 "(k = 0) no end suits every microstructure; give end in s "
-                                                 "(c̄ L²/k_eff, with k_eff from aromm homogenize)")
     end = request.end if request.end is not None else AUTO_CONSTANTS * (slow + tau)
     dt = request.dt if request.dt is not None else _two_digits(min(end / AUTO_STEPS, fast / AUTO_PER_DIFFUSION))
     if request.end is None:
