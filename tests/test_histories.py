@@ -85,6 +85,18 @@ def _scene(folder: Path, old: str = "", new: str = "", end: str = "4.0") -> Path
     return path
 
 
+def test_the_model_key_holds_a_history_by_its_content_not_its_file(scene_dir: Path) -> None:
+    """The same history read from another file is the same load (one model serves both); another history is
+    another load."""
+    from aromm.reduction.model_key import scene_physics_key
+
+    (scene_dir / "copy.csv").write_text((scene_dir / "pulse.csv").read_text())
+    (scene_dir / "other.csv").write_text("t,flux\n0,0\n0.2,500\n1.5,500\n1.8,0\n")
+    first = scene_physics_key(load_scene(_scene(scene_dir)))
+    assert scene_physics_key(load_scene(_scene(scene_dir, "pulse.csv", "copy.csv"))) == first
+    assert scene_physics_key(load_scene(_scene(scene_dir, "pulse.csv", "other.csv"))) != first
+
+
 def test_a_csv_history_loads_as_a_scaled_profile(scene_dir: Path) -> None:
     scene = load_scene(_scene(scene_dir))
     assert scene.parameters["z0.flux"] == 1.0  # the scale of the history

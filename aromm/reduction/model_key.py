@@ -51,11 +51,12 @@ HOW = frozenset({"engine", "solver", "eigensolver", "basis_storage", "cache", "p
 
 def plain(value: Any) -> Any:
     """``value`` as plain Python data for :func:`~aromm.core.cache.content_key`: dataclasses as (type name,
-    fields), numpy scalars as Python numbers, sequences as tuples, mappings sorted by key; arrays kept (hashed
-    by their bytes)."""
+    fields; a field outside the dataclass's equality, such as the file a history was read from, is left out: the
+    same history from another file is the same load), numpy scalars as Python numbers, sequences as tuples, mappings
+    sorted by key; arrays kept (hashed by their bytes)."""
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return (type(value).__name__,
-                tuple((f.name, plain(getattr(value, f.name))) for f in dataclasses.fields(value)))
+                tuple((f.name, plain(getattr(value, f.name))) for f in dataclasses.fields(value) if f.compare))
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, Mapping):
