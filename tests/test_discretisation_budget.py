@@ -189,3 +189,22 @@ def test_the_default_row_says_why_it_is_missing(tmp_path, capsys) -> None:  # ty
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "not the discretisation error of the voxel model, not estimated: no unknown phase conductivity" in out
+
+
+def test_the_row_refuses_what_it_cannot_carry() -> None:
+    """Only isotropic phase conductivities absorb the gap of k̄: the reason is said in the row's own words."""
+    from aromm.core.errors import InputError
+    from aromm.core.vocabulary import PhaseSpec
+    from aromm.homogenization.discretisation_gap import discretisation_gap
+    from aromm.scene.geometry import VoxelGeometry
+    from aromm.scene.scene_file import Scene
+
+    labels = tracheids(6)
+    faces = (FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0))
+    iso = Scene(VoxelGeometry(labels, (BOX / 6,) * 3), PHASES, faces)
+    with pytest.raises(InputError, match=r"^no unknown phase conductivity absorbs the gap"):
+        discretisation_gap(iso, {"z1.h": 20.0, "fibre.c": 4e6})
+    ortho = Scene(VoxelGeometry(labels, (BOX / 6,) * 3),
+                  (PHASES[0], PhaseSpec("fibre", 1, (0.3, 0.3, 0.6), 4e6)), faces)
+    with pytest.raises(InputError, match=r"^fibre\.k is an anisotropic phase's conductivity"):
+        discretisation_gap(ortho, {"fibre.k": 0.3})

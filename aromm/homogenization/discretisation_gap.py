@@ -45,7 +45,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import dense
 from aromm.full.solve import steady_sensitivity
 from aromm.homogenization.properties import fluxmetric
-from aromm.homogenization.representativeness import phase_unknowns, with_values
+from aromm.homogenization.representativeness import with_values
 from aromm.scene.model_section import refusal
 from aromm.scene.scene_file import Scene, assemble
 
@@ -116,10 +116,15 @@ def discretisation_gap(scene: Scene, estimates: Mapping[str, float], method: str
     """
     start = time.process_time()
     estimates = rounded(estimates)
-    unknown_k, _ = phase_unknowns(scene, estimates)
+    phases = {ph.name: ph for ph in scene.phases}
+    unknown_k = [n for n in estimates if n.endswith(".k") and n[:-2] in phases]
     if not unknown_k:
         raise InputError("no unknown phase conductivity absorbs the gap of k̄ (it would move other parameters: "
                          "identify --discretisation-check re-fits to measure it)")
+    tensors = [n for n in unknown_k if phases[n[:-2]].orthotropic or phases[n[:-2]].tensor is not None]
+    if tensors:
+        raise InputError(f"{tensors[0]} is an anisotropic phase's conductivity; the row scales isotropic ones only "
+                         "(identify --discretisation-check re-fits instead)")
     other = "fv" if scene.discretisation == "q1" else "q1"
     refused = refusal(other, scene.geometry, scene.phases)
     if refused is not None:
