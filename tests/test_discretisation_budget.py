@@ -173,7 +173,10 @@ def test_the_default_row_covers_data_of_the_resolved_geometry(tmp_path, capsys, 
     assert len(list((tmp_path / "cache").glob("discretisation-gap-*.npz"))) == 1
     monkeypatch.setattr("aromm.homogenization.discretisation_gap.fluxmetric", None)  # a solve would now fail
     assert main(args) == 0
-    assert json.loads(capsys.readouterr().out)["uncertainty"] == out["uncertainty"]
+    again = json.loads(capsys.readouterr().out)
+    assert again["uncertainty"] == out["uncertainty"]
+    assert (out["model"]["discretisation_gap"]["cached"], again["model"]["discretisation_gap"]["cached"]) == (
+        False, True)
     unc = out["uncertainty"]
     noise = unc["budget"]["measurement noise"]["fibre.k"]  # the noise-only half-width
     assert abs(out["estimates"]["fibre.k"] - TRUTH["fibre.k"]) > 2 * noise

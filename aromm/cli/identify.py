@@ -345,12 +345,12 @@ def _discretisation_gap(result: Identification, scene: Scene, engine: str) -> Id
             store.save(GAP_KIND, key, gap.arrays())
         except OSError as err:  # a read-only cache: the row is there, only the next run recomputes it
             log.info("discretisation gap not cached: %s", err)
-    log.info("discretisation gap: fluxmetric k̄ %.5g (%s) against %.5g (%s), matched by %.4g × the unknown "
-             "conductivities, %.2g CPU s", gap.k_model, gap.discretisation, gap.k_other, gap.other, gap.scale,
-             gap.seconds)
+    log.info("discretisation gap%s: fluxmetric k̄ %.5g (%s) against %.5g (%s), matched by %.4g × the unknown "
+             "conductivities, %.2g CPU s", " (from the cache)" if found is not None else "", gap.k_model,
+             gap.discretisation, gap.k_other, gap.other, gap.scale, gap.seconds)
     uncertainty = with_source(unc, "discretisation", half_widths(gap.half, unc.names, unc.estimates))
-    return dataclasses.replace(result, uncertainty=uncertainty,
-                               model={**result.model, "discretisation_gap": gap.as_dict()})
+    return dataclasses.replace(result, uncertainty=uncertainty, model={
+        **result.model, "discretisation_gap": {**gap.as_dict(), "cached": found is not None}})
 
 
 def gap_key(scene: Scene, estimates: Mapping[str, float]) -> str | None:

@@ -46,7 +46,7 @@ from aromm.core.errors import InputError
 from aromm.core.system import dense
 from aromm.full.solve import steady_sensitivity
 from aromm.homogenization.properties import fluxmetric
-from aromm.homogenization.representativeness import with_values
+from aromm.homogenization.representativeness import unknown_conductivities, with_values
 from aromm.scene.model_section import refusal
 from aromm.scene.scene_file import Scene, assemble
 
@@ -102,8 +102,9 @@ def rounded(estimates: Mapping[str, float]) -> dict[str, float]:
 def discretisation_gap(scene: Scene, estimates: Mapping[str, float], method: str = "auto") -> DiscretisationGap:
     """The module docstring's relative half-widths for the unknowns ``estimates`` (name → value) of an
     identification on ``scene`` (a voxel scene); InputError (saying why) where it cannot be estimated: a mesh scene,
-    an insulating phase (q1 has none), no unknown isotropic phase conductivity, not a heated/cooled scenario, no
-    conducting path.  The estimates are first rounded to :data:`DIGITS` significant digits (:func:`rounded`).
+    an insulating phase where q1's system would be singular (:mod:`aromm.fem.insulation`), no unknown isotropic
+    phase conductivity, not a heated/cooled scenario, no conducting path.  The estimates are first rounded to
+    :data:`DIGITS` significant digits (:func:`rounded`).
 
     >>> import numpy as np
     >>> from aromm.core.vocabulary import FaceSpec, PhaseSpec
@@ -117,12 +118,10 @@ def discretisation_gap(scene: Scene, estimates: Mapping[str, float], method: str
     """
     start = time.process_time()
     estimates = rounded(estimates)
-    phases = {ph.name: ph for ph in scene.phases}
-    unknown_k = [n for n in estimates if n.endswith(".k") and n[:-2] in phases]
+    unknown_k, tensors = unknown_conductivities(scene, estimates)
     if not unknown_k:
         raise InputError("no unknown phase conductivity absorbs the gap of k̄ (it would move other parameters: "
                          "identify --discretisation-check re-fits to measure it)")
-    tensors = [n for n in unknown_k if phases[n[:-2]].orthotropic or phases[n[:-2]].tensor is not None]
     if tensors:
         raise InputError(f"{tensors[0]} is an anisotropic phase's conductivity; the row scales isotropic ones only "
                          "(identify --discretisation-check re-fits instead)")
@@ -134,9 +133,9 @@ def discretisation_gap(scene: Scene, estimates: Mapping[str, float], method: str
 
     k_model = float(fluxmetric(base, method).k)  # InputError when the scene is not a heated/cooled scenario
     k_other, slope = _fluxmetric_slope(replace(base, discretisation=other), unknown_k, method)
-    if k_model <= 0 or k_other <= 0 or slope <= 0:
-        raise InputError(f"no conducting path at the estimates (k̄ = 0 in "
-                         f"{scene.discretisation if k_model <= 0 else other})")
+    if k_model <= 0 or k_other <= 0 or slope <= 0:  # k̄ > 0 and rising in every conductivity wherever heat flows
+        raise InputError(f"no conducting path at the estimates (k̄ {k_model:g} in {scene.discretisation}, {k_other:g} "
+                         f"in {other}, slope {slope:g})")
     x = -math.log(k_other / k_model) / slope
     half = {name: abs(x) for name in unknown_k}
     return DiscretisationGap(scene.discretisation, other, k_model, k_other, slope, math.exp(x), half,

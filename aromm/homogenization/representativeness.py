@@ -93,17 +93,25 @@ def with_values(scene: Scene, values: Mapping[str, float]) -> Scene:
     return replace(scene, phases=phases)
 
 
+def unknown_conductivities(scene: Scene, names: Iterable[str]) -> tuple[list[str], list[str]]:
+    """The unknown phase conductivities (``<phase>.k``) among ``names``, and those of them that are an anisotropic
+    phase's (orthotropic, a tensor or a fibre: scaling ``k`` does not scale them)."""
+    phases = {ph.name: ph for ph in scene.phases}
+    unknown_k = [n for n in names if n.endswith(".k") and n[:-2] in phases]
+    return unknown_k, [n for n in unknown_k if phases[n[:-2]].orthotropic or phases[n[:-2]].tensor is not None]
+
+
 def phase_unknowns(scene: Scene, names: Iterable[str]) -> tuple[list[str], list[str]]:
     """The unknown phase conductivities and capacities among ``names``; InputError when there is none, or when a
     conductivity is an anisotropic phase's (the check scales isotropic ones only).  Cheap: commands call it before
     any work."""
-    phases = {ph.name: ph for ph in scene.phases}
-    unknown_k = [n for n in names if n.endswith(".k") and n[:-2] in phases]
+    names = list(names)
+    unknown_k, tensors = unknown_conductivities(scene, names)
+    phases = {ph.name for ph in scene.phases}
     unknown_c = [n for n in names if n.endswith(".c") and n[:-2] in phases]
     if not unknown_k and not unknown_c:
         raise InputError("representativeness: it maps the spread of k̄ and c̄ onto unknown phase conductivities or "
                          "capacities: give a <phase>.k or <phase>.c among the unknowns (--unknown on the command line)")
-    tensors = [n for n in unknown_k if phases[n[:-2]].orthotropic or phases[n[:-2]].tensor is not None]
     if tensors:
         raise InputError(f"representativeness: {tensors[0]} is an anisotropic phase's conductivity; the check scales "
                          "isotropic phase conductivities only")
