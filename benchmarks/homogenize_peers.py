@@ -20,7 +20,8 @@ aromm stops each CG solve by ``ktol`` (default 1e-4): an a priori bound on the a
 to at least taufactor's accuracy.  Each row prints the error it reached ("alg. err", against its own tightly
 converged value: aromm at a residual of 1e-10, taufactor continued to a 1e-3 flux spread — 1e-4 stalls in
 float32 on the random medium, so its error is a lower estimate; untimed, ``--no-reference`` skips them).
-``--ktol 0`` restores the residual criterion rtol 1e-8 (the library default).
+``--ktol 0`` restores the residual criterion rtol 1e-8 (the library default).  ``--fv-rtol 1e-5`` adds a row of
+aromm's fv stopped at that residual beside the one at 1e-8 (its algebraic error printed: the like-for-like row).
 
 Tables:
 
@@ -141,7 +142,8 @@ def worker(spec: dict[str, object]) -> dict[str, object]:
         ktol = None if spec.get("ktol") is None else float(spec["ktol"])  # type: ignore[arg-type]
         with threadpool_limits(limits=threads):
             cpu, wall = time.process_time(), time.perf_counter()
-            result = effective_conductivity(scene, boundary, method, ktol=ktol)
+            rtol = float(spec["rtol"]) if spec.get("rtol") else 1e-8  # type: ignore[arg-type]
+            result = effective_conductivity(scene, boundary, method, rtol=rtol, ktol=ktol)
             cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
             pools = [int(pool["num_threads"]) for pool in threadpool_info()]
             out = {"k": result.k.tolist(), "cpu_per_direction": cpu / 3, "wall_per_direction": wall / 3,
@@ -166,7 +168,7 @@ def run(spec: dict[str, object]) -> dict[str, object]:
 
 
 def row(label: str, spec: dict[str, object], res: dict[str, object]) -> str:
-    head = f"{label:<10}{spec['tool']!s:<16}{spec['n']!s:>4}"
+    head = f"{label:<10}{spec.get('name', spec['tool'])!s:<16}{spec['n']!s:>4}"
     if "skipped" in res:
         return f"{head}  {res['skipped']}"
     k = np.array(res["k"])
@@ -208,7 +210,7 @@ CASES = ("sphere", "laminate", "random", "pores", "wood")
 QUICK_CASES = ("sphere:40", "laminate:32", "random:64")
 
 
-def peers(cases: list[str], threads: int, ktol: float | None, reference: bool) -> None:
+def peers(cases: list[str], threads: int, ktol: float | None, reference: bool, fv_rtol: float | None = None) -> None:
     tolerance = "rtol 1e-8 (residual)" if ktol is None else f"ktol {ktol:g} (bound on the algebraic error of k)"
     print(f"\n1. aromm vs taufactor (CPU, {threads} thread(s) each); aromm {tolerance}, taufactor its default "
           f"convergence (1e-2 flux spread, 2e-3 change of τ); alg. err = |k_xx / k_xx,ref − 1|, ref = aromm at "
@@ -219,11 +221,12 @@ def peers(cases: list[str], threads: int, ktol: float | None, reference: bool) -
         results = {}
         tools = ("fv-temperature", "taufactor") if case == "pores" else \
             ("mg-periodic", "mg-temperature", "fv-temperature", "taufactor")
-        for tool in tools:
-            spec: dict[str, object] = {"tool": tool, "case": case, "n": int(n), "threads": threads, "ktol": ktol,
-                                       "reference": reference}
-            results[tool] = run(spec)
-            print(row(case, spec, results[tool]), flush=True)
+        loose = [("fv-temperature", f"fv@{fv_rtol:g}")] if fv_rtol else []
+        for tool, name in [(t, t) for t in tools[:-1]] + loose + [(tools[-1], tools[-1])]:
+            spec: dict[str, object] = {"tool": tool, "name": name, "case": case, "n": int(n), "threads": threads,
+                                       "ktol": ktol, "reference": reference, "rtol": fv_rtol if name != tool else None}
+            results[name] = run(spec)
+            print(row(case, spec, results[name]), flush=True)
         if line := ratios(results):
             print(line, flush=True)
 
@@ -260,6 +263,9 @@ def main() -> None:
     parser.add_argument("--ktol", type=float, default=DEFAULT_KTOL,
                         help=f"aromm's bound on the algebraic relative error of k (default {DEFAULT_KTOL:g}, at most "
                              "taufactor's measured error at its default); 0: the residual rtol 1e-8 instead")
+    parser.add_argument("--fv-rtol", type=float, default=None,
+                        help="also run aromm's fv to this residual (e.g. 1e-5), its algebraic error of k printed "
+                             "beside taufactor's: the like-for-like row at equal or better accuracy")
     parser.add_argument("--no-reference", action="store_true",
                         help="skip the untimed reference solves that measure each tool's algebraic error")
     parser.add_argument("--threads", type=int, default=1,
@@ -280,7 +286,7 @@ def main() -> None:
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, {os.cpu_count()} CPUs, {args.threads} "
           f"thread(s) per tool, load {os.getloadavg()[0]:.1f} (shared machine: CPU seconds are the robust figure)")
     if not args.no_peers:
-        peers(cases, args.threads, args.ktol or None, not args.no_reference)
+        peers(cases, args.threads, args.ktol or None, not args.no_reference, args.fv_rtol)
     if args.crossover:
         crossover(args.quick, args.threads)
     if args.big:
