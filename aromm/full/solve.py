@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -143,15 +143,17 @@ def steady_field(system: ThermalSystem, values: ParamValues | None = None, metho
                  rtol: float = DEFAULT_RTOL) -> FloatArray:
     """Steady temperature field (K): solve ``K T = F`` with fixed temperatures eliminated (histories held at
     their final values); an iterative ``method`` to the relative residual ``rtol`` (checked)."""
-    v = system.values(values)
+    return _steady(system, system.values(values), method, rtol)[0]
+
+
+def _steady(system: ThermalSystem, v: ParamValues, method: str, rtol: float) -> tuple[FloatArray, _Partition, Any]:
+    """The steady field at the values ``v``, the free/fixed split and the factorised ``K_ff`` (for more solves)."""
     part = _partition(system, v)
-    k = sp.csr_array(system.conductance.evaluate(v))
-    k_ff, k_fd = _split(k, part)
+    k_ff, k_fd = _split(sp.csr_array(system.conductance.evaluate(v)), part)
     fixed = part.fixed_at(np.inf)
     rhs = _load(system, v)[part.free] - k_fd @ fixed
-    points = _points(system, part)
-    solver = factorize(k_ff, steady_method(system, method, rhs.size), rtol, points=points)
-    return part.full(system.n, solver.solve(rhs), fixed)
+    solver = factorize(k_ff, steady_method(system, method, rhs.size), rtol, points=_points(system, part))
+    return part.full(system.n, solver.solve(rhs), fixed), part, solver
 
 
 def steady_sensitivity(system: ThermalSystem, values: ParamValues, rows: FloatArray, scaled: Mapping[str, float], *,
@@ -163,13 +165,7 @@ def steady_sensitivity(system: ThermalSystem, values: ParamValues, rows: FloatAr
     conductivity: the loads and the fixed temperatures do not depend on it).  ``dK = (K(λ⁺) − K(λ⁻)) / (2 step)``:
     exact for the terms linear in the parameters, second order in ``step`` for the harmonic interface links of
     finite volumes."""
-    v = system.values(values)
-    part = _partition(system, v)
-    k_ff, k_fd = _split(sp.csr_array(system.conductance.evaluate(v)), part)
-    fixed = part.fixed_at(np.inf)
-    rhs = _load(system, v)[part.free] - k_fd @ fixed
-    solver = factorize(k_ff, steady_method(system, method, rhs.size), rtol, points=_points(system, part))
-    field = part.full(system.n, solver.solve(rhs), fixed)
+    field, part, solver = _steady(system, system.values(values), method, rtol)
     rows = np.atleast_2d(np.asarray(rows, dtype=float))
     up, down = ({**(values or {}), **{n: x * (1 + sign * step) for n, x in scaled.items()}} for sign in (1, -1))
     d_k = (sp.csr_array(system.conductance.evaluate(system.values(up)))
