@@ -21,10 +21,17 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from aromm.core.vocabulary import PhaseSpec, insulating
+
 BoolArray = npt.NDArray[np.bool_]
 #: Voxels sharing a face, an edge or a corner share at least one node.
 COUPLED = np.ones((3, 3, 3), dtype=bool)
 AXES = "xyz"
+
+
+def conducting_voxels(labels: npt.ArrayLike, phases: Sequence[PhaseSpec]) -> BoolArray:
+    """The voxels of ``labels`` whose phase conducts (every phase but the insulating ones, ``k = 0``)."""
+    return ~np.isin(np.asarray(labels), [ph.label for ph in phases if insulating(ph)])
 
 
 def singular_insulation(conducting: BoolArray, anchors: Sequence[str] = (), *, periodic: bool = False) -> str | None:

@@ -34,7 +34,7 @@ from aromm.core.vocabulary import (
     phase_terms,
     system_of,
 )
-from aromm.fem.insulation import singular_insulation
+from aromm.fem.insulation import conducting_voxels, singular_insulation
 from aromm.fem.voxel_grid import VoxelGrid
 
 
@@ -53,8 +53,7 @@ def refuse_singular_insulation(labels: np.ndarray, phases: Sequence[PhaseSpec], 
     if transient:
         raise InputError(f"phase {cold[0].name!r}: k = 0 (insulating) is for steady scenes (homogenize, rev, simulate "
                          "without [time]); a transient needs every phase to conduct")
-    conducting = ~np.isin(labels, [ph.label for ph in cold])
-    why = singular_insulation(conducting, anchors(boundary))
+    why = singular_insulation(conducting_voxels(labels, phases), anchors(boundary))
     if why is not None:
         raise InputError(f"phase {cold[0].name!r}: k = 0 (insulating) in q1: {why}; the finite volumes remove such "
                          "voxels (discretisation fv)")

@@ -42,7 +42,7 @@ from aromm.core.choices import BOUNDARIES
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
 from aromm.core.vocabulary import insulating
-from aromm.fem.insulation import singular_insulation
+from aromm.fem.insulation import conducting_voxels, singular_insulation
 from aromm.homogenization.accuracy import arithmetic_bound, harmonic_bound, periodic_energy_tolerances
 from aromm.homogenization.anisotropic_cells import anisotropic, assembled_cell
 from aromm.homogenization.fv_cells import fv_cell
@@ -155,7 +155,7 @@ def refuse_singular_cells(scene: Scene, boundary: str, axes: Sequence[int]) -> N
     cold = [ph for ph in scene.phases if insulating(ph)]
     if not cold:
         return
-    conducting = ~np.isin(np.asarray(_image(scene).labels), [ph.label for ph in cold])
+    conducting = conducting_voxels(_image(scene).labels, scene.phases)
     probes = [("", (), True)] if boundary == "periodic" else [
         (f" along {'xyz'[a]}", (f"{'xyz'[a]}0", f"{'xyz'[a]}1") if boundary == "temperature" else (f"{'xyz'[a]}1",),
          False) for a in axes]
