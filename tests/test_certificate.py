@@ -243,3 +243,26 @@ def test_a_wide_block_is_factorised_where_the_engine_chose_multigrid(monkeypatch
         for j in range(columns.shape[1]):
             nb = float(np.linalg.norm(columns[:, j]))
             assert np.linalg.norm(r[:, j]) <= (rtol + rounding_floor(a, x[:, j], nb)) * nb
+
+
+@pytest.mark.filterwarnings("ignore::aromm.core.errors.ModelWarning")
+def test_a_mid_size_model_is_certified_once_built(monkeypatch: pytest.MonkeyPatch) -> None:
+    """aromm.reduction.certified: left to itself, a model from CERTIFY_BELOW to CERTIFY_AFTER_BELOW unknowns (the
+    limits lowered here to make a 5³ body "mid-size", then "large") is built by a greedy that stops on its estimate and
+    then certified: its bound holds against the exact full model; above both it carries none and says why."""
+    from aromm.reduction import certified
+
+    system = body([FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)], size=5)
+    monkeypatch.setattr(certified, "CERTIFY_BELOW", 10)
+    rom = reduce(system, order=8, method="krylov", bounds=BOX, cache=False)
+    assert rom.certificate is not None and rom.info["certificate"] == "primal-dual contour bound"
+    times = system.time.times if system.time is not None else np.array([])
+    for mu in INSIDE:
+        exact = exact_outputs(system, mu, times)
+        actual = np.abs(rom.simulate(mu, times).as_array() - exact).max(axis=0)
+        bound = rom.error_bound(mu)
+        floor = 1e-11 * np.abs(exact).max()  # the truth's own rounding, as in check()
+        assert bound is not None and np.all(bound >= actual - floor)
+    monkeypatch.setattr(certified, "CERTIFY_AFTER_BELOW", 10)
+    large = reduce(system, order=8, method="krylov", bounds=BOX, cache=False)
+    assert large.certificate is None and "not computed" in str(large.info["certificate"])

@@ -58,3 +58,27 @@ def test_krylov_build_at_contrast_4e4_matches_the_exact_model() -> None:
         for k in (300.0, 550.0, 1000.0):
             exact = exact_outputs(system, {"fibre.k": k}, system.time.times)
             assert np.abs(rom.simulate({"fibre.k": k}).as_array() - exact).max() <= 10 * TOLERANCE
+
+
+def test_a_block_through_cholmods_sparse_solve_meets_the_floor_column_by_column() -> None:
+    """aromm.linalg.factorizations: from SPARSE_RHS columns a block goes through cvxopt's ``cholmod.spsolve`` (four
+    columns at a time) instead of its column-by-column dense solve.  Every column, a zero one included (its solution
+    is stored sparse, so the dense copy takes the other path), must be a solve within the float64 floor, and equal to
+    the narrow path's solution within both's residuals plus the rounding of the products that measure them."""
+    from aromm.linalg.factorizations import CHOLMOD_CHUNK, SPARSE_RHS
+
+    system = contrast_system(1000.0)
+    a = sp.csr_array(system.conductance.evaluate(system.values({})) + system.capacity.evaluate(system.values({})))
+    b = np.random.default_rng(1).standard_normal((a.shape[0], CHOLMOD_CHUNK + SPARSE_RHS + 1))
+    b[:, 3] = 0.0
+    fac = factorize(a, "cholmod", rtol=1.0)
+    wide = fac.solve(b, check=False)
+    narrow = np.column_stack([fac.solve(b[:, j:j + 1], check=False)[:, 0] for j in range(b.shape[1])])
+    assert np.all(wide[:, 3] == 0.0)
+    eps, terms = np.finfo(float).eps, int(np.diff(a.indptr).max()) + 1
+    for j in range(b.shape[1]):
+        check_residual(a, wide[:, j], b[:, j], 1e-10, "cholmod")
+        w, n = wide[:, j], narrow[:, j]
+        floor = 2 * terms * eps * (np.linalg.norm(abs(a) @ abs(w)) + np.linalg.norm(abs(a) @ abs(n)))
+        gap = np.linalg.norm(a @ (w - n))
+        assert gap <= np.linalg.norm(a @ w - b[:, j]) + np.linalg.norm(a @ n - b[:, j]) + floor, j

@@ -35,6 +35,12 @@ from aromm.core.system import FloatArray
 from aromm.linalg.orderings import nested_dissection
 
 Method = Literal["auto", "cholmod", "splu", "amg", "mg"]
+#: cvxopt's dense ``cholmod.solve`` loops over the columns (one pass over the factor each), its sparse ``spsolve``
+#: hands CHOLMOD four at a time: from this many columns a block goes through ``spsolve`` (stored dense), which halves
+#: the CPU time per column on the 46³ VER's shifted operator (nnz(L) 5.1e7: 0.056 → 0.028 s, one thread).
+SPARSE_RHS = 4
+#: Columns per ``spsolve`` call (the block is copied twice, as cvxopt dense and sparse matrices).
+CHOLMOD_CHUNK = 32
 
 
 def cholmod_available() -> bool:
@@ -160,9 +166,19 @@ def _cholmod(a: sp.csr_array, perm: npt.NDArray[np.int64] | None) -> Callable[[F
         raise NumericalError(f"CHOLMOD: matrix is not positive definite ({err})") from None
 
     def solve(b: FloatArray) -> FloatArray:
-        rhs = cvxopt.matrix(np.asfortranarray(b.reshape(b.shape[0], -1)))
-        cvxopt.cholmod.solve(factor, rhs)
-        return np.array(rhs).reshape(b.shape)
+        wide = b.reshape(b.shape[0], -1)
+        if wide.shape[1] < SPARSE_RHS:
+            rhs = cvxopt.matrix(np.asfortranarray(wide))
+            cvxopt.cholmod.solve(factor, rhs)
+            return np.array(rhs).reshape(b.shape)
+        out = np.empty(wide.shape)
+        for lo in range(0, wide.shape[1], CHOLMOD_CHUNK):
+            block = cvxopt.sparse(cvxopt.matrix(np.asfortranarray(wide[:, lo:lo + CHOLMOD_CHUNK])))
+            x = cvxopt.cholmod.spsolve(factor, block)
+            n, w = x.size
+            values = np.frombuffer(x.V, dtype=float)  # column-major; every entry stored unless an exact zero
+            out[:, lo:lo + w] = values.reshape(w, n).T if values.size == n * w else np.array(cvxopt.matrix(x))
+        return out.reshape(b.shape)
 
     return solve
 

@@ -22,7 +22,8 @@ from aromm.reduction.certificate import certify as certificate_of
 from aromm.reduction.certificate_gram import GramLedger
 from aromm.reduction.rom import ReducedModel
 
-#: Left to itself (``certify`` None), a model is certified below this many unknowns.  The certificate's offline cost
+#: Left to itself (``certify`` None), a Krylov greedy stops on the certified bound below this many unknowns (and the
+#: bound certifies every model built on one process up to :data:`CERTIFY_AFTER_BELOW`).  The certificate's offline cost
 #: is one shifted solve per column of M and rung of the σ ladder (three on the shipped scenes), by a sparse Cholesky
 #: factor (:data:`~aromm.reduction.scipy_engine.WIDE_BLOCK`); a Krylov build that stops on the bound also runs until
 #: the bound, not only its estimate, meets the tolerance.  ``python benchmarks/certified_cost.py --sizes 24 32`` (one
@@ -33,6 +34,13 @@ from aromm.reduction.rom import ReducedModel
 #: 2.0–3.3) 311 CPU s and 3.4 GB against 21 CPU s and 0.4 GB (15×: its bound met the tolerance only at the greedy's
 #: ten points, and not then).
 CERTIFY_BELOW = 40_000
+#: Left to itself, a model built on one process of fewer unknowns than this, but not fewer than
+#: :data:`CERTIFY_BELOW`, is certified once built: the greedy stops on its estimate, the returned model's bound over
+#: the training set is computed and said (a warning when it misses the tolerance), which costs one solve per column of
+#: the compressed model's M (inputs, outputs, terms × order) and rung, not of the greedy's whole span.  The same
+#: limit as the wide blocks' direct solves (:data:`~aromm.reduction.scipy_engine.WIDE_DIRECT_BELOW`): above it they
+#: iterate, at several times the cost per column.
+CERTIFY_AFTER_BELOW = 200_000
 #: The certificate's offline matrix M (n × (inputs + outputs + terms · order)) is held whole: above this many bytes
 #: the model is returned without a bound (info says so).
 CERTIFY_BYTES = 2 * 1024 ** 3
@@ -46,13 +54,21 @@ def width(engine: CertifyingEngine, system: ThermalSystem, order: int) -> int:
     return int(engine.input_terms().shape[1]) + len(system.observation) + terms * order
 
 
-def wanted(system: ThermalSystem, certify: bool | None, columns: int) -> str | None:
-    """None when the model is to be certified (``certify``, or by size when None: below :data:`CERTIFY_BELOW`
-    unknowns), else why not."""
+def stops_on_bound(system: ThermalSystem, certify: bool | None) -> bool:
+    """Whether a Krylov greedy stops on the certified bound (``certify``, or by size when None: below
+    :data:`CERTIFY_BELOW` unknowns) rather than on its estimate."""
+    return system.n < CERTIFY_BELOW if certify is None else certify
+
+
+def wanted(system: ThermalSystem, certify: bool | None, columns: int, *,
+           after_below: int | None = None) -> str | None:
+    """None when the model is to be certified (``certify``, or by size when None: below ``after_below`` unknowns,
+    default :data:`CERTIFY_AFTER_BELOW`), else why not."""
     if system.time is None:
         return "not computed: a steady model"
     rungs = len(ladder(*_grid(system)))
-    if not (system.n < CERTIFY_BELOW if certify is None else certify):
+    limit = CERTIFY_AFTER_BELOW if after_below is None else after_below
+    if not (system.n < limit if certify is None else certify):
         return (f"not computed: {system.n} unknowns, it would cost about {rungs} × {columns} "
                 "shifted solves (ask with [reduction] certify = true or aromm reduce --certify)")
     if system.n * columns * (8 + 4 * rungs) > CERTIFY_BYTES:  # M, and N̂_σ⁻¹M in float32 per rung (certificate_gram)
@@ -62,14 +78,15 @@ def wanted(system: ThermalSystem, certify: bool | None, columns: int) -> str | N
 
 def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
               certify: bool | None, reference: Mapping[str, float], training: Sequence[Mapping[str, float]],
-              rtol: float, tolerance: float | None = None,
-              certificate: Certificate | None = None) -> tuple[ReducedModel, Info]:
+              rtol: float, tolerance: float | None = None, certificate: Certificate | None = None,
+              after_below: int | None = None) -> tuple[ReducedModel, Info]:
     """``rom`` (Galerkin on the basis ``psi`` of the lifted ``system``) with its certificate at the reference values,
     and what its info records: the worst bound over ``training`` (``error_bound``, °C), the CPU seconds, and
     ``converged = 0`` when that bound exceeds ``tolerance`` (issue 35, item 4); without one when :func:`wanted` says
     no (``certificate`` then says why).  A ``certificate`` given (a Krylov build's, formed from its span's Gram
-    matrices: :mod:`aromm.reduction.certificate_gram`) is used instead of one computed here."""
-    why = wanted(system, certify, width(engine, system, rom.order))
+    matrices: :mod:`aromm.reduction.certificate_gram`) is used instead of one computed here; ``after_below``: the
+    size below which a model is certified by default (an engine whose wide blocks iterate asks for less)."""
+    why = wanted(system, certify, width(engine, system, rom.order), after_below=after_below)
     if why is not None:
         return rom, {"error_bound": float("nan"), "certificate": why}
     start = time.process_time()
@@ -141,7 +158,8 @@ class SpanBound:
 
 def span_bound(engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
                box: krylov.Box) -> SpanBound | None:
-    """The greedy's certified bound when the model is to be certified."""
-    if wanted(system, reductor.certify, width(engine, system, 1)) is not None:
+    """The greedy's certified bound when it is to stop on it (:func:`stops_on_bound`)."""
+    if not stops_on_bound(system, reductor.certify) or wanted(system, reductor.certify,
+                                                              width(engine, system, 1)) is not None:
         return None
     return SpanBound(engine, system, reductor, box)

@@ -91,8 +91,10 @@ class KrylovReductor:
     ``max_points``; ``per_axis`` training points per box axis (0: 5 for ≤ 2 parameters, 3 for ≤ 4, else 2);
     ``dual``: the outputs' moments too; ``solver``: the engine's linear solver (``"auto"``: by size);
     ``highest``: the largest shift is ``highest / t_first`` (the response at t_first carries frequencies above
-    1/t_first); ``certify``: attach the certified output error bound (:mod:`aromm.reduction.certificate`; None:
-    below :data:`~aromm.reduction.certified.CERTIFY_BELOW` unknowns, by its measured cost).
+    1/t_first); ``certify``: attach the certified output error bound (:mod:`aromm.reduction.certificate`) and stop
+    the greedy on it (None: by size, :mod:`aromm.reduction.certified`: stop on it below
+    :data:`~aromm.reduction.certified.CERTIFY_BELOW` unknowns, certify the returned model below
+    :data:`~aromm.reduction.certified.CERTIFY_AFTER_BELOW`; by their measured cost).
     """
 
     bounds: Box = ()

@@ -39,9 +39,10 @@ from aromm.microstructure.digest import label_digest
 from aromm.scene.geometry import VoxelGeometry
 from aromm.scene.scene_file import Scene
 
-_VERSION = 6  # 2: box values masked, pinned values and time grid in every key; 3: models carry a certificate;
+_VERSION = 7  # 2: box values masked, pinned values and time grid in every key; 3: models carry a certificate;
 #  4: the discretisation (q1 or fv) in every voxel key; 5: modal models carry a certificate too; 6: certificates'
-#  Gram matrices corrected by the solves' residuals (a cached model keeps the certificate it was built with)
+#  Gram matrices corrected by the solves' residuals (a cached model keeps the certificate it was built with);
+#  7: models up to 200,000 unknowns certified by default (aromm.reduction.certified.CERTIFY_AFTER_BELOW)
 #: What stands in a key for a value of the training box.
 BOXED = "in the training box"
 #: Options of ``aromm.reduce`` that say how the model is computed, not which model: left out of the key.

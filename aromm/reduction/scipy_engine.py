@@ -230,10 +230,10 @@ class ScipyEngine:
         a = self._assembled_operator(values, shift)
         magnitude = sp.csr_array((np.abs(a.data), a.indices, a.indptr), shape=a.shape)
         terms = int(np.diff(a.indptr).max(initial=0)) + 1
-        x = np.abs(solution)
-        energy = np.concatenate([np.einsum("ij,ij->j", x[:, lo:lo + PRODUCT_COLUMNS],
-                                           magnitude @ np.ascontiguousarray(x[:, lo:lo + PRODUCT_COLUMNS]))
-                                 for lo in range(0, x.shape[1], PRODUCT_COLUMNS)] or [np.zeros(0)])
+        energy = np.zeros(solution.shape[1])
+        for lo in range(0, solution.shape[1], PRODUCT_COLUMNS):
+            x = np.abs(solution[:, lo:lo + PRODUCT_COLUMNS])  # one chunk at a time: no n × columns copy
+            energy[lo:lo + PRODUCT_COLUMNS] = np.einsum("ij,ij->j", x, magnitude @ x)
         extended = float(np.finfo(np.longdouble).eps) / float(np.finfo(float).eps)
         return np.sqrt(terms * extended * np.maximum(energy, 0.0))
 

@@ -26,7 +26,7 @@ from aromm.engines.petsc import runtime
 from aromm.engines.petsc.krylov_engine import SOLVERS, PetscKrylovEngine
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.reduction import Source, cached, distributed
-from aromm.reduction.certified import certified, span_bound
+from aromm.reduction.certified import CERTIFY_BELOW, certified, span_bound
 from aromm.reduction.krylov import KrylovReductor, centre, krylov_model, material_box, training_set
 from aromm.reduction.model_key import system_key
 from aromm.reduction.offline import resolve_cache
@@ -70,7 +70,8 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
                                           progress=progress and runtime.is_root(comm), bound=bound)
             rom, extra = certified(engine, system.template, rom, psi, certify=reductor.certify, reference=centre(box),
                                    training=training_set(box, reductor.per_axis), rtol=reductor.rtol,
-                                   tolerance=reductor.tolerance, certificate=bound.final if bound else None)
+                                   tolerance=reductor.tolerance, certificate=bound.final if bound else None,
+                                   after_below=CERTIFY_BELOW)  # its wide blocks iterate (KSP)
             info.update(extra)
     finally:
         engine.close()
