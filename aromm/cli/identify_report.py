@@ -110,9 +110,10 @@ def _reduction_note(model: Mapping[str, object]) -> str:
     met = "" if "converged" not in model else (" (met its tolerance)" if str(model["converged"]) == "1"
                                                else " (above its tolerance)")
     bound = float(str(model.get("error_bound", "nan")))
+    if not math.isfinite(bound):
+        return f"; its estimated error {error:.2g} °C over its box{met} (an estimate, not a bound)"
     where = "over its training grid" if model.get("method") == "krylov" else "at the scene's values"
-    certified = f", certified bound {bound:.2g} °C {where}" if math.isfinite(bound) else ""
-    return f"; its estimated error {error:.2g} °C over its box{met} (an estimate, not a bound){certified}"
+    return f"; its certified bound {bound:.2g} °C {where}{met}, its own estimate {error:.2g} °C"
 
 
 def _posterior_table(post: Posterior) -> str:

@@ -51,8 +51,9 @@ class ReductionSettings:
     upper), the identification box, over which the Krylov reduction trains (the modal methods do not use it);
     ``tolerance`` (°C): the Krylov reduction's greedy stops at this estimated error (None: the reductor's default,
     aromm.reduction.krylov.KrylovReductor; a Krylov-only option, so ``"auto"`` then picks the Krylov method);
-    ``certify``: attach the certified output error bound (None: below 40,000 unknowns, by its cost; every one-process
-    method, aromm.reduction.certified);
+    ``certify``: attach the certified output error bound and stop the Krylov greedy on it (None: by size, by its cost:
+    certified below 200,000 unknowns, the greedy stops on it below 40,000; every one-process method,
+    aromm.reduction.certified);
     ``solver`` (linear solves), ``eigensolver`` and ``basis_storage`` of the modal bases."""
 
     order: int = 200
