@@ -39,8 +39,9 @@ Method = Literal["auto", "cholmod", "splu", "amg", "mg"]
 #: hands CHOLMOD four at a time: from this many columns a block goes through ``spsolve`` (stored dense), which halves
 #: the CPU time per column on the 46³ VER's shifted operator (nnz(L) 5.1e7: 0.056 → 0.028 s, one thread).
 SPARSE_RHS = 4
-#: Columns per ``spsolve`` call (the block is copied twice, as cvxopt dense and sparse matrices).
-CHOLMOD_CHUNK = 32
+#: Columns per ``spsolve`` call (the block is copied twice, as cvxopt dense and sparse matrices; CHOLMOD grows the
+#: sparse solution as it goes, so wider calls copy more: 16 and 8 equal, 4 and 32 slower in system time).
+CHOLMOD_CHUNK = 16
 
 
 def cholmod_available() -> bool:

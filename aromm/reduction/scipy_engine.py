@@ -214,11 +214,15 @@ class ScipyEngine:
         (:func:`aromm.reduction.certificate.riesz`), whose rounding then enters the bound 2048 times less than in
         float64 on x86-64 (:meth:`residual_rounding`)."""
         a = self._assembled_operator(values, shift, np.longdouble)
-        r = np.array(rhs, dtype=float)
+        r = np.empty(rhs.shape)
+        x = np.empty((rhs.shape[0], min(PRODUCT_COLUMNS, rhs.shape[1])), dtype=np.longdouble)  # one buffer, reused
         for lo in range(0, r.shape[1], PRODUCT_COLUMNS):
-            wide = np.asarray(rhs[:, lo:lo + PRODUCT_COLUMNS], dtype=np.longdouble)
-            r[:, lo:lo + PRODUCT_COLUMNS] = wide - a @ np.asarray(solution[:, lo:lo + PRODUCT_COLUMNS],
-                                                                  dtype=np.longdouble)
+            cols = slice(lo, lo + PRODUCT_COLUMNS)
+            part = x[:, :r[:, cols].shape[1]]
+            part[...] = solution[:, cols]
+            product = a @ part
+            np.subtract(rhs[:, cols], product, out=product)  # in extended precision, then rounded once
+            r[:, cols] = product
         return r
 
     def residual_rounding(self, values: Mapping[str, float], shift: float, solution: FloatArray,
