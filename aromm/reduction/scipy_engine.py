@@ -214,11 +214,12 @@ class ScipyEngine:
         (:func:`aromm.reduction.certificate.riesz`), whose rounding then enters the bound 2048 times less than in
         float64 on x86-64 (:meth:`residual_rounding`)."""
         a = self._assembled_operator(values, shift, np.longdouble)
-        r = np.empty(rhs.shape)
-        x = np.empty((rhs.shape[0], min(PRODUCT_COLUMNS, rhs.shape[1])), dtype=np.longdouble)  # one buffer, reused
-        for lo in range(0, r.shape[1], PRODUCT_COLUMNS):
+        n, m = (int(d) for d in np.shape(rhs))
+        r = np.empty((n, m))
+        x = np.empty((n, min(PRODUCT_COLUMNS, m)), dtype=np.longdouble)  # one buffer, reused
+        for lo in range(0, m, PRODUCT_COLUMNS):
             cols = slice(lo, lo + PRODUCT_COLUMNS)
-            part = x[:, :r[:, cols].shape[1]]
+            part = x[:, :min(PRODUCT_COLUMNS, m - lo)]
             part[...] = solution[:, cols]
             product = a @ part
             np.subtract(rhs[:, cols], product, out=product)  # in extended precision, then rounded once
