@@ -36,8 +36,10 @@ from aromm.linalg.orderings import nested_dissection
 
 Method = Literal["auto", "cholmod", "splu", "amg", "mg"]
 #: cvxopt's dense ``cholmod.solve`` loops over the columns (one pass over the factor each), its sparse ``spsolve``
-#: hands CHOLMOD four at a time: from this many columns a block goes through ``spsolve`` (stored dense), which halves
-#: the CPU time per column on the 46³ VER's shifted operator (nnz(L) 5.1e7: 0.056 → 0.028 s, one thread).
+#: hands CHOLMOD four at a time: from this many columns a block goes through ``spsolve`` (stored dense).  ``python
+#: benchmarks/wide_solve.py --sizes 32 46 --columns 200`` (one thread, residual checks included; records
+#: wide_solve_32_46.txt before, wide_solve_32_46_spsolve.txt after): 0.019 → 0.0099 CPU s a column at 32³, 0.070 →
+#: 0.038 at 46³ (nnz(L) 5.1e7).
 SPARSE_RHS = 4
 #: Columns per ``spsolve`` call (the block is copied twice, as cvxopt dense and sparse matrices; CHOLMOD grows the
 #: sparse solution as it goes, so wider calls copy more: 16 and 8 equal, 4 and 32 slower in system time).

@@ -59,7 +59,9 @@ DIRECT_BELOW = 20_000
 #: nested dissection up to :data:`WIDE_DIRECT_BELOW` unknowns, where the engine otherwise iterates.
 #: ``python benchmarks/wide_solve.py --sizes 32 46 --columns 200`` (one BLAS thread, load 0.9, 2026-12-05): CHOLMOD
 #: set-up / a column 0.55 / 0.019 CPU s at 32³ (35,937 unknowns), 3.4 / 0.070 at 46³ (103,823), against the
-#: multigrid's 0.043 and 0.135 a column.  cvxopt's CHOLMOD solves a block column by column, so the gain stays 2–3×.
+#: multigrid's 0.043 and 0.135 a column; since blocks go through CHOLMOD four columns at a time
+#: (:data:`aromm.linalg.factorizations.SPARSE_RHS`, same command, load 0.4–0.7, records/wide_solve_32_46_spsolve.txt)
+#: 0.0099 and 0.038 against the multigrid's 0.038 and 0.128.
 WIDE_BLOCK = 48
 #: Unknowns up to which a wide block is factorised (≈ 58³ nodes; the factor's fill grows as n^(4/3): the process's
 #: peak 1.35 GB at 46³ in benchmarks/wide_solve.py).
