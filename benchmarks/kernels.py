@@ -8,7 +8,10 @@ two 256 MB arrays, read + write counted).  Bytes per voxel, float64 vectors unle
 * fv red–black Gauss–Seidel, one colour: x 8, b 8, links 12 read, half of x written 4 → 32;
 * fv restriction (2 × 2 × 2 sums): 8 + 1 → 9; prolongation (x += P e on live cells): 8 + 8 + 1 + 1 → 18;
 * Q1 product ``K x`` (27-point, per node): x 8, phase code 1, out 8 → 17 (float32 vectors: 9); "numpy kept" reads
-  7 kept per-voxel weights besides (+ 28 or 56 bytes, not counted: the bound is the one without them).
+  7 kept per-voxel weights besides (+ 28 or 56 bytes, not counted: the bound is the one without them);
+* the first coarse level's product in the V-cycle (float32, per *coarse* node, n³/8 of them): 27 coefficients 108,
+  x 4, out 4 → 116 (aromm.linalg.multigrid.coarse_stencil); "csr" is scipy's product of the same rows, which also
+  reads 27 int32 column indices (+ 108, not counted).
 
 Usage: NUMBA_NUM_THREADS=1 python benchmarks/kernels.py [--n 128] [--repeat 5]
 """
@@ -44,6 +47,8 @@ def bandwidth(repeat: int) -> float:
 def main() -> None:
     from aromm.fv.kernels import NUMPY, kernels
     from aromm.fv.stencil import conductance_stencil
+    from aromm.linalg.multigrid.coarse_stencil import compiled_product, numpy_product
+    from aromm.linalg.multigrid.hierarchy import ElementLevel
     from aromm.linalg.multigrid.operator import VoxelOperator
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -54,7 +59,7 @@ def main() -> None:
     bw = bandwidth(args.repeat)
     print(f"# {n}³ voxels, copy bandwidth {bw / 1e9:.1f} GB/s, NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')},"
           f" load {os.getloadavg()[0]:.2f}")
-    print(f"{'kernel':>28} {'backend':>10} {'ns/voxel':>9} {'B/voxel':>8} {'bound ns':>9} {'of bound':>9}")
+    print(f"{'kernel':>28} {'backend':>10} {'ns/node':>9} {'B/voxel':>8} {'bound ns':>9} {'of bound':>9}")
     k = np.where(rng.random((n, n, n)) < 0.4, 10.0, 1.0)
     st = conductance_stencil((k, k, k), (1.0, 1.0, 1.0), 2)
     x, b, out = rng.random(st.shape), rng.random(st.shape), np.empty(st.shape)
@@ -79,9 +84,20 @@ def main() -> None:
         y = np.empty_like(u)
         rows.append((f"Q1 product {np.dtype(dtype).name}", size,
                      {name: lambda op=op, u=u, y=y: op.matvec(u, out=y) for name, op in variants.items()}))
+    level = ElementLevel.coarse_of(replace(kept, keep_weights=False, _cache={}))
+    stencil, csr = level.to_stencil(np.float32), level.to_csr(np.float32)
+    v = rng.random(stencil.shape[0]).astype(np.float32)
+    w = np.empty(stencil.node_shape, dtype=np.float32)
+    product = compiled_product()
+    coarse_runs: dict[str, Callable[[], object]] = {
+        "numpy": lambda: numpy_product(stencil.data, v.reshape(w.shape), w, stencil.periodic), "csr": lambda: csr @ v}
+    if product is not None:
+        coarse_runs = {"numba": lambda: product(stencil.data, v.reshape(w.shape), w, stencil.periodic), **coarse_runs}
+    rows.append(("Q1 coarse level float32", 116, coarse_runs))
     for label, size, runs in rows:
         for backend, run in runs.items():
-            ns = _seconds(run, args.repeat) / n**3 * 1e9
+            nodes = stencil.shape[0] if label.startswith("Q1 coarse") else n**3
+            ns = _seconds(run, args.repeat) / nodes * 1e9
             bound = size / bw * 1e9
             print(f"{label:>28} {backend:>10} {ns:9.2f} {size:8d} {bound:9.2f} {bound / ns:9.1%}", flush=True)
 

@@ -203,7 +203,8 @@ class VolumeMultigrid:
         ax, out, product = (w.reshape(shape) for w in work)
         np.abs(x.reshape(shape), out=ax)
         self.ops.diagonal(self.stencil, out)
-        out *= 2.0 * ax
+        out *= ax
+        out *= 2.0
         self.ops.product(self.stencil, ax, product)
         out -= product
         return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(out)) / nb
@@ -240,9 +241,7 @@ class VolumeMultigrid:
         a = StencilOperator(self.stencil, self.ops)
         r = np.empty_like(x)
         true_residual(x, r)
-        # CG's update step shares its memory with the fine V-cycle's residual: they are never live together
-        self.levels[0].r = np.empty_like(x)
-        work = [np.empty_like(x) for _ in range(3)] + [self.levels[0].r]
+        work = [np.empty_like(x) for _ in range(3)]
         total = 0
         while True:
             x, r, its = pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total,

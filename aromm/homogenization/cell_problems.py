@@ -178,6 +178,7 @@ def _solver(op: VoxelOperator, method: str, rtol: float, result: CellResult,
 
         def solve_mg(b: FloatArray, energy_tol: float | None) -> FloatArray:
             x = mg.solve(b, energy_tol=energy_tol)
+            mg.release()  # the tensor's cross terms and the next load need the memory of CG's vectors
             result.iterations.append(mg.iterations[-1])
             return x
 
@@ -226,8 +227,10 @@ def _periodic(scene: Scene, method: str, rtol: float, result: CellResult, ktol: 
             for i, other in enumerate(earlier):
                 value = (float(other @ product) - float(load(i) @ field_) - float(b @ other)) / volume
                 result.k[i, j] = result.k[j, i] = value
+            del product
         if j < 2:
             earlier.append(field_.astype(np.float32))
+        del b, field_  # two float64 node vectors fewer during the next direction's solve
 
 
 def _faces(scene: Scene, free: VoxelOperator, axis: int, boundary: str, *, method: str, rtol: float,

@@ -2,15 +2,15 @@
 
 The Galerkin coarse operator is linear in the fine one, ``Pᵀ (Σ_i θ_i A_i) P = Σ_i θ_i Pᵀ A_i P`` [Trottenberg2001,
 § 3.4], and every coarse level of a voxel grid has the same 27-point pattern whatever the coefficients
-(:meth:`aromm.linalg.multigrid.hierarchy.ElementLevel.to_csr`).  So the levels of each term ``A_i`` (free of
+(:meth:`aromm.linalg.multigrid.hierarchy.ElementLevel.stencil`).  So the levels of each term ``A_i`` (free of
 fixed faces) are built once, and those of any member ``K(μ) + s C(μ)`` — one per parameter point and shift of the
-Krylov reduction — are a weighted sum of their value arrays, level by level, sharing one index structure.  The
-fixed faces are then applied as for the fixed-temperature problems of homogenisation
+Krylov reduction — are a weighted sum of their value arrays, level by level (the coarsest, in CSR, sharing one
+index structure).  The fixed faces are then applied as for the fixed-temperature problems of homogenisation
 (:meth:`~aromm.linalg.multigrid.hierarchy.CoarseLevel.with_fixed`).  A set-up then reads the stored values once
 instead of coarsening the fine grid and assembling 27-point rows (≈ 19 CPU s a shift at 256³, mostly fresh arrays).
-Memory: one value array per term and level (a 256³ grid: 232 MB per term at the first coarse level in float32) and
-one shared index structure.  The coarse levels but the coarsest are float32 (the V-cycle's precision): each term's
-values are rounded once, their sum once more.
+Memory: one value array per term and level (a 256³ grid: 232 MB per term at the first coarse level in float32).  The
+coarse levels but the coarsest are float32 (the V-cycle's precision): each term's values are rounded once, their sum
+once more.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.system import FloatArray
+from aromm.linalg.multigrid.coarse_stencil import StencilMatrix
 from aromm.linalg.multigrid.hierarchy import CoarseLevel, galerkin_levels
 from aromm.linalg.multigrid.operator import VoxelOperator
 
@@ -42,9 +43,8 @@ class AffineLevels:
         per_term = [galerkin_levels(replace(t, fixed=(), keep_weights=False), coarsest, dtype) for t in terms]
         pattern = per_term[0]
         for levels in per_term[1:]:
-            if len(levels) != len(pattern) or any(
-                    a.matrix.shape != b.matrix.shape or not np.array_equal(a.matrix.indices, b.matrix.indices)
-                    for a, b in zip(levels, pattern, strict=True)):
+            if len(levels) != len(pattern) or any(not _same_pattern(a.matrix, b.matrix)
+                                                  for a, b in zip(levels, pattern, strict=True)):
                 raise InputError("multigrid: the terms of an affine voxel operator must share one grid")
         values = tuple(tuple(levels[k].matrix.data for levels in per_term) for k in range(len(pattern)))
         return cls(tuple(pattern), values)
@@ -62,12 +62,21 @@ class AffineLevels:
                     np.multiply(v, w, out=scaled)
                     data += scaled
             m = level.matrix
-            combined = sp.csr_array((data, m.indices, m.indptr), shape=m.shape)
+            combined = (m.with_data(data) if isinstance(m, StencilMatrix)
+                        else sp.csr_array((data, m.indices, m.indptr), shape=m.shape))
             out.append(replace(level, matrix=combined).with_fixed(fixed))
         return out
 
     @property
     def nbytes(self) -> int:
-        """Bytes held: every term's values and the shared index arrays."""
+        """Bytes held: every term's values and the shared index arrays (the coarsest level's CSR)."""
         return sum(v.nbytes for level in self.values for v in level) + sum(
-            level.matrix.indices.nbytes + level.matrix.indptr.nbytes for level in self.pattern)
+            level.matrix.indices.nbytes + level.matrix.indptr.nbytes for level in self.pattern
+            if not isinstance(level.matrix, StencilMatrix))
+
+
+def _same_pattern(a: sp.csr_array | StencilMatrix, b: sp.csr_array | StencilMatrix) -> bool:
+    """Whether two levels' value arrays line up entry by entry (same grid; same CSR columns)."""
+    if isinstance(a, StencilMatrix) or isinstance(b, StencilMatrix):
+        return isinstance(a, StencilMatrix) and isinstance(b, StencilMatrix) and a.data.shape == b.data.shape
+    return a.shape == b.shape and np.array_equal(a.indices, b.indices)

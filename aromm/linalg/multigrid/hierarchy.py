@@ -1,4 +1,4 @@
-"""Galerkin coarse grids of the voxel Q1 operator, element by element, and their assembled 27-point rows.
+"""Galerkin coarse grids of the voxel Q1 operator, element by element, and their 27-point coefficient arrays.
 
 Coarsening halves the element count along every axis: coarse element J covers fine elements 2J and 2J + 1
 (only 2J at the end of an odd axis), and the prolongation P is trilinear interpolation in index space.  The
@@ -25,6 +25,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from aromm.core.system import FloatArray
+from aromm.linalg.multigrid.coarse_stencil import DIAGONAL, StencilMatrix
 from aromm.linalg.multigrid.operator import VoxelOperator, fold_ghosts
 
 # class basis of symmetric 2×2 matrices: B00 = [[1,0],[0,0]], B01 = [[0,1],[1,0]], B11 = [[0,0],[0,1]]
@@ -111,17 +112,32 @@ class ElementLevel:
 
         return ElementLevel(coarsen(self.elements, source, self.fixed), self.periodic, self.fixed)
 
-    def to_csr(self) -> sp.csr_array:
-        """Assembled operator: 27 entries per row (zeros where a neighbour is missing), identity on fixed rows."""
+    def stencil(self, dtype: type = np.float64) -> FloatArray:
+        """The assembled operator as 27 coefficient arrays on the node grid (:mod:`aromm.linalg.multigrid.
+        coarse_stencil`'s layout), summed in ``dtype``: zeros where a neighbour is missing, identity on fixed rows."""
         nz, ny, nx = self.elements
-        stencil = np.zeros((27, nz + 1, ny + 1, nx + 1))
+        stencil: FloatArray = np.zeros((27, nz + 1, ny + 1, nx + 1), dtype=dtype)
         for pz, py, px, qz, qy, qx in np.ndindex(2, 2, 2, 2, 2, 2):
             offset = (qz - pz + 1) * 9 + (qy - py + 1) * 3 + (qx - px + 1)
             value = self.values[pz + qz, py + qy, px + qx]  # class index: 00 → 0, 01/10 → 1, 11 → 2
             stencil[offset, pz:pz + nz, py:py + ny, px:px + nx] += value
         if self.periodic:
             fold_ghosts(stencil, (1, 2, 3))
-            stencil = stencil[:, :-1, :-1, :-1]
+            stencil = np.ascontiguousarray(stencil[:, :-1, :-1, :-1])
+        diagonal = stencil[DIAGONAL]
+        for face in self.fixed:
+            axis = 2 - "xyz".index(face[0])
+            diagonal[(slice(None),) * axis + (0 if face[1] == "0" else diagonal.shape[axis] - 1,)] = 1.0
+        return stencil
+
+    def to_stencil(self, dtype: type = np.float32) -> StencilMatrix:
+        """The assembled operator without column indices (a V-cycle's level: 27 values a node)."""
+        return StencilMatrix(self.stencil(dtype), self.periodic)
+
+    def to_csr(self, dtype: type = np.float64) -> sp.csr_array:
+        """Assembled operator in CSR with int32 indices while they fit: 27 entries per row (zeros where a neighbour
+        is missing), identity on fixed rows."""
+        stencil = self.stencil(dtype)
         shape = self.node_shape
         n = int(np.prod(shape))
         index_type = np.int32 if 27 * n < 2**31 else np.int64
@@ -142,15 +158,9 @@ class ElementLevel:
             if missing.any():
                 index[missing] = np.arange(n, dtype=index_type).reshape(shape)[missing]
             cols[..., offset] = index
-        data = stencil.reshape(27, n).T.copy()
+        data = np.array(stencil.reshape(27, n).T, order="C")
         del stencil
-        diag = data[:, 13]
-        for face in self.fixed:
-            axis = 2 - "xyz".index(face[0])
-            plane = np.zeros(shape, dtype=bool)
-            plane[(slice(None),) * axis + (0 if face[1] == "0" else shape[axis] - 1,)] = True
-            diag[plane.ravel()] = 1.0
-        out = sp.csr_array((data.ravel(), cols.ravel(), np.arange(0, 27 * n + 1, 27)), shape=(n, n))
+        out = sp.csr_array((data.ravel(), cols.ravel(), np.arange(0, 27 * n + 1, 27, dtype=index_type)), shape=(n, n))
         out.sum_duplicates()
         return out
 
@@ -176,9 +186,10 @@ def assembled_matrix(op: VoxelOperator) -> sp.csr_array:
 
 @dataclass(frozen=True, eq=False)
 class CoarseLevel:
-    """An assembled coarse level: 27-point matrix, node shape and element counts (z, y, x)."""
+    """An assembled coarse level: 27-point matrix (coefficient arrays; CSR on the coarsest level, which is factorised),
+    node shape and element counts (z, y, x)."""
 
-    matrix: sp.csr_array
+    matrix: sp.csr_array | StencilMatrix
     node_shape: tuple[int, int, int]
     elements: tuple[int, int, int]
     fixed: tuple[str, ...]
@@ -193,6 +204,8 @@ class CoarseLevel:
         """
         mask = fixed_mask(self.node_shape, fixed)
         m = self.matrix
+        if isinstance(m, StencilMatrix):
+            return CoarseLevel(m.with_fixed(mask), self.node_shape, self.elements, fixed)
         keep = ~mask
         lengths = np.diff(m.indptr)
         data = m.data * (np.repeat(keep, lengths) & keep[m.indices])  # in the matrix's precision
@@ -211,12 +224,10 @@ def galerkin_levels(op: VoxelOperator, coarsest: int, dtype: type = np.float64) 
     out: list[CoarseLevel] = []
     level = ElementLevel.coarse_of(op) if min(op.elements) >= 4 else None
     while level is not None:
-        matrix = level.to_csr()
-        if matrix.shape[0] <= coarsest or min(level.elements) < 4:
-            out.append(CoarseLevel(matrix, level.node_shape, level.elements, level.fixed))
+        if int(np.prod(level.node_shape)) <= coarsest or min(level.elements) < 4:
+            out.append(CoarseLevel(level.to_csr(), level.node_shape, level.elements, level.fixed))
             return out
-        out.append(CoarseLevel(matrix.astype(dtype), level.node_shape, level.elements, level.fixed))
-        del matrix
+        out.append(CoarseLevel(level.to_stencil(dtype), level.node_shape, level.elements, level.fixed))
         level = level.coarse()
     return out
 

@@ -196,7 +196,7 @@ class VoxelOperator:
                 if mask:
                     self._zero_fixed(ext, k0, k1)
                 if kernel is not None:  # one fused pass, the weights read by phase code (none kept)
-                    result = self._workspace(dtype, ext.size)[15, :ext.size].reshape(ext.shape)
+                    result = self._workspace(dtype, ext.size, rows=1)[0, :ext.size].reshape(ext.shape)
                     kernel(ext, self._padded_phase[k0:k1], codes, result)
                 else:
                     weights = self._slab_weights(table, k0, k1, _pass_size(ext.shape)) if weights is None else weights
@@ -344,12 +344,12 @@ class VoxelOperator:
         _adjoint(h_s, h_d, 1, out, scratch)
         return out.reshape(planes, rows, cols)
 
-    def _workspace(self, dtype: np.dtype, size: int) -> FloatArray:
-        """(16, ≥ size) scratch rows of the slab product, kept per precision (≈ 16 slab arrays)."""
-        key = f"work{np.dtype(dtype).char}"
+    def _workspace(self, dtype: np.dtype, size: int, rows: int = 16) -> FloatArray:
+        """(rows, ≥ size) slab scratch, kept per precision and row count (16 for numpy's passes, 1 for the kernel)."""
+        key = f"work{np.dtype(dtype).char}{rows}"
         work = self._cache.get(key)
         if work is None or work.shape[1] < size:
-            work = self._cache[key] = np.empty((16, size), dtype=dtype)
+            work = self._cache[key] = np.empty((rows, size), dtype=dtype)
         return work
 
     def _slab_weights(self, table: FloatArray, k0: int, k1: int, size: int) -> FloatArray:

@@ -1,14 +1,16 @@
 """Conjugate gradients preconditioned by a geometric multigrid V-cycle on the voxel grid.
 
 Levels: the matrix-free fine operator (:class:`~aromm.linalg.multigrid.operator.VoxelOperator`), then Galerkin
-coarse operators assembled as 27-point rows (:mod:`aromm.linalg.multigrid.hierarchy`) down to a grid of at most
+coarse operators as 27 coefficient arrays (:mod:`aromm.linalg.multigrid.hierarchy`,
+:mod:`aromm.linalg.multigrid.coarse_stencil`; the coarsest in CSR) down to a grid of at most
 ``COARSEST_NODES`` nodes, solved directly (CHOLMOD, else SuperLU).  Smoother: Chebyshev polynomial of degree
 ``DEGREE`` in D⁻¹A on [λ/``SPREAD``, λ] with λ a Gershgorin bound of D⁻¹A, the same before and after the
 coarse correction, so the V-cycle is a symmetric positive-definite preconditioner [Adams2003, § 3]
 [Trottenberg2001, ch. 2]; trilinear transfers (:mod:`aromm.linalg.multigrid.transfer`).  Each level keeps its
-V-cycle vectors and CG its own, so a solve maps no fresh fine-grid array per operation.  CG stops when the true
-relative residual ‖b − A x‖ / ‖b‖ ≤ ``rtol`` and raises :class:`~aromm.core.errors.NumericalError` (naming the
-solver, the residual and the iteration count) otherwise.
+V-cycle vectors and CG its own (three besides x and r: the step x += α p is BLAS's in-place daxpy), so a solve
+maps no fresh fine-grid array per operation; :meth:`MultigridSolver.release` hands them back between solves.  CG
+stops when the true relative residual ‖b − A x‖ / ‖b‖ ≤ ``rtol`` and raises
+:class:`~aromm.core.errors.NumericalError` (naming the solver, the residual and the iteration count) otherwise.
 
 A periodic operator is singular (constants): the right-hand side must sum to zero, the coarsest solve pins
 one node and the preconditioned residual is kept mean-free, so CG runs in the range of A.
@@ -23,11 +25,13 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
+from scipy.linalg.blas import daxpy
 
 from aromm.core.errors import InputError, NumericalError
 from aromm.core.system import FloatArray
 from aromm.linalg.factorizations import DEFAULT_RTOL, FLOOR_FACTOR, factorize_direct, resolve_method, rounding_floor
 from aromm.linalg.multigrid.assembled import GridMatrix, galerkin
+from aromm.linalg.multigrid.coarse_stencil import StencilMatrix
 from aromm.linalg.multigrid.hierarchy import CoarseLevel, fixed_mask, galerkin_levels
 from aromm.linalg.multigrid.operator import VoxelOperator
 from aromm.linalg.multigrid.transfer import transfer
@@ -40,6 +44,10 @@ MAX_ITERATIONS = 500
 FACE_MASS_BOUND = 9.0 / 4.0
 # V-cycle arithmetic: single halves its memory traffic; CG, its residuals and the stopping test stay float64
 PRECISIONS: dict[str, type] = {"single": np.float32, "double": np.float64}
+#: A level's vectors that are views of another's memory: in a V-cycle (MultigridSolver._vcycle) the prolongation's
+#: passes run after the restriction's are consumed and before the post-smoother's first direction d is formed, so
+#: they share memory (the fine level of a periodic grid: 7 bytes a voxel in float32).
+SHARED = {"interpolate0": "restrict1", "interpolate1": "restrict0", "interpolate2": "d"}
 
 
 class _Operator(Protocol):
@@ -61,11 +69,13 @@ class _Level:
 
     def vector(self, name: str, shape: tuple[int, ...], dtype: npt.DTypeLike) -> FloatArray:
         """The level's vector ``name`` (uninitialised), allocated once: a fresh fine-grid vector per use is a fresh
-        mapping of up to 136 MB at 256³, which the kernel faults in page by page (operator.VoxelOperator.matvec)."""
-        v = self.work.get(name)
-        if v is None or v.shape != shape or v.dtype != dtype:
-            v = self.work[name] = np.empty(shape, dtype=dtype)
-        return v
+        mapping of up to 136 MB at 256³, which the kernel faults in page by page (operator.VoxelOperator.matvec).
+        Names in ``SHARED`` are views of another vector's memory (never live at the same time)."""
+        key, size = SHARED.get(name, name), int(np.prod(shape))
+        v = self.work.get(key)
+        if v is None or v.size < size or v.dtype != dtype:
+            v = self.work[key] = np.empty(max(size, v.size if v is not None and v.dtype == dtype else 0), dtype)
+        return v[:size].reshape(shape)
 
 
 @dataclass(eq=False)
@@ -140,13 +150,9 @@ class MultigridSolver:
             a, shape, fixed = next(coarse) if coarse is not None else galerkin(a, shape, fixed)
 
     def precondition(self, r: FloatArray, out: FloatArray | None = None) -> FloatArray:
-        """One V-cycle from a zero guess, in the solver's precision; the result in float64 (into ``out``)."""
-        low = np.dtype(PRECISIONS[self.precision])
-        b = r
-        if r.dtype != low:
-            b = self.levels[0].vector("rhs", r.shape, low)
-            np.copyto(b, r, casting="same_kind")
-        z = self._vcycle(0, b)
+        """One V-cycle from a zero guess, in the solver's precision; the result in float64 (into ``out``).  ``r`` is
+        read in its own precision (no rounded copy of it is kept)."""
+        z = self._vcycle(0, r, np.dtype(PRECISIONS[self.precision]))
         if out is None:
             out = np.empty(r.shape)
         np.copyto(out, z)
@@ -154,25 +160,32 @@ class MultigridSolver:
             out -= out.mean()
         return out
 
-    def _vcycle(self, index: int, b: FloatArray) -> FloatArray:
+    def _vcycle(self, index: int, b: FloatArray, dtype: np.dtype) -> FloatArray:
+        """x ≈ A⁻¹ b on level ``index`` in ``dtype`` (b may be wider: read, never rounded into a copy)."""
         level = self.levels[index]
         if index == len(self.levels) - 1 and self.coarse_solve is not None:
-            return self.coarse_solve(b.astype(float)).astype(b.dtype)  # type: ignore[operator]
-        x = level.vector("x", b.shape, b.dtype)  # returned: the caller uses it before the next V-cycle
+            return self.coarse_solve(b.astype(float)).astype(dtype)  # type: ignore[operator]
+        x = level.vector("x", b.shape, dtype)  # returned: the caller uses it before the next V-cycle
         x.fill(0.0)
-        r = level.vector("r", b.shape, b.dtype)
-        np.copyto(r, b)
+        r = level.vector("r", b.shape, dtype)
+        np.copyto(r, b, casting="same_kind")
         r = _smooth(level, x, r, want_residual=index + 1 < len(self.levels))
         if index + 1 == len(self.levels):
             return x
         coarse = self.levels[index + 1]
         rc = transfer(r, level.elements, level.periodic, True, level.vector)
         rc[coarse.fixed] = 0.0
-        x += transfer(self._vcycle(index + 1, rc), level.elements, level.periodic, False, level.vector)
+        x += transfer(self._vcycle(index + 1, rc, dtype), level.elements, level.periodic, False, level.vector)
         residual = _product(level.matrix, x, r)  # r is free again once restricted
-        np.subtract(b, residual, out=residual)
+        np.subtract(b, residual, out=residual, casting="same_kind")
         _smooth(level, x, residual, want_residual=False)
         return x
+
+    def release(self) -> None:
+        """Drop every level's kept vectors (CG's among them): a caller that needs the memory between solves calls
+        it; the next solve maps them afresh (≈ 0.1 s at 200³ against seconds of iterations)."""
+        for level in self.levels:
+            level.work.clear()
 
     def solve(self, b: FloatArray, x0: FloatArray | None = None, energy_tol: float | None = None) -> FloatArray:
         """x with ‖b − A x‖ ≤ rtol ‖b‖ (true residual, checked); NumericalError otherwise.
@@ -203,7 +216,7 @@ class MultigridSolver:
             self.iterations.append(0)
             return x
         total = 0
-        work = [self.levels[0].vector(f"cg{i}", b.shape, float) for i in range(4)]
+        work = [self.levels[0].vector(f"cg{i}", b.shape, float) for i in range(3)]
         while True:
             x, r, its = pcg(a, self.precondition, x, r, target=self.rtol * nb, budget=MAX_ITERATIONS - total,
                              work=work, energy=energy_tol)
@@ -232,7 +245,7 @@ class MultigridSolver:
             return 0.0
         if self._matrix is None:
             fine = self.levels[0]
-            magnitude = np.abs(x, out=fine.vector("floor", x.shape, float))
+            magnitude = np.abs(x, out=fine.vector("cg2", x.shape, float))  # CG's q: free between its runs
             magnitude /= fine.inverse_diagonal
             magnitude *= fine.lam
             return FLOOR_FACTOR * float(np.finfo(float).eps) * float(np.linalg.norm(magnitude)) / nb
@@ -242,9 +255,10 @@ class MultigridSolver:
 def pcg(a: _Operator, m: Callable[[FloatArray, FloatArray], FloatArray], x: FloatArray, r: FloatArray, *,
          target: float, budget: int, work: list[FloatArray], energy: float | None = None
          ) -> tuple[FloatArray, FloatArray, int]:
-    """CG on A x = b from x with r = b − A x, preconditioned by ``m(r, out=z)``; x and r updated in place.
-    ``work``: the four vectors z, p, q and step (the solver's kept ones)."""
-    z, p, q, step = work
+    """CG on A x = b from x with r = b − A x, preconditioned by ``m(r, out=z)``; x and r updated in place (x, r
+    contiguous float64).  ``work``: the three vectors z, p and q (the solver's kept ones); x ← x + α p is BLAS's
+    daxpy, in place: no fourth vector, one pass."""
+    z, p, q = work
     m(r, z)
     np.copyto(p, z)
     rz = float(r @ z)
@@ -255,8 +269,9 @@ def pcg(a: _Operator, m: Callable[[FloatArray, FloatArray], FloatArray], x: Floa
             raise NumericalError(f"multigrid-preconditioned CG: pᵀAp = {pq:.3g} ≤ 0 at iteration {it} "
                                  "(operator not positive definite?)")
         alpha = rz / pq
-        np.multiply(p, alpha, out=step)
-        x += step
+        if daxpy(p, x, a=alpha) is not x:  # f2py writes a contiguous float64 y in place and returns it
+            raise NumericalError("conjugate gradients: BLAS daxpy did not update x in place (x not contiguous "
+                                 "float64?)")
         q *= alpha
         r -= q
         if energy is not None and alpha * rz <= energy:  # ‖x_it − x_it−1‖²_A (see MultigridSolver.solve)
@@ -323,9 +338,12 @@ def _element_bound(op: VoxelOperator) -> float:
     return max(bound, FACE_MASS_BOUND) if op.exchange else bound
 
 
-def _row_bound(matrix: sp.csr_array) -> float:
+def _row_bound(matrix: sp.csr_array | StencilMatrix) -> float:
     """Gershgorin bound of D⁻¹A: max_i Σ_j |a_ij| / a_ii (rows are never empty: the diagonal is stored)."""
-    row = np.add.reduceat(np.abs(matrix.data), matrix.indptr[:-1])
+    if isinstance(matrix, StencilMatrix):
+        row = matrix.abs_row_sums()
+    else:
+        row = np.add.reduceat(np.abs(matrix.data), matrix.indptr[:-1])
     return float(np.max(row / matrix.diagonal()))
 
 

@@ -1,0 +1,151 @@
+"""A 27-point operator on a node grid stored as its 27 coefficient arrays: the V-cycle's coarse levels.
+
+Row ``i`` at node (k, j, l) of a (nz, ny, nx) grid couples to the node at (k + dz, j + dy, l + dx), dz, dy, dx ∈
+{−1, 0, 1}, with the coefficient ``data[o, k, j, l]``, o = 9 (dz + 1) + 3 (dy + 1) + (dx + 1) (o = 13 the
+diagonal); a periodic grid wraps the neighbours around, a box grid has zero coefficients where they are missing.
+This is how the Galerkin coarse operator of the voxel Q1 grid comes out of its element classes
+(:meth:`aromm.linalg.multigrid.hierarchy.ElementLevel.stencil`), so no column index is stored: 27 values a node
+(4 bytes each in the V-cycle's float32) against 27 values and 27 int32 indices of the same rows in CSR, and the
+product streams the coefficients once (a coarse level is 1/8 of the grid above it: the first one held 15 B/voxel of
+the fine grid in CSR's indices).
+
+The product is compiled when numba is installed (:mod:`aromm.linalg.multigrid.coarse_stencil_compiled`, one pass);
+otherwise 27 shifted multiply-adds on a padded copy of x, equal up to the order of the sums
+(tests/test_coarse_stencil.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+
+from aromm.core.errors import InputError
+from aromm.core.system import FloatArray
+
+OFFSETS = tuple(np.ndindex(3, 3, 3))  # (dz + 1, dy + 1, dx + 1) in the order of o
+DIAGONAL = 13
+
+Product = Callable[[FloatArray, FloatArray, FloatArray, bool], None]
+
+
+@dataclass(frozen=True, eq=False)
+class StencilMatrix:
+    """``data`` (27, nz, ny, nx): the coefficients of each row (see the module docstring); ``periodic`` wraps.
+
+    >>> data = np.zeros((27, 2, 3, 4))
+    >>> data[DIAGONAL] = 2.0
+    >>> data[DIAGONAL + 1] = -1.0  # the x neighbour
+    >>> m = StencilMatrix(data, periodic=True)
+    >>> (m @ np.arange(24.0))[:4].tolist()  # 2 x_l − x_{l+1}, x_4 wrapping to x_0
+    [-1.0, 0.0, 1.0, 6.0]
+    """
+
+    data: FloatArray
+    periodic: bool
+
+    def __post_init__(self) -> None:
+        if self.data.ndim != 4 or self.data.shape[0] != 27 or not self.data.flags.c_contiguous:
+            raise InputError(f"stencil matrix: data must be a contiguous (27, nz, ny, nx) array, got "
+                             f"{self.data.shape}")
+
+    @property
+    def node_shape(self) -> tuple[int, int, int]:
+        _, nz, ny, nx = self.data.shape
+        return (nz, ny, nx)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = int(np.prod(self.node_shape))
+        return (n, n)
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self.data.dtype
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.data.nbytes)
+
+    def diagonal(self) -> FloatArray:
+        return self.data[DIAGONAL].reshape(-1)
+
+    def with_data(self, data: FloatArray) -> StencilMatrix:
+        """The same grid with other coefficients (e.g. a weighted sum of terms' coefficients)."""
+        return StencilMatrix(np.ascontiguousarray(data).reshape(self.data.shape), self.periodic)
+
+    def matvec(self, v: FloatArray, out: FloatArray | None = None) -> FloatArray:
+        """``out`` ← A v for a flat node vector (in the coefficients' precision)."""
+        x = np.ascontiguousarray(v, dtype=self.dtype).reshape(self.node_shape)
+        y = np.empty(self.node_shape, dtype=self.dtype) if out is None else out.reshape(self.node_shape)
+        if y.dtype != self.dtype or not y.flags.c_contiguous:
+            raise InputError(f"stencil matrix: out must be a contiguous {self.dtype} vector, got {y.dtype}")
+        kernel = compiled_product()
+        if kernel is not None:
+            kernel(self.data, x, y, self.periodic)
+        else:
+            numpy_product(self.data, x, y, self.periodic)
+        return y.reshape(-1) if out is None else out
+
+    def __matmul__(self, v: FloatArray) -> FloatArray:
+        return self.matvec(v)
+
+    def abs_row_sums(self) -> FloatArray:
+        """Σ_j abs(a_ij) per row, one coefficient array at a time (no copy of the whole)."""
+        out = np.zeros(self.node_shape)
+        for o in range(27):
+            out += np.abs(self.data[o])
+        return out.reshape(-1)
+
+    def with_fixed(self, mask: npt.NDArray[np.bool_]) -> StencilMatrix:
+        """Rows and columns of the nodes in ``mask`` (flat) zeroed, their diagonal 1: a copy (the free levels stay
+        shared).  On a box grid a row's missing neighbours have zero coefficients, so the wrap-around of the
+        shifted mask changes nothing there."""
+        fixed = mask.reshape(self.node_shape)
+        data = self.data.copy()
+        for o, (iz, iy, ix) in enumerate(OFFSETS):
+            shifted = np.roll(fixed, (1 - iz, 1 - iy, 1 - ix), axis=(0, 1, 2))  # the neighbour of row i is fixed
+            data[o][fixed | shifted] = 0.0
+        data[DIAGONAL][fixed] = 1.0
+        return StencilMatrix(data, self.periodic)
+
+    def tocsr(self) -> sp.csr_array:
+        """The same operator in CSR (float64): for tests and inspection."""
+        n = self.shape[0]
+        index = np.arange(n).reshape(self.node_shape)
+        rows, cols, values = [], [], []
+        for o, (iz, iy, ix) in enumerate(OFFSETS):
+            neighbour = np.roll(index, (1 - iz, 1 - iy, 1 - ix), axis=(0, 1, 2))
+            keep = self.data[o] != 0
+            rows.append(index[keep])
+            cols.append(neighbour[keep])
+            values.append(self.data[o][keep].astype(float))
+        return sp.csr_array((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
+    def toarray(self) -> FloatArray:
+        return self.tocsr().toarray()
+
+
+def numpy_product(data: FloatArray, x: FloatArray, y: FloatArray, periodic: bool) -> None:
+    """y ← A x by 27 shifted multiply-adds on x padded by one node (wrapped, or zeros on a box)."""
+    padded = np.pad(x, 1, mode="wrap" if periodic else "constant")
+    term = np.empty_like(y)
+    nz, ny, nx = y.shape
+    y.fill(0.0)
+    for o, (iz, iy, ix) in enumerate(OFFSETS):
+        np.multiply(data[o], padded[iz:iz + nz, iy:iy + ny, ix:ix + nx], out=term)
+        y += term
+
+
+@cache
+def compiled_product() -> Product | None:
+    """The compiled product ``product(data, x, out, periodic)`` (numba), or None without numba."""
+    try:
+        from aromm.linalg.multigrid.coarse_stencil_compiled import product  # imports numba: only when used
+    except ImportError:
+        return None
+    return product  # type: ignore[no-any-return]
