@@ -23,7 +23,8 @@ whose weight falls like 1/n with the image size n [Huet1990] [Kanit2003]:
   volume-fraction error is removed, and Richardson from (30³, 60³) is within 0.011 %.
 
 ``flux`` and ``temperature`` give the principal values along the image axes (off-diagonal zero).  Solvers:
-``mg`` (geometric multigrid CG, :mod:`aromm.linalg.multigrid`, ≈ 200 B/voxel) or a direct/AMG method of
+``mg`` (geometric multigrid CG, :mod:`aromm.linalg.multigrid`; at 200³ 127 B/voxel all-in periodic, 153 with fixed
+temperatures, docs/one_machine.md) or a direct/AMG method of
 :mod:`aromm.linalg.direct` on the assembled operator; ``auto`` takes ``mg`` from ``MG_CROSSOVER_VOXELS`` (20³) voxels on
 (benchmarks/homogenize_peers.py measures the crossover).  Images with a conductivity tensor or a fibre phase
 (aromm.core.anisotropy) are solved on the assembled operator instead (:mod:`aromm.homogenization.anisotropic_cells`;
@@ -60,8 +61,9 @@ PROBE_FLUX = 1.0  # W/m^2; the problem is linear, so any value gives the same k
 #: From this many voxels on, a cell problem's operator does not keep its gathered per-voxel weights (84 B/voxel in
 #: float64 and float32) when the compiled product (numba, aromm.linalg.multigrid.q1_kernel) reads them by phase code
 #: instead: the periodic tensor of a 200³ random medium (contrast 10, one thread, load 0.5-1.0, 2026-12-05) took
-#: 222 B/voxel all-in against 294, in 26-32 CPU s against 30-34 (two runs each).  The Krylov reduction keeps them:
-#: its block products share each slab's weights across columns.
+#: 222 B/voxel all-in against 294, in 26-32 CPU s against 30-34 (two runs each; 127 since the coarse levels lost
+#: their CSR indices, docs/one_machine.md).  The Krylov reduction keeps them: its block products share each slab's
+#: weights across columns.
 KEEP_WEIGHTS_BELOW = 64**3
 
 

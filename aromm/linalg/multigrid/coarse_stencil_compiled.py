@@ -1,15 +1,16 @@
 """The compiled product of :class:`aromm.linalg.multigrid.coarse_stencil.StencilMatrix`, at module level so that
 numba caches it on disk.  Imported only when a product uses it.
 
-Per output row (fixed z and y) the nine neighbour rows of x are added, each with its three x shifts in one
-contiguous loop over the interior of the row (``y_i += l_i x_{i−1} + c_i x_i + r_i x_{i+1}``), the two end nodes
-apart (wrapped, or their missing neighbour skipped on a box).  At 200³ fine voxels (10⁶ coarse nodes, float32, one
-thread) it took 14–17 ms against 13–15 ms for scipy's CSR product of the same rows, which reads twice the bytes.
+Per output row (fixed z and y) the nine neighbour rows of x are added into a row buffer, each with its three x
+shifts in one contiguous loop over the interior of the row (``y_i += l_i x_{i−1} + c_i x_i + r_i x_{i+1}``), the two
+end nodes apart (wrapped, or their missing neighbour skipped on a box); the row is stored once.  benchmarks/kernels.py
+gives its ns per coarse node against scipy's CSR product of the same rows (which reads twice the bytes).
 """
 
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -21,26 +22,14 @@ def _neighbour(index, shift, n, periodic):  # type: ignore[no-untyped-def]
     return other % n if periodic else -1
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _end(y, coefficients, row, i, periodic):  # type: ignore[no-untyped-def]
-    """y_i += the three x-neighbour terms of end node i (0 or nx − 1); ``coefficients`` (left, centre, right)."""
-    left, centre, right = coefficients
-    nx = row.shape[0]
-    total = centre[i] * row[i]
-    before, after = _neighbour(i, -1, nx, periodic), _neighbour(i, 1, nx, periodic)
-    if before >= 0:
-        total += left[i] * row[before]
-    if after >= 0:
-        total += right[i] * row[after]
-    y[i] += total
-
-
 @numba.njit(cache=True, nogil=True, fastmath=False)
 def product(data, x, out, periodic):  # type: ignore[no-untyped-def]
     nz, ny, nx = x.shape
+    coefficients, rows, result = data.reshape(27, nz * ny, nx), x.reshape(nz * ny, nx), out.reshape(nz * ny, nx)
+    y = np.empty(nx, dtype=out.dtype)  # the output row, accumulated here and stored once
     for k in range(nz):
         for j in range(ny):
-            y = out[k, j]
+            r = k * ny + j
             y[:] = 0
             for iz in range(3):
                 kk = _neighbour(k, iz - 1, nz, periodic)
@@ -48,11 +37,19 @@ def product(data, x, out, periodic):  # type: ignore[no-untyped-def]
                     jj = _neighbour(j, iy - 1, ny, periodic)
                     if kk < 0 or jj < 0:
                         continue
-                    row = x[kk, jj]
+                    row = rows[kk * ny + jj]
                     o = 9 * iz + 3 * iy
-                    left, centre, right = data[o, k, j], data[o + 1, k, j], data[o + 2, k, j]
+                    left, centre, right = coefficients[o, r], coefficients[o + 1, r], coefficients[o + 2, r]
                     for i in range(1, nx - 1):
                         y[i] += left[i] * row[i - 1] + centre[i] * row[i] + right[i] * row[i + 1]
-                    _end(y, (left, centre, right), row, 0, periodic)
-                    if nx > 1:
-                        _end(y, (left, centre, right), row, nx - 1, periodic)
+                    for i in (0, nx - 1):  # the end nodes (one node when nx = 1: added once)
+                        total = centre[i] * row[i]
+                        before, after = _neighbour(i, -1, nx, periodic), _neighbour(i, 1, nx, periodic)
+                        if before >= 0:
+                            total += left[i] * row[before]
+                        if after >= 0:
+                            total += right[i] * row[after]
+                        y[i] += total
+                        if nx == 1:
+                            break
+            result[r] = y
