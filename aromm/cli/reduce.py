@@ -34,9 +34,9 @@ from aromm.scene.reduction_section import REDUCTION_METHODS as REDUCTIONS
               help="Attach (or not) the certified bound of the output error against the full model, any method "
                    "on the scipy engine, krylov on the petsc engine "
                    "(default: the scene's [reduction] certify, else below 200,000 unknowns; a Krylov model of the "
-                   "46³ VER: 115 CPU s and 3.4 GB against 19 CPU s without; amalgam at order 200 about as much as its "
-                   "build). --certify also makes the Krylov greedy stop on the bound (by default below 40,000 "
-                   "unknowns; 311 CPU s on the 46³ VER).")
+                   "46³ VER: 88-115 CPU s and 3.0-3.4 GB against 17-19 CPU s without; amalgam at order 200 about "
+                   "as much as its build). --certify also makes the Krylov greedy stop on the bound (by default "
+                   "below 40,000 unknowns; 250 CPU s on the 46³ VER).")
 @click.option("--reference", "references", multiple=True, type=click.Path(path_type=Path),
               help="Extra reference scene on the same image (e.g. the other scenarios of [Chavez2020]); repeatable.")
 @engine_cli.SOLVER
