@@ -252,8 +252,10 @@ def _faces(scene: Scene, free: VoxelOperator, axis: int, boundary: str, *, metho
         nodes = op.node_shape[2 - axis]
         profile = 1.0 - np.arange(nodes) / (nodes - 1)
         lift = np.broadcast_to(profile.reshape((nodes,) + (1,) * axis), op.node_shape).copy()
-        lifted = op.matvec(lift.ravel(), constrained=False)  # A l
-        b = -lifted
+        b = op.matvec(lift.ravel(), constrained=False)  # A l, negated below: neither l nor A l is held in the solve
+        lift_energy = float(lift.ravel() @ b)  # lᵀA l
+        del lift
+        np.negative(b, out=b)
         b.reshape(op.node_shape)[plane] = 0.0
         for a, index in op.fixed_planes():
             b.reshape(op.node_shape)[(slice(None),) * a + (index,)] = 0.0
@@ -261,7 +263,7 @@ def _faces(scene: Scene, free: VoxelOperator, axis: int, boundary: str, *, metho
         x = _timed(result, solve, b, energy)
         # energy (l + x)ᵀA(l + x) = heat flow × ΔT (ΔT = 1 K); x vanishes on the fixed planes, where b does, so
         # xᵀA l = −bᵀx, and xᵀA x = bᵀx (Galerkin orthogonality of CG from zero, or the converged solve)
-        energy = float(lift.ravel() @ lifted) - float(b @ x)
+        energy = lift_energy - float(b @ x)
         result.k[axis, axis] = energy * size[axis] / area
         return
     weights = np.zeros(op.node_shape)
