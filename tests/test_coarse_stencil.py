@@ -78,7 +78,10 @@ def test_single_precision_coefficients_keep_float32_rounding() -> None:
     assert np.abs(rounded - exact).max() <= 2 * 27 * float(np.finfo(np.float32).eps) * scale
 
 
-def test_with_fixed_on_coefficients_equals_csr_with_identity_rows() -> None:
+def test_held_nodes_act_as_identity_rows_and_zero_columns() -> None:
+    """A level constrained afterwards (the fixed-temperature problems share the free coefficients): its product,
+    diagonal and Gershgorin row sums are those of the dense matrix with identity rows and zero columns at the held
+    nodes; the free level is left as it was."""
     level = ElementLevel.coarse_of(_operator((9, 10, 11), False))
     free = level.to_stencil(np.float64)
     mask = fixed_mask(level.node_shape, ("y0", "y1"))
@@ -86,5 +89,10 @@ def test_with_fixed_on_coefficients_equals_csr_with_identity_rows() -> None:
     a[mask] = 0.0
     a[:, mask] = 0.0
     a[mask, mask] = 1.0
-    assert np.abs(free.with_fixed(mask).toarray() - a).max() == 0.0
+    held = free.with_fixed(mask)
+    assert np.abs(held.toarray() - a).max() == 0.0
+    x = np.random.default_rng(4).standard_normal(a.shape[0])
+    assert np.abs(held @ x - a @ x).max() <= 27 * EPS * float(np.abs(a).max() * np.abs(x).max()) * 2
+    assert np.array_equal(held.diagonal(), np.diag(a))
+    assert np.abs(held.abs_row_sums() - np.abs(a).sum(axis=1)).max() <= 27 * EPS * float(np.abs(a).max())
     assert np.abs(free.toarray() - level.to_csr().toarray()).max() == 0.0  # the free level left as it was

@@ -17,7 +17,7 @@ otherwise 27 shifted multiply-adds on a padded copy of x, equal up to the order 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cache
 
 import numpy as np
@@ -35,7 +35,9 @@ Product = Callable[[FloatArray, FloatArray, FloatArray, bool], None]
 
 @dataclass(frozen=True, eq=False)
 class StencilMatrix:
-    """``data`` (27, nz, ny, nx): the coefficients of each row (see the module docstring); ``periodic`` wraps.
+    """``data`` (27, nz, ny, nx): the coefficients of each row (see the module docstring); ``periodic`` wraps;
+    ``fixed`` (flat node indices) are held at zero: their rows and columns are the identity's, applied in the
+    product, so a constrained level shares the free level's coefficients (:meth:`with_fixed`).
 
     >>> data = np.zeros((27, 2, 3, 4))
     >>> data[DIAGONAL] = 2.0
@@ -43,10 +45,14 @@ class StencilMatrix:
     >>> m = StencilMatrix(data, periodic=True)
     >>> (m @ np.arange(24.0))[:4].tolist()  # 2 x_l − x_{l+1}, x_4 wrapping to x_0
     [-1.0, 0.0, 1.0, 6.0]
+    >>> (m.with_fixed(np.arange(24) == 1) @ np.arange(24.0))[:4].tolist()  # node 1 held: x_1 read as 0, row 1 = x_1
+    [0.0, 1.0, 1.0, 6.0]
     """
 
     data: FloatArray
     periodic: bool
+    fixed: npt.NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    _work: dict[str, FloatArray] = field(default_factory=dict, repr=False)  # x with the fixed nodes zeroed
 
     def __post_init__(self) -> None:
         if self.data.ndim != 4 or self.data.shape[0] != 27 or not self.data.flags.c_contiguous:
@@ -72,46 +78,57 @@ class StencilMatrix:
         return int(self.data.nbytes)
 
     def diagonal(self) -> FloatArray:
-        return self.data[DIAGONAL].reshape(-1)
+        out = np.array(self.data[DIAGONAL].reshape(-1))
+        out[self.fixed] = 1.0
+        return out
 
     def with_data(self, data: FloatArray) -> StencilMatrix:
-        """The same grid with other coefficients (e.g. a weighted sum of terms' coefficients)."""
-        return StencilMatrix(np.ascontiguousarray(data).reshape(self.data.shape), self.periodic)
+        """The same grid and fixed nodes with other coefficients (e.g. a weighted sum of terms' coefficients)."""
+        return StencilMatrix(np.ascontiguousarray(data).reshape(self.data.shape), self.periodic, self.fixed)
+
+    def with_fixed(self, mask: npt.NDArray[np.bool_]) -> StencilMatrix:
+        """The nodes in ``mask`` (flat) held at zero besides those already held; the coefficients are shared."""
+        fixed = np.union1d(self.fixed, np.flatnonzero(mask)).astype(np.intp)
+        return StencilMatrix(self.data, self.periodic, fixed)
 
     def matvec(self, v: FloatArray, out: FloatArray | None = None) -> FloatArray:
         """``out`` ← A v for a flat node vector (in the coefficients' precision)."""
         x = np.ascontiguousarray(v, dtype=self.dtype).reshape(self.node_shape)
         y = np.empty(self.node_shape, dtype=self.dtype) if out is None else out.reshape(self.node_shape)
-        if y.dtype != self.dtype or not y.flags.c_contiguous:
-            raise InputError(f"stencil matrix: out must be a contiguous {self.dtype} vector, got {y.dtype}")
+        if y.dtype != self.dtype or not y.flags.c_contiguous or np.may_share_memory(x, y):
+            raise InputError(f"stencil matrix: out must be a separate contiguous {self.dtype} vector, got {y.dtype}")
+        if self.fixed.size:  # the held nodes' columns read as zero
+            held = self._work.get("x")
+            if held is None or held.shape != x.shape or held.dtype != x.dtype:
+                held = self._work["x"] = np.empty_like(x)
+            np.copyto(held, x)
+            held.reshape(-1)[self.fixed] = 0.0
+            x = held
         kernel = compiled_product()
         if kernel is not None:
             kernel(self.data, x, y, self.periodic)
         else:
             numpy_product(self.data, x, y, self.periodic)
+        if self.fixed.size:  # and their rows are the identity's
+            y.reshape(-1)[self.fixed] = np.ravel(v)[self.fixed]
         return y.reshape(-1) if out is None else out
 
     def __matmul__(self, v: FloatArray) -> FloatArray:
         return self.matvec(v)
 
     def abs_row_sums(self) -> FloatArray:
-        """Σ_j abs(a_ij) per row, one coefficient array at a time (no copy of the whole)."""
+        """Σ_j abs(a_ij) per row, one coefficient array at a time (no copy of the whole); a held row's is 1."""
         out = np.zeros(self.node_shape)
-        for o in range(27):
-            out += np.abs(self.data[o])
-        return out.reshape(-1)
-
-    def with_fixed(self, mask: npt.NDArray[np.bool_]) -> StencilMatrix:
-        """Rows and columns of the nodes in ``mask`` (flat) zeroed, their diagonal 1: a copy (the free levels stay
-        shared).  On a box grid a row's missing neighbours have zero coefficients, so the wrap-around of the
-        shifted mask changes nothing there."""
-        fixed = mask.reshape(self.node_shape)
-        data = self.data.copy()
+        held = np.zeros(self.shape[0], dtype=bool)
+        held[self.fixed] = True
+        held = held.reshape(self.node_shape)
         for o, (iz, iy, ix) in enumerate(OFFSETS):
-            shifted = np.roll(fixed, (1 - iz, 1 - iy, 1 - ix), axis=(0, 1, 2))  # the neighbour of row i is fixed
-            data[o][fixed | shifted] = 0.0
-        data[DIAGONAL][fixed] = 1.0
-        return StencilMatrix(data, self.periodic)
+            term = np.abs(self.data[o])
+            if self.fixed.size:  # no column of a held node
+                term[np.roll(held, (1 - iz, 1 - iy, 1 - ix), axis=(0, 1, 2))] = 0.0
+            out += term
+        out[held] = 1.0
+        return out.reshape(-1)
 
     def tocsr(self) -> sp.csr_array:
         """The same operator in CSR (float64): for tests and inspection."""
@@ -124,7 +141,13 @@ class StencilMatrix:
             rows.append(index[keep])
             cols.append(neighbour[keep])
             values.append(self.data[o][keep].astype(float))
-        return sp.csr_array((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+        out = sp.csr_array((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+        if not self.fixed.size:
+            return out
+        keep = np.ones(n)
+        keep[self.fixed] = 0.0
+        free = sp.diags_array(keep)
+        return sp.csr_array(free @ out @ free + sp.diags_array(1.0 - keep))
 
     def toarray(self) -> FloatArray:
         return self.tocsr().toarray()
