@@ -23,7 +23,7 @@ whose weight falls like 1/n with the image size n [Huet1990] [Kanit2003]:
   volume-fraction error is removed, and Richardson from (30³, 60³) is within 0.011 %.
 
 ``flux`` and ``temperature`` give the principal values along the image axes (off-diagonal zero).  Solvers:
-``mg`` (geometric multigrid CG, :mod:`aromm.linalg.multigrid`; at 200³ 127 B/voxel all-in periodic, 153 with fixed
+``mg`` (geometric multigrid CG, :mod:`aromm.linalg.multigrid`; at 200³ 127 B/voxel all-in periodic, 120 with fixed
 temperatures, docs/one_machine.md) or a direct/AMG method of
 :mod:`aromm.linalg.direct` on the assembled operator; ``auto`` takes ``mg`` from ``MG_CROSSOVER_VOXELS`` (20³) voxels on
 (benchmarks/homogenize_peers.py measures the crossover).  Images with a conductivity tensor or a fibre phase
