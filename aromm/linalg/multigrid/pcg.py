@@ -184,7 +184,7 @@ class MultigridSolver:
     def release(self) -> None:
         """Drop every level's kept vectors (CG's among them): a caller that needs the memory between solves calls
         it; the next solve maps them afresh (the periodic cell problems of a 200³ medium: 126 instead of 166 B/voxel
-        at the peak, no measurable CPU cost; docs/one_machine.md)."""
+        at the peak, no measurable CPU cost; benchmarks/cell_memory.py)."""
         for level in self.levels:
             level.work.clear()
 
