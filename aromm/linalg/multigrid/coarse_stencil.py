@@ -6,8 +6,8 @@ diagonal); a periodic grid wraps the neighbours around, a box grid has zero coef
 This is how the Galerkin coarse operator of the voxel Q1 grid comes out of its element classes
 (:meth:`aromm.linalg.multigrid.hierarchy.ElementLevel.stencil`), so no column index is stored: 27 values a node
 (4 bytes each in the V-cycle's float32) against 27 values and 27 int32 indices of the same rows in CSR, and the
-product streams the coefficients once (a coarse level is 1/8 of the grid above it: the first one held 15 B/voxel of
-the fine grid in CSR's indices).
+product streams the coefficients once (a coarse level is 1/8 of the grid above it: in CSR the first two levels'
+column indices held 30 B/voxel of the fine grid, scipy having made them int64).
 
 The product is compiled when numba is installed (:mod:`aromm.linalg.multigrid.coarse_stencil_compiled`, one pass);
 otherwise 27 shifted multiply-adds on a padded copy of x, equal up to the order of the sums
@@ -73,10 +73,6 @@ class StencilMatrix:
     def dtype(self) -> np.dtype:
         return self.data.dtype
 
-    @property
-    def nbytes(self) -> int:
-        return int(self.data.nbytes)
-
     def diagonal(self) -> FloatArray:
         out = np.array(self.data[DIAGONAL].reshape(-1))
         out[self.fixed] = 1.0
@@ -125,7 +121,7 @@ class StencilMatrix:
         for o, (iz, iy, ix) in enumerate(OFFSETS):
             term = np.abs(self.data[o])
             if self.fixed.size:  # no column of a held node
-                term[np.roll(held, (1 - iz, 1 - iy, 1 - ix), axis=(0, 1, 2))] = 0.0
+                term[_at_neighbour(held, (iz, iy, ix))] = 0.0
             out += term
         out[held] = 1.0
         return out.reshape(-1)
@@ -136,7 +132,7 @@ class StencilMatrix:
         index = np.arange(n).reshape(self.node_shape)
         rows, cols, values = [], [], []
         for o, (iz, iy, ix) in enumerate(OFFSETS):
-            neighbour = np.roll(index, (1 - iz, 1 - iy, 1 - ix), axis=(0, 1, 2))
+            neighbour = _at_neighbour(index, (iz, iy, ix))
             keep = self.data[o] != 0
             rows.append(index[keep])
             cols.append(neighbour[keep])
@@ -151,6 +147,12 @@ class StencilMatrix:
 
     def toarray(self) -> FloatArray:
         return self.tocsr().toarray()
+
+
+def _at_neighbour(values: npt.NDArray[np.generic], offset: tuple[int, ...]) -> npt.NDArray[np.generic]:
+    """``values`` at each node's neighbour of stencil offset ``offset`` (an entry of :data:`OFFSETS`), wrapped around
+    the grid (on a box the wrapped entries meet zero coefficients)."""
+    return np.roll(values, tuple(1 - i for i in offset), axis=(0, 1, 2))
 
 
 def numpy_product(data: FloatArray, x: FloatArray, y: FloatArray, periodic: bool) -> None:

@@ -113,8 +113,9 @@ class ElementLevel:
         return ElementLevel(coarsen(self.elements, source, self.fixed), self.periodic, self.fixed)
 
     def stencil(self, dtype: type = np.float64) -> FloatArray:
-        """The assembled operator as 27 coefficient arrays on the node grid (:mod:`aromm.linalg.multigrid.
-        coarse_stencil`'s layout), summed in ``dtype``: zeros where a neighbour is missing, identity on fixed rows."""
+        """The assembled operator as 27 coefficient arrays on the node grid, in the layout of
+        :mod:`aromm.linalg.multigrid.coarse_stencil`, summed in ``dtype``: zeros where a neighbour is missing, identity
+        on fixed rows."""
         nz, ny, nx = self.elements
         stencil: FloatArray = np.zeros((27, nz + 1, ny + 1, nx + 1), dtype=dtype)
         for pz, py, px, qz, qy, qx in np.ndindex(2, 2, 2, 2, 2, 2):
