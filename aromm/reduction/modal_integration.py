@@ -30,8 +30,11 @@ from aromm.core.errors import NumericalError
 from aromm.core.profiles import Profile
 from aromm.core.system import FloatArray
 
-#: Modal rates below this fraction of the largest are the zero (mean-temperature) modes.
-ZERO_RATE = 1e-11
+#: Relative accuracy of a rate below which the symmetric eigenproblem is not trusted (diagonalise).
+RATE_ACCURACY = 1e-8
+#: The shift s of the stiff path, in units of r ε Λ_max (r the order); rates below it are the zero modes (the mean
+#: temperature of an adiabatic body comes out within a few ε Λ_max of zero; a rate that small is not resolved).
+SHIFT = 4.0
 #: Negative modal rates beyond this fraction of the largest mean a growing mode (refused).
 NEGATIVE_RATE = 1e-8
 #: Below this x = Λs the series of φ1 (two terms, error x²/6 < 2e-17) is used.
@@ -43,8 +46,16 @@ PHI2_SERIES = 1e-2
 
 def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Rates Λ (m, r) and modes W (m, r, r) of m reduced pencils (m, r, r): ``A W = L W Λ``, ``Wᵀ L W = I``, Λ ≥ 0
-    (rates below :data:`ZERO_RATE` of the largest set to 0); NumericalError when L is not positive definite or a
-    rate is below −:data:`NEGATIVE_RATE` of the largest (a growing mode)."""
+    ascending; NumericalError when L is not positive definite or a rate is below −:data:`NEGATIVE_RATE` of the
+    largest (a growing mode).
+
+    With ``L = R Rᵀ`` the rates are the eigenvalues of ``S = R⁻¹ A R⁻ᵀ`` and ``W = R⁻ᵀ Q``.  The symmetric
+    eigenproblem gives every rate to an absolute ε Λ_max; where that leaves a rate unresolved to
+    :data:`RATE_ACCURACY` (a stiff pencil: a Krylov basis over the massless face unknowns of finite volumes spans
+    rates 10¹² apart, and zeroing them there ran the slow modes away; or a zero mode, the mean of an adiabatic body),
+    the rates come instead from the singular values σ of ``G⁻¹``, ``S + s I = G Gᵀ`` with a shift s of a few ε Λ_max
+    (``Λ = 1/σ² − s``, ``Q`` the right singular vectors): the slow rates from the largest σ, to ε (Λ + s) where the
+    pencil is graded (its stiffness in a few basis vectors' scale), and rates below s are the zero modes."""
     try:
         chol = np.linalg.cholesky(lmat)
     except np.linalg.LinAlgError:
@@ -52,12 +63,24 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
                              "(non-positive capacity, or a dependent basis)") from None
     rinv = np.linalg.inv(chol)
     sym = rinv @ amat @ np.swapaxes(rinv, 1, 2)
-    lam, q = np.linalg.eigh((sym + np.swapaxes(sym, 1, 2)) / 2)
+    sym = (sym + np.swapaxes(sym, 1, 2)) / 2
+    lam, q = np.linalg.eigh(sym)
     top = np.max(np.abs(lam), axis=1, keepdims=True)
     if np.any(lam < -NEGATIVE_RATE * top):
         raise NumericalError(f"reduced model: growing mode (rate {lam.min():.3e} s⁻¹): the projected "
                              "conductance is not positive semi-definite (negative conductivity?)")
-    return np.where(lam < ZERO_RATE * top, 0.0, lam), np.swapaxes(rinv, 1, 2) @ q
+    eps = np.finfo(float).eps
+    if np.all(lam >= eps * top / RATE_ACCURACY):
+        return lam, np.swapaxes(rinv, 1, 2) @ q
+    shift = SHIFT * sym.shape[-1] * eps * top  # (m, 1): above the Cholesky factorisation's rounding of S
+    try:
+        g = np.linalg.cholesky(sym + shift[..., None] * np.eye(sym.shape[-1]))
+    except np.linalg.LinAlgError:
+        raise NumericalError("reduced model: the projected conductance is not positive semi-definite to rounding "
+                             f"(smallest rate {lam.min():.3e} s⁻¹ of {top.max():.3e})") from None
+    _, sigma, vt = np.linalg.svd(np.linalg.inv(g))  # σ descending: rates ascending
+    rates = 1.0 / sigma**2 - shift
+    return np.where(rates < shift, 0.0, rates), np.swapaxes(rinv, 1, 2) @ np.swapaxes(vt, 1, 2)
 
 
 def phi1(x: FloatArray) -> FloatArray:
