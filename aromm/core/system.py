@@ -11,9 +11,11 @@ in the coefficients.  Parameters are named
 ``"<face>.<property>"`` (``"z1.h"``, ``"z0.flux"``, ``"x1.T"``); the uniform initial
 temperature is ``"initial.T"``.
 
-A coefficient is a product of parameters times a constant (``h * T_ext``), or the
+A coefficient is a product of parameters times a constant (``h * T_ext``), the
 harmonic mean of two conductivities times a constant, possibly times further parameters (DEM bonds
-between two phases, [Hassan2019, eq. 14]).  Reduced models keep the same coefficients with projected matrices.
+between two phases, [Hassan2019, eq. 14]; finite-volume links), or one cone coordinate of the harmonic mean of
+two phases' coupled heat–moisture flux matrices (:mod:`aromm.core.flux_cone`).  Reduced models keep the same
+coefficients with projected matrices.
 
 Units are SI: W/(m K), J/(m^3 K), W/m^2, W/(m^2 K), K (or degC: the equation is linear).
 Only the terms a scene calls for are present: a steady system has ``capacity is None``.
@@ -31,6 +33,7 @@ import scipy.sparse as sp
 
 from aromm.core.cache import content_key
 from aromm.core.errors import InputError
+from aromm.core.flux_cone import cone_harmonic
 from aromm.core.profiles import Profile, time_factor
 
 FloatArray = npt.NDArray[np.float64]
@@ -46,19 +49,32 @@ def dense(a: FloatArray | sp.csr_array) -> FloatArray:
 
 @dataclass(frozen=True)
 class Coefficient:
-    """Scalar coefficient ``scale * prod(params)`` or ``scale * 2 a b / (a + b) * prod(params[2:])``.
+    """Scalar coefficient ``scale * prod(params)``, ``scale * 2 a b / (a + b) * prod(params[2:])`` (``"harmonic"``),
+    or ``scale`` times one cone coordinate of the harmonic mean of two coupled flux matrices times
+    ``prod(params[6:])`` (``"link"``: :func:`aromm.core.flux_cone.cone_harmonic` of ``weights * params[0:3]`` and
+    ``weights * params[3:6]``, coordinate ``component``; the finite-volume links between two phases of the
+    heat–moisture model).
 
     Called with parameter values it returns an array, so a whole swarm of parameter
     sets (arrays of equal length) is evaluated at once.
     """
 
     params: tuple[str, ...] = ()
-    kind: Literal["product", "harmonic"] = "product"
+    kind: Literal["product", "harmonic", "link"] = "product"
     scale: float = 1.0
+    weights: tuple[float, ...] = ()  # "link": the three cone weights (x, y, z per parameter)
+    component: int = 0  # "link": which cone coordinate (0 x, 1 y, 2 z)
 
     def __post_init__(self) -> None:
-        if self.kind == "harmonic" and len(self.params) < 2:
-            raise ValueError("a harmonic coefficient takes at least two parameters")
+        if len(self.params) < self.special:
+            raise ValueError(f"a {self.kind} coefficient takes at least {self.special} parameters")
+        if self.kind == "link" and (len(self.weights) != 3 or self.component not in (0, 1, 2)):
+            raise ValueError("a link coefficient takes three cone weights and a component 0, 1 or 2")
+
+    @property
+    def special(self) -> int:
+        """How many leading parameters enter other than as factors (0, 2 for a harmonic mean, 6 for a link)."""
+        return {"product": 0, "harmonic": 2, "link": 6}[self.kind]
 
     def __call__(self, values: ParamValues) -> FloatArray:
         try:
@@ -68,29 +84,38 @@ class Coefficient:
                 f"parameter {err.args[0]!r} is needed by the system but was not given; "
                 f"given: {sorted(values)}"
             ) from None
-        if self.kind == "product":
+        head, rest = args[: self.special], args[self.special:]
+        if self.kind == "harmonic":
+            a, b = head
+            out = np.asarray(self.scale * 2.0 * a * b / (a + b))
+        elif self.kind == "link":
+            w = self.weights
+            cone = cone_harmonic((w[0] * head[0], w[1] * head[1], w[2] * head[2]),
+                                 (w[0] * head[3], w[1] * head[4], w[2] * head[5]))
+            out = np.asarray(self.scale * cone[self.component])
+        else:
             out = np.asarray(self.scale, dtype=float)
-            for a in args:
-                out = out * a
-            return out
-        a, b, *rest = args
-        out = np.asarray(self.scale * 2.0 * a * b / (a + b))
         for c in rest:
             out = out * c
         return out
 
     def times(self, other: Coefficient) -> Coefficient:
-        """The product of two coefficients (at most one harmonic), e.g. ``fibre.k`` times ``x0.T``."""
-        if self.kind == "harmonic" and other.kind == "harmonic":
-            raise ValueError("the product of two harmonic coefficients is not a coefficient")
-        first, second = (other, self) if other.kind == "harmonic" else (self, other)
-        return Coefficient((*first.params, *second.params), first.kind, self.scale * other.scale)
+        """The product of two coefficients (at most one not a product), e.g. ``fibre.k`` times ``x0.T``."""
+        if self.kind != "product" and other.kind != "product":
+            raise ValueError(f"the product of a {self.kind} and a {other.kind} coefficient is not a coefficient")
+        first, second = (other, self) if other.kind != "product" else (self, other)
+        return Coefficient((*first.params, *second.params), first.kind, self.scale * other.scale, first.weights,
+                           first.component)
 
     def describe(self) -> str:
-        """Readable form, e.g. ``2*fibre.k*gas.k/(fibre.k+gas.k)`` or ``z1.h*z1.T_ext``."""
+        """Readable form, e.g. ``2*fibre.k*gas.k/(fibre.k+gas.k)`` or ``z1.h*z1.T_ext``; a link names its cone
+        coordinate, weights (to every digit: the form enters content hashes) and parameters."""
+        head, rest = self.params[: self.special], self.params[self.special:]
         if self.kind == "harmonic":
-            a, b, *rest = self.params
-            body = "*".join([f"2*{a}*{b}/({a}+{b})", *rest])
+            body = "*".join([f"2*{head[0]}*{head[1]}/({head[0]}+{head[1]})", *rest])
+        elif self.kind == "link":
+            w = ",".join(repr(float(x)) for x in self.weights)
+            body = "*".join([f"link_{'xyz'[self.component]}[{w}]({','.join(head)})", *rest])
         else:
             body = "*".join(self.params) or "1"
         return body if self.scale == 1.0 else f"{self.scale:g}*{body}"

@@ -9,8 +9,8 @@ pyMOR's descriptor system with one step input ``u(t) = 1``::
 every sum a ``LincombOperator`` of ``NumpyMatrixOperator``s whose coefficients are pyMOR parameter
 functionals of aromm's own parameter names (``"fibre.k"``, ``"z0.flux"``, ``"initial.T"``): a product of
 parameters becomes a ``ProductParameterFunctional`` of ``ProjectionParameterFunctional``s, a harmonic mean
-(DEM bonds) a ``GenericParameterFunctional``.  So pyMOR's projections keep the affine structure, and
-``mu`` takes the same values as :meth:`ThermalSystem.values`.  Importing this module needs pyMOR
+(DEM bonds, finite-volume links) a ``GenericParameterFunctional``.  So pyMOR's projections keep the affine
+structure, and ``mu`` takes the same values as :meth:`ThermalSystem.values`.  Importing this module needs pyMOR
 (``pip install -e ".[mor]"``); ``aromm`` itself never imports it.
 """
 
@@ -38,19 +38,17 @@ except ImportError as err:  # pragma: no cover - exercised only without the extr
     raise ImportError("aromm.interop.pymor needs pyMOR: pip install -e '.[mor]'") from err
 
 
-def _harmonic(a: str, b: str, scale: float) -> Any:
+def _generic(coefficient: Coefficient) -> Any:
     def mapping(mu: Any) -> float:
-        x, y = float(mu[a][0]), float(mu[b][0])
-        return scale * 2.0 * x * y / (x + y)
+        return float(coefficient({name: float(mu[name][0]) for name in coefficient.params}))
 
-    return GenericParameterFunctional(mapping, {a: 1, b: 1}, name=f"harmonic({a},{b})")
+    return GenericParameterFunctional(mapping, dict.fromkeys(coefficient.params, 1), name=coefficient.describe())
 
 
 def functional(coefficient: Coefficient) -> Any:
     """The pyMOR parameter functional (or number) equal to an aromm coefficient."""
-    if coefficient.kind == "harmonic":
-        a, b = coefficient.params
-        return _harmonic(a, b, coefficient.scale)
+    if coefficient.kind != "product":  # a harmonic mean (DEM bonds, finite-volume links) or a coupled link
+        return _generic(coefficient)
     factors = [ProjectionParameterFunctional(p) for p in coefficient.params]
     if not factors:
         return float(coefficient.scale)

@@ -18,8 +18,10 @@ operator of phase i, B one of the 2 × 2 blocks above) symmetric positive semi-d
 certificate and identification of the thermal model applies unchanged (docs/notes/hygrothermal.md).  L_v, T_ref and
 φ_ref are constants of the model, not parameters (a product such as L_v δ_p would not be affine).
 
-Finite volumes couple within one phase only: a link between two phases has the harmonic mean of their k as its
-coefficient, which no 2 × 2 block times a phase operator reproduces (refused, saying so).
+A finite-volume link between two phases carries the harmonic mean of their two flux matrices (the series of its
+half cells), which no 2 × 2 block times a phase parameter reproduces; it stays in the cone of the flux matrices, so it
+becomes three positive semi-definite terms with nonlinear coefficients ≥ 0 (:mod:`aromm.core.flux_cone`): the system
+is still affine in the sense the solvers, reductors and the certificate need.
 
 Boundary conditions here: the thermal system's own (fixed temperatures, flux, convection: T block only), fixed
 relative humidities on faces (``fixed_phi``), vapour exchange with the air of a convective face (``vapour``: β and
@@ -142,13 +144,15 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
         if term.role == "exchange":  # convection: the heat row only
             conductance.append(_block(term, term.name, term.coefficient, blocks["k"], op))
             continue
+        pair = _phases_of_link(term)
+        if pair is not None:
+            conductance.extend(_link_terms(term, pair, state, op))
+            continue
         phase = _phase_of(term)
         if phase is None:
-            why = ("a finite-volume link between two phases (a harmonic mean of their k, which has no 2 × 2 block "
-                   "form): use q1 elements" if term.coefficient.kind == "harmonic" else
-                   "not one phase's conductivity (k, its axis values, its tensor's or fibre's)")
             raise InputError(f"hygrothermal: the conduction term {term.name!r} ({term.coefficient.describe()}) is "
-                             f"{why}")
+                             "not one phase's conductivity (k, its axis values, its tensor's or fibre's) nor a "
+                             "finite-volume link between two phases")
         for key in ("k", "D_phi", "delta_p"):
             coefficient = term.coefficient if key == "k" else _renamed(term.coefficient, f"{phase}.{key}")
             conductance.append(_block(term, f"{term.name}_{key}", coefficient, blocks[key], op))
@@ -266,6 +270,32 @@ def _phase_of(term: Term) -> str | None:
         return None
     phase, _, key = params[0].rpartition(".")
     return phase if key in CONDUCTIVITY_KEYS and phase else None
+
+
+def _phases_of_link(term: Term) -> tuple[str, str] | None:
+    """The two phases of a finite-volume link term (a harmonic mean of two phases' conductivities), else None."""
+    params = term.coefficient.params
+    if term.role != "conduction" or term.coefficient.kind != "harmonic" or len(params) != 2:
+        return None
+    split = [name.rpartition(".") for name in params]
+    if not all(phase and key in CONDUCTIVITY_KEYS for phase, _, key in split):
+        return None
+    return split[0][0], split[1][0]
+
+
+def _link_terms(term: Term, pair: tuple[str, str], state: MoistureState, op: sp.csr_array) -> list[Term]:
+    """A link between two phases as three positive semi-definite terms: the cone coordinates of the harmonic mean of
+    their 2 × 2 flux matrices (:mod:`aromm.core.flux_cone`) times ``S E_1 S``, ``S E_2 S`` and ``v vᵀ`` (``S = diag(a,
+    p)``, ``v = (a, p)``) ⊗ the links' Laplacian; each phase's own conductivity name (k or k along the link's axis)
+    is the thermal term's."""
+    a, p = state.a, state.p
+    weights = (1.0 / a**2, state.weight / p**2, state.latent_heat / a)
+    params = tuple(name for k, phase in zip(term.coefficient.params, pair, strict=True)
+                   for name in (k, f"{phase}.D_phi", f"{phase}.delta_p"))
+    blocks = (np.diag([a * a, 0.0]), np.diag([0.0, p * p]), np.outer([a, p], [a, p]))
+    return [_block(term, f"{term.name}_{'xyz'[c]}",
+                   Coefficient(params, "link", term.coefficient.scale, weights, c), block, op)
+            for c, block in enumerate(blocks)]
 
 
 def _renamed(coefficient: Coefficient, name: str) -> Coefficient:

@@ -10,8 +10,8 @@ ch. 11],
 where x̂ and ψ_r are the reduced primal and dual solutions and e_du = A⁻¹ r_du the dual error (Galerkin orthogonality
 Ψᵀ r̂ = 0 removes the reduced dual; A is complex symmetric).  On the sector ``|arg s| ≤ φ``, ``|v* A(s) v| ≥ cos(φ/2)
 v*(K + |s| C) v`` for every v (K, C ≥ 0), so with the μ-independent norm ``N̂_σ = K(μ̂) + σ C(μ̂)`` and the min-θ
-constant ``α(μ) = min_t θ_t(μ)/θ_t(μ̂)`` over the conductance and capacity terms (exact and free: every term's
-operator is positive semi-definite) [Haasdonk2008, § 4]::
+constant ``α(μ) = min_t θ_t(μ)/θ_t(μ̂)`` over the conductance and capacity terms with θ_t(μ̂) > 0 (exact and free:
+every term's operator is positive semi-definite and every θ_t(μ) ≥ 0) [Haasdonk2008, § 4]::
 
     |Δŷ(s)| ≤ ‖r_du(s)‖_{N̂_σ⁻¹} ‖r̂(s)‖_{N̂_σ⁻¹} / (α(μ) cos(arg s / 2)),   any σ ≤ |s|.
 
@@ -213,7 +213,7 @@ def _damping(s: npt.NDArray[np.complex128], delay: float, times: FloatArray) -> 
 def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> FloatArray:
     """Upper bound (°C) of the largest ``|y_r − y|`` over the output times, per output, of ``model`` (a
     :class:`~aromm.reduction.rom.ReducedModel` carrying ``cert``) at ``values`` (module docstring); inf when a
-    term's coefficient is not positive there."""
+    term's coefficient is negative there, or zero where the norm's is not."""
     sys_ = model.projected
     own = model.initial.parameters - sys_.parameter_names  # the model's initial terms' own (e.g. initial.phi)
     v = {**sys_.values({k: x for k, x in values.items() if k not in own}),
@@ -223,9 +223,11 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     nk = len(sys_.conductance.terms)
     names, e = sys_.observation_matrix()
     rows = dense(e).reshape(len(names), -1)
-    if np.any(theta <= 0) or sys_.time is None:
+    # terms absent from the norm (θ̂ = 0: e.g. a link's moisture coordinates next to a dry phase) only add coercivity
+    normed = cert.theta > 0
+    alpha = float(np.min(theta[normed] / cert.theta[normed])) if normed.any() else 0.0
+    if np.any(theta < 0) or not alpha > 0 or sys_.time is None:
         return np.full(len(names), np.inf)
-    alpha = float(np.min(theta / cert.theta))
     times = sys_.time.times
     loads = sys_.load.terms
     pieces = [_pieces(t.time) for t in loads]
@@ -264,7 +266,10 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
         for j, g in enumerate(cert.grams):  # one matrix product per rung of the ladder
             weight = np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
             at = weight > 0
-            square[at] += weight[at] * np.einsum("ki,ki->k", c[at].conj(), c[at] @ g).real
+            # Re(c* G c) = Re cᵀ G Re c + Im cᵀ G Im c for real G: two real products, G never copied to complex
+            split = np.concatenate([c[at].real, c[at].imag])
+            both = np.einsum("ki,ki->k", split, split @ g)
+            square[at] += weight[at] * (both[: at.sum()] + both[at.sum():])
             floor[at] += weight[at] * 8 * summands * np.finfo(float).eps * (np.abs(c[at]) @ diags[j]) ** 2
             if cert.spread is not None:  # the residuals' rounding in the Gram matrices (riesz)
                 floor[at] += weight[at] * 2 * np.finfo(float).eps * (np.abs(c[at]) @ cert.spread[j]) ** 2

@@ -338,6 +338,8 @@ def to_arrays(model: ReducedModel) -> dict[str, np.ndarray]:
         out[f"{group}.params"] = np.array([",".join(t.coefficient.params) for t in terms], dtype=str)
         out[f"{group}.kinds"] = np.array([t.coefficient.kind for t in terms], dtype=str)
         out[f"{group}.scales"] = np.array([t.coefficient.scale for t in terms], dtype=float)
+        out[f"{group}.weights"] = np.array([(*t.coefficient.weights, t.coefficient.component) if t.coefficient.weights
+                                            else (0.0, 0.0, 0.0, 0.0) for t in terms], dtype=float).reshape(-1, 4)
         for i, t in enumerate(terms):
             out[f"{group}.op{i}"] = np.asarray(t.operator)
             if t.time is not None:
@@ -374,9 +376,12 @@ def from_arrays(data: Mapping[str, np.ndarray]) -> ReducedModel:
         terms = []
         for i, name in enumerate(str(s) for s in data[f"{group}.names"]):
             params = str(data[f"{group}.params"][i])
+            kind = str(data[f"{group}.kinds"][i])
+            link = data[f"{group}.weights"][i] if kind == "link" else np.zeros(4)
             coef = Coefficient(tuple(params.split(",")) if params else (),
-                               "harmonic" if str(data[f"{group}.kinds"][i]) == "harmonic" else "product",
-                               float(data[f"{group}.scales"][i]))
+                               "link" if kind == "link" else "harmonic" if kind == "harmonic" else "product",
+                               float(data[f"{group}.scales"][i]), tuple(float(w) for w in link[:3] if kind == "link"),
+                               int(link[3]))
             role = str(data[f"{group}.roles"][i])
             time = (Profile.from_arrays(data[f"{group}.time{i}"], str(data[f"{group}.timekind{i}"]))
                     if f"{group}.time{i}" in data else None)
