@@ -263,3 +263,27 @@ def test_a_fibre_phase_is_coupled_as_its_orthotropic_twin(tmp_path: Path, capsys
     floor = rounding_floor(outputs["orthotropic"])
     assert np.abs(outputs["fibre x"] - outputs["orthotropic"]).max() <= floor
     assert np.abs(outputs["fibre y"] - outputs["orthotropic"]).max() > 1e3 * floor
+
+
+def test_the_full_coupled_field_is_written_with_T_and_phi(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`simulate --model full --out` writes field.vtu for a coupled scene too (it was skipped without a word): point
+    data T and phi on the bar's nodes, the last step's field, whose far-face values are the last output row; and the
+    unknowns' points for the direct solvers' nested dissection are the nodes' once per field."""
+    import meshio
+
+    from aromm.api import assemble
+
+    path = _scene(tmp_path, cells=8)
+    assert main(["simulate", str(path), "--model", "full", "--out", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    mesh = meshio.read(tmp_path / "out" / "field.vtu")
+    assert set(mesh.point_data) >= {"T", "phi"}
+    rows = np.genfromtxt(tmp_path / "out" / "observables.csv", delimiter=",", names=True)
+    far = np.isclose(mesh.points[:, 0], 0.02)
+    assert np.allclose(mesh.point_data["T"][far], rows["x1"][-1], rtol=0, atol=1e-12)
+    assert np.allclose(mesh.point_data["phi"][far], rows["phix1"][-1], rtol=0, atol=1e-12)
+    assert np.allclose(mesh.point_data["phi"][np.isclose(mesh.points[:, 0], 0.0)], 0.8)
+    system = assemble(load_scene(path))
+    points = system.unknown_points()
+    assert system.fields == ("T", "phi") and points is not None and points.shape == (system.n, 3)
+    np.testing.assert_array_equal(points[: system.n // 2], points[system.n // 2:])

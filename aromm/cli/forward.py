@@ -183,12 +183,13 @@ def simulate_cmd(*, scene: Path, model: str, order: int | None, out: Path | None
         write_csv(obs, files[0], "observables file")
         click.echo(f"wrote {files[0]}", err=True)
         geometry = system.geometry if system is not None else None
+        names = system.fields if system is not None else ("T",)
         if field and geometry is not None and obs.fields is not None:
             last = obs.fields[-1]
-            write_extras(("field", lambda: write_vtu(files[1], geometry, last)))
+            write_extras(("field", lambda: write_vtu(files[1], geometry, last, names)))
         elif times is not None and geometry is not None:
-            write_extras(("field series", lambda: write_series(files[0].parent, geometry,
-                                                                rom.iter_fields(None, times))[-1]))
+            write_extras(("field series", lambda: write_series(files[0].parent, geometry, rom.iter_fields(None, times),
+                                                                names=names)[-1]))
 
 
 @click.command("homogenize")

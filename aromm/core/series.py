@@ -1,7 +1,8 @@
 """Temperature fields for ParaView: one VTU file per time and a PVD collection that animates them.
 
 The mesh is the system's own (:class:`aromm.core.system.Geometry`: the voxel hexahedra or the mesh's simplices, with
-their cell data such as the phase labels); each VTU holds the nodal field ``T`` (°C) at one time, and
+their cell data such as the phase labels); each VTU holds the nodal field ``T`` (°C) at one time (and ``phi``, the
+relative humidity, for a coupled heat–moisture system), and
 ``<stem>.pvd`` lists them with their times (s)::
 
     <VTKFile type="Collection" version="0.1">
@@ -28,19 +29,28 @@ from aromm.core.files import atomic_path, atomic_write
 from aromm.core.system import FloatArray, Geometry
 
 
-def field_mesh(geometry: Geometry, field: FloatArray, name: str = "T") -> meshio.Mesh:
-    """The system's mesh with the nodal ``field`` (one value per unknown) as point data ``name``."""
+def field_mesh(geometry: Geometry, field: FloatArray, names: tuple[str, ...] = ("T",)) -> meshio.Mesh:
+    """The system's mesh with the nodal ``field`` as point data: one array per name of ``names``, the unknowns
+    being one block of the nodes per name (a coupled system's ``("T", "phi")``).
+
+    >>> geo = Geometry(np.eye(4, 3), np.array([[0, 1, 2, 3]]), "tetra")
+    >>> sorted(field_mesh(geo, np.arange(8.0), ("T", "phi")).point_data["phi"].tolist())
+    [4.0, 5.0, 6.0, 7.0]
+    """
     values = np.asarray(field, dtype=float)
-    if values.shape != (geometry.nodes,):
-        raise InputError(f"a field has {values.size} values for {geometry.nodes} nodes")
-    return meshio.Mesh(geometry.points, [(geometry.cell_type, geometry.cells)], point_data={name: values},
+    if values.shape != (geometry.nodes * len(names),):
+        raise InputError(f"a field has {values.size} values for {geometry.nodes} nodes and {len(names)} field(s)")
+    blocks = values.reshape(len(names), geometry.nodes)
+    return meshio.Mesh(geometry.points, [(geometry.cell_type, geometry.cells)],
+                       point_data=dict(zip(names, blocks, strict=True)),
                        cell_data={k: [np.asarray(v)] for k, v in geometry.cell_data.items()})
 
 
-def write_vtu(path: str | os.PathLike[str], geometry: Geometry, field: FloatArray, name: str = "T") -> Path:
+def write_vtu(path: str | os.PathLike[str], geometry: Geometry, field: FloatArray,
+              names: tuple[str, ...] = ("T",)) -> Path:
     """One field as a VTU file (zlib-compressed binary), written atomically."""
     with atomic_path(path, "field file") as tmp:
-        meshio.vtu.write(tmp, field_mesh(geometry, field, name))
+        meshio.vtu.write(tmp, field_mesh(geometry, field, names))
     return Path(path)
 
 
@@ -51,7 +61,7 @@ def series_file(folder: str | os.PathLike[str], step: int | None, stem: str = "f
 
 
 def write_series(folder: str | os.PathLike[str], geometry: Geometry, fields: Iterable[tuple[float, FloatArray]],
-                 stem: str = "field", name: str = "T") -> list[Path]:
+                 stem: str = "field", names: tuple[str, ...] = ("T",)) -> list[Path]:
     """``<stem>_0000.vtu``, ... (one per ``(t, T)`` of ``fields``, in order) and ``<stem>.pvd``; returns the paths.
 
     >>> import tempfile
@@ -68,7 +78,7 @@ def write_series(folder: str | os.PathLike[str], geometry: Geometry, fields: Ite
         if not (np.isfinite(t) and t > previous):
             raise InputError(f"{out}: field times must be finite and increasing, got {t!r} after {previous!r}")
         previous = t
-        path = write_vtu(series_file(out, step, stem), geometry, field, name)
+        path = write_vtu(series_file(out, step, stem), geometry, field, names)
         written.append(path)
         entries.append(f'    <DataSet timestep="{float(t)!r}" part="0" file={quoteattr(path.name)}/>')
     collection = series_file(out, None, stem)

@@ -279,6 +279,9 @@ class ThermalSystem:
     :mod:`aromm.reduction.lifting`): ``initial`` adds vectors (length n) to the uniform initial field,
     ``T(0) = initial.T + Σ c_i(p) v_i``, and ``feedthrough`` adds vectors over the outputs (length
     ``len(observation)``, in its order) to them, ``y = E T + Σ c_j(p) g_j(t) d_j``.  Assemblers leave both empty.
+
+    ``fields`` names the nodal fields: the unknowns are ``len(fields)`` blocks of the geometry's nodes, in its order
+    (the coupled heat–moisture model's ``("T", "phi")``, :mod:`aromm.physics.hygrothermal`).
     """
 
     n: int
@@ -293,10 +296,19 @@ class ThermalSystem:
     boundary: sp.csr_array | None = None
     initial: Affine = Affine()
     feedthrough: Affine = Affine()
+    fields: tuple[str, ...] = ("T",)
 
     @property
     def is_steady(self) -> bool:
         return not self.capacity
+
+    def unknown_points(self) -> FloatArray | None:
+        """Where every unknown sits (n, 3), m, for the nested-dissection orderings: the geometry's points, once per
+        field; None without a geometry of the unknowns' nodes."""
+        g = self.geometry
+        if g is None or g.nodes * len(self.fields) != self.n:
+            return None
+        return g.points if len(self.fields) == 1 else np.tile(g.points, (len(self.fields), 1))
 
     @property
     def term_names(self) -> tuple[str, ...]:

@@ -88,9 +88,8 @@ def _partition(system: ThermalSystem, values: ParamValues) -> _Partition:
 
 def _points(system: ThermalSystem, part: _Partition) -> FloatArray | None:
     """Coordinates of the free unknowns (for the nested-dissection ordering), when the system has them."""
-    if system.geometry is None or system.geometry.nodes != system.n:
-        return None
-    return system.geometry.points[part.free]
+    points = system.unknown_points()
+    return None if points is None else points[part.free]
 
 
 def _split(a: sp.csr_array, part: _Partition) -> tuple[sp.csr_array, sp.csr_array]:

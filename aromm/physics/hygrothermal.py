@@ -197,9 +197,9 @@ def coupled(thermal: ThermalSystem, state: MoistureState, moisture: Mapping[str,
         observation[name] = sp.csr_array(sp.hstack([r, sp.csr_array((1, n))]))
         observation[PHI_PREFIX + name] = sp.csr_array(sp.hstack([sp.csr_array((1, n)), r]))
     return ThermalSystem(2 * n, Affine(tuple(conductance)), Affine(tuple(capacity)), Affine(tuple(load)),
-                         tuple(dirichlet), observation, parameters, thermal.time, None,
+                         tuple(dirichlet), observation, parameters, thermal.time, thermal.geometry,
                          None if thermal.boundary is None else sp.csr_array(sp.block_diag([thermal.boundary] * 2)),
-                         Affine(tuple(initial)))
+                         Affine(tuple(initial)), fields=("T", "phi"))
 
 
 def _within(value: Load, low: float, high: float) -> bool:

@@ -100,8 +100,8 @@ def liftings(system: ThermalSystem, values: Mapping[str, float] | None = None, m
     ell = np.zeros((system.n, len(system.dirichlet)))
     for i in range(len(system.dirichlet)):
         ell[fixed, i] = (owner[fixed] == i).astype(float)
-    points = system.geometry.points[free] if system.geometry is not None and \
-        system.geometry.points.shape[0] == system.n else None
+    points = system.unknown_points()
+    points = None if points is None else points[free]
     fac = factorize(k_ff, method, points=points)
     for i in range(ell.shape[1]):
         ell[free, i] = fac.solve(-(k_fd @ ell[fixed, i]))
@@ -138,9 +138,11 @@ def lift(system: ThermalSystem, values: Mapping[str, float] | None = None, metho
         if names:
             direct.append(Term(f"lift_{d.name}", scale, e @ vec, "output", d.time))
     geometry = None
-    if system.geometry is not None and system.geometry.points.shape[0] == system.n:
-        geo = system.geometry
-        geometry = Geometry(geo.points[free], np.zeros((0, geo.cells.shape[1]), dtype=np.int64), geo.cell_type)
+    points = system.unknown_points()
+    if system.geometry is not None and points is not None:  # the free unknowns' points, for orderings (no cells;
+        geo = system.geometry  # several fields' unknowns are not a mesh's nodes: "vertex", no node-grid solver)
+        geometry = Geometry(points[free], np.zeros((0, geo.cells.shape[1]), dtype=np.int64),
+                            geo.cell_type if len(system.fields) == 1 else "vertex")
     boundary = sp.csr_array(system.boundary[free][:, free]) if system.boundary is not None else None
     return ThermalSystem(
         n=free.size,

@@ -135,12 +135,11 @@ def reference_operators(system: ThermalSystem, values: Mapping[str, float] | Non
     k0 = sp.csr_array(system.conductance.with_role("conduction").evaluate(vals))
     c0 = sp.csr_array(system.capacity.evaluate(vals))
     b = boundary_of(system)
-    n = system.n
     area = float(b.sum())
     heat = float(c0.sum())
     if not (heat > 0 and area > 0):
         raise InputError("reference capacity and boundary area must be positive to build the bases")
-    points = system.geometry.points if system.geometry is not None and system.geometry.points.shape[0] == n else None
+    points = system.unknown_points()
     return ReferenceOperators(sp.csr_array(k0), sp.csr_array(c0), b, heat / area, vals, points)
 
 

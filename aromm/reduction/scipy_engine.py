@@ -116,12 +116,12 @@ class ScipyEngine:
         self.system = system
         operators = [t.operator for t in (*system.conductance.terms, *system.capacity.terms)]
         self.voxel = is_voxel_family(operators)  # matrix-free voxel terms: no matrix is ever assembled
-        points = system.geometry.points if system.geometry is not None and not self.voxel else None
-        self.points = points if points is not None and points.shape[0] == system.n else None
+        self.points = None if self.voxel else system.unknown_points()
         self.chosen = solver == "auto"  # the engine picks the solver (by size, and by the width of a block)
         if solver == "auto":
             geometry = system.geometry
-            nodes = self.points is not None and geometry is not None and geometry.cell_type == "hexahedron"
+            nodes = self.points is not None and geometry is not None and geometry.cell_type == "hexahedron" and \
+                len(system.fields) == 1
             on_grid = nodes or self.voxel  # Q1 nodes on a voxel grid (finite volumes' points only order a factor)
             solver = "mg" if system.n >= DIRECT_BELOW and on_grid else resolve_method("auto")
         self.method = resolve_method(solver) if solver != "mg" else "mg"
