@@ -260,10 +260,13 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     share = np.where(span > 0, (cert.sigmas[upper] - sig) / np.where(span > 0, span, 1.0), 1.0)
 
     diags, summands = cert.floor_terms()
+    # contiguous once: a Gram matrix kept along a greedy's span is a view of a larger buffer, and numpy < 2 multiplies
+    # such a view without BLAS (the lowest-versions stage ran 3× slower)
+    grams = [np.ascontiguousarray(g) for g in cert.grams]
 
     def norm(c: npt.NDArray[np.complex128]) -> FloatArray:
         square, floor = np.zeros(s.size), np.zeros(s.size)
-        for j, g in enumerate(cert.grams):  # one matrix product per rung of the ladder
+        for j, g in enumerate(grams):  # one matrix product per rung of the ladder
             weight = np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
             at = weight > 0
             # Re(c* G c) = Re cᵀ G Re c + Im cᵀ G Im c for real G: two real products, G never copied to complex
