@@ -268,7 +268,12 @@ def _phase_of(term: Term) -> str | None:
     params = term.coefficient.params
     if term.role != "conduction" or term.coefficient.kind != "product" or len(params) != 1:
         return None
-    phase, _, key = params[0].rpartition(".")
+    return _conductivity_owner(params[0])
+
+
+def _conductivity_owner(name: str) -> str | None:
+    """The phase of a parameter named ``<phase>.<one of CONDUCTIVITY_KEYS>``, else None."""
+    phase, _, key = name.rpartition(".")
     return phase if key in CONDUCTIVITY_KEYS and phase else None
 
 
@@ -277,10 +282,8 @@ def _phases_of_link(term: Term) -> tuple[str, str] | None:
     params = term.coefficient.params
     if term.role != "conduction" or term.coefficient.kind != "harmonic" or len(params) != 2:
         return None
-    split = [name.rpartition(".") for name in params]
-    if not all(phase and key in CONDUCTIVITY_KEYS for phase, _, key in split):
-        return None
-    return split[0][0], split[1][0]
+    first, second = (_conductivity_owner(name) for name in params)
+    return None if first is None or second is None else (first, second)
 
 
 def _link_terms(term: Term, pair: tuple[str, str], state: MoistureState, op: sp.csr_array) -> list[Term]:

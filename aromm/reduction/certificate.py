@@ -269,13 +269,15 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
         for j, g in enumerate(grams):  # one matrix product per rung of the ladder
             weight = np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
             at = weight > 0
+            part, size = c[at], int(at.sum())
             # Re(c* G c) = Re cᵀ G Re c + Im cᵀ G Im c for real G: two real products, G never copied to complex
-            split = np.concatenate([c[at].real, c[at].imag])
+            split = np.concatenate([part.real, part.imag])
             both = np.einsum("ki,ki->k", split, split @ g)
-            square[at] += weight[at] * (both[: at.sum()] + both[at.sum():])
-            floor[at] += weight[at] * 8 * summands * np.finfo(float).eps * (np.abs(c[at]) @ diags[j]) ** 2
+            square[at] += weight[at] * (both[:size] + both[size:])
+            magnitude = np.abs(part)
+            floor[at] += weight[at] * 8 * summands * np.finfo(float).eps * (magnitude @ diags[j]) ** 2
             if cert.spread is not None:  # the residuals' rounding in the Gram matrices (riesz)
-                floor[at] += weight[at] * 2 * np.finfo(float).eps * (np.abs(c[at]) @ cert.spread[j]) ** 2
+                floor[at] += weight[at] * 2 * np.finfo(float).eps * (magnitude @ cert.spread[j]) ** 2
         return np.sqrt(np.maximum(square, 0.0) + floor)
 
     o = len(names)

@@ -377,11 +377,14 @@ def from_arrays(data: Mapping[str, np.ndarray]) -> ReducedModel:
         for i, name in enumerate(str(s) for s in data[f"{group}.names"]):
             params = str(data[f"{group}.params"][i])
             kind = str(data[f"{group}.kinds"][i])
-            link = data[f"{group}.weights"][i] if kind == "link" else np.zeros(4)
+            weights: tuple[float, ...] = ()
+            component = 0
+            if kind == "link":  # its three cone weights, then the coordinate (to_arrays)
+                row = [float(w) for w in data[f"{group}.weights"][i]]
+                weights, component = tuple(row[:3]), int(row[3])
             coef = Coefficient(tuple(params.split(",")) if params else (),
                                "link" if kind == "link" else "harmonic" if kind == "harmonic" else "product",
-                               float(data[f"{group}.scales"][i]), tuple(float(w) for w in link[:3] if kind == "link"),
-                               int(link[3]))
+                               float(data[f"{group}.scales"][i]), weights, component)
             role = str(data[f"{group}.roles"][i])
             time = (Profile.from_arrays(data[f"{group}.time{i}"], str(data[f"{group}.timekind{i}"]))
                     if f"{group}.time{i}" in data else None)
