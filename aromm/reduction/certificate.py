@@ -316,6 +316,25 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     return out
 
 
+def through_finer(model: Any, finer: Any, values: Mapping[str, float]) -> FloatArray:
+    """Upper bound (°C) of ``|y_r − y|`` per output over the output times through a finer certified model of the
+    same full model: ``max_t |y_r − y_f| + bound_f`` (the triangle inequality; the difference is computed exactly in
+    time, the finer model's bound by :func:`error_bound`).  Where the finer model's error is far below the model's,
+    the difference is nearly the model's actual error: a model compressed from its span to a low order then has an
+    effectivity near 1, where the direct bound's product of residual norms loses up to 10⁴ (a fixed-temperature
+    face at order 12, docs/method/krylov.md)."""
+    names = model.parameter_names
+    # values of the initial terms' own parameters (e.g. initial.phi) other than the models' cannot be simulated
+    other = any(k not in names and v != model.parameters.get(k, v) for k, v in values.items())
+    own = finer.error_bound(values)
+    if own is None or model.time is None or other:
+        return np.full(len(model.outputs), np.inf)
+    batch = {k: [v] for k, v in values.items() if k in names}
+    times = model.time.times
+    gap = np.abs(model.simulate_batch(batch, times)[0] - finer.simulate_batch(batch, times)[0]).max(axis=0)
+    return np.asarray(gap + own, dtype=float)
+
+
 def _solve_rows(vecs: FloatArray, lam: FloatArray, s: npt.NDArray[np.complex128],
                 rhs: npt.NDArray[np.complex128]) -> npt.NDArray[np.complex128]:
     """Row k: (K_r + s_k C_r)⁻¹ rhs_k."""

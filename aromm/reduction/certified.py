@@ -81,8 +81,9 @@ def wanted(system: ThermalSystem, certify: bool | None, columns: int, *,
 def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
               certify: bool | None, reference: Mapping[str, float], training: Sequence[Mapping[str, float]],
               rtol: float, tolerance: float | None = None, certificate: Certificate | None = None,
-              after_below: int | None = None) -> tuple[ReducedModel, Info]:
-    """``rom`` (Galerkin on the basis ``psi`` of the lifted ``system``) with its certificate at the reference values,
+              after_below: int | None = None, finer: ReducedModel | None = None) -> tuple[ReducedModel, Info]:
+    """``rom`` (Galerkin on the basis ``psi`` of the lifted ``system``) with its certificate at the reference values
+    (and the ``finer`` certified model it was compressed from, which tightens its bound),
     and what its info records: the worst bound over ``training`` (``error_bound``, °C), the CPU seconds, and
     ``converged = 0`` when that bound exceeds ``tolerance`` (issue 35, item 4); without one when :func:`wanted` says
     no (``certificate`` then says why).  A ``certificate`` given (a Krylov build's, formed from its span's Gram
@@ -94,7 +95,7 @@ def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel
     start = time.process_time()
     if certificate is None:
         certificate = certificate_of(engine, system, psi, reference, rtol)
-    rom = replace(rom, certificate=certificate)
+    rom = replace(rom, certificate=certificate, finer=finer)
     bounds = [rom.error_bound(mu) for mu in training]
     worst = max(float(np.max(b)) for b in bounds if b is not None)
     info: Info = {"error_bound": worst, "certificate": "primal-dual contour bound",
@@ -141,6 +142,7 @@ class SpanBound:
         self.training = krylov.training_set(box, reductor.per_axis)
         self.ledger = GramLedger(engine, system, krylov.centre(box), reductor.rtol)
         self.final: Certificate | None = None
+        self.finer: ReducedModel | None = None
 
     def _too_large(self, columns: int) -> bool:
         return wanted(self.system, self.reductor.certify, width(self.engine, self.system, columns)) is not None
@@ -152,10 +154,12 @@ class SpanBound:
         cert = self.ledger.certificate()
         return np.array([float(np.max(error_bound(model, cert, mu))) for mu in self.training])
 
-    def compressed(self, basis: FloatArray, coefficients: FloatArray) -> None:
+    def compressed(self, basis: FloatArray, model: ReducedModel, coefficients: FloatArray) -> None:
         if not self._too_large(basis.shape[1]):
             self.ledger.extend(basis)
             self.final = self.ledger.certificate(coefficients)
+            if coefficients.shape[1] < coefficients.shape[0]:  # compressed: the span certifies it more tightly
+                self.finer = replace(model, info={}, certificate=self.ledger.certificate())
 
 
 def span_bound(engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,

@@ -75,10 +75,10 @@ Box = tuple[tuple[str, float, float], ...]
 
 class Bound(Protocol):
     """The certified bound of a span's Galerkin model (basis, model) at every training point (°C, max over outputs);
-    told the span and the compression's coefficients before the span's buffer is overwritten."""
+    told the span, its model and the compression's coefficients before the span's buffer is overwritten."""
 
     def __call__(self, basis: Block, model: ReducedModel) -> FloatArray: ...
-    def compressed(self, basis: Block, coefficients: FloatArray) -> None: ...
+    def compressed(self, basis: Block, model: ReducedModel, coefficients: FloatArray) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -435,5 +435,5 @@ def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: Krylo
     log.info("krylov: span %d columns at %d points, order %d, compression loss %.3g °C", span.model.order,
              len(span.points), rom.order, info["compression_loss"])
     if bound is not None:
-        bound.compressed(span.basis, coefficients)
+        bound.compressed(span.basis, span.model, coefficients)
     return rom, engine.combine(span.basis, coefficients, consume=True), info

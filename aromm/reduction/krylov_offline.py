@@ -51,7 +51,8 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
         rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress, bound=bound)
         rom, extra = certified(engine, lifted, rom, psi, certify=reductor.certify, reference=krylov.centre(box),
                                training=krylov.training_set(box, reductor.per_axis), rtol=reductor.rtol,
-                               tolerance=reductor.tolerance, certificate=bound.final if bound else None)
+                               tolerance=reductor.tolerance, certificate=bound.final if bound else None,
+                               finer=bound.finer if bound else None)
     info.update(extra)
     info.update({"offline_seconds": time.perf_counter() - start, "cached": 0, "key": key,
                  "lifted_faces": len(system.dirichlet)})

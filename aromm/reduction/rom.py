@@ -56,7 +56,7 @@ from aromm.core.system import (
     is_matrix_free,
     require_free_transient,
 )
-from aromm.reduction.certificate import Certificate, error_bound
+from aromm.reduction.certificate import Certificate, error_bound, through_finer
 from aromm.reduction.modal_integration import ModalForm, diagonalise
 
 #: Largest condition number of the reduced conductance accepted for a steady limit.
@@ -121,6 +121,8 @@ class ReducedModel:
     ``box`` is the training box, (name, lower, upper) per parameter (SI), over which the model was built: every
     other parameter is pinned at its value in ``projected.parameters`` (:mod:`aromm.core.domain` says where
     the model is valid); empty for a model built at the scene's values only (the modal methods).
+    ``certificate`` is the offline data of its certified output error bound, ``finer`` a certified model of the same
+    full model and larger order (a Krylov model's span before its compression) that tightens it (:meth:`error_bound`).
     """
 
     projected: ThermalSystem
@@ -130,6 +132,7 @@ class ReducedModel:
     field_lifting: Affine = field(default=Affine(), repr=False, compare=False)
     box: tuple[tuple[str, float, float], ...] = ()
     certificate: Certificate | None = field(default=None, repr=False, compare=False)
+    finer: ReducedModel | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def from_system(cls, system: ThermalSystem, basis: FloatArray,
@@ -175,7 +178,8 @@ class ReducedModel:
         stay)."""
         names = {name for name, _, _ in self.box}
         own = {**self.projected.parameters, **{k: float(v) for k, v in values.items() if k in names}}
-        return replace(self, projected=replace(self.projected, parameters=own))
+        finer = self.finer.with_parameters(values) if self.finer is not None else None
+        return replace(self, projected=replace(self.projected, parameters=own), finer=finer)
 
     def check_domain(self, values: Mapping[str, npt.ArrayLike], use: str) -> None:
         """Warn (:class:`~aromm.core.errors.ModelWarning`, once) when ``values`` leave the model's domain: its box,
@@ -195,10 +199,15 @@ class ReducedModel:
     def error_bound(self, params: Mapping[str, float] | None = None) -> FloatArray | None:
         """Certified upper bound (°C) of the largest ``|reduced − full|`` over the output times, per output, at
         ``params`` (:mod:`aromm.reduction.certificate`: against the same full model exact in time); None without a
-        certificate (a modal model, a model built on another engine)."""
+        certificate (a model built on another engine, or too large to certify).  With a ``finer`` certified model of
+        the same full model (a Krylov model's span before its compression) the smaller of the two valid bounds:
+        the direct one, and the difference to the finer model plus the finer model's bound
+        (:func:`~aromm.reduction.certificate.through_finer`)."""
         if self.certificate is None:
             return None
-        return error_bound(self, self.certificate, {**self.parameters, **(params or {})})
+        values = {**self.parameters, **(params or {})}
+        direct = error_bound(self, self.certificate, values)
+        return direct if self.finer is None else np.minimum(direct, through_finer(self, self.finer, values))
 
     # ----------------------------------------------------------------- protocol
     @property
@@ -357,6 +366,8 @@ def to_arrays(model: ReducedModel) -> dict[str, np.ndarray]:
     out["info.values"] = np.array([str(v) for v in model.info.values()], dtype=str)
     if model.certificate is not None:
         out.update({f"certificate.{k}": v for k, v in model.certificate.arrays().items()})
+    if model.finer is not None:
+        out.update({f"finer.{k}": v for k, v in to_arrays(model.finer).items()})
     return out
 
 
@@ -404,5 +415,7 @@ def from_arrays(data: Mapping[str, np.ndarray]) -> ReducedModel:
     box = tuple((str(n), float(lo), float(hi)) for n, (lo, hi) in zip(data.get("box.names", ()),
                                                                        data.get("box.bounds", ()), strict=True))
     cert = {k.removeprefix("certificate."): v for k, v in data.items() if k.startswith("certificate.")}
+    finer = {k.removeprefix("finer."): v for k, v in data.items() if k.startswith("finer.")}
     return ReducedModel(projected, groups["initial"], info, box=box,
-                        certificate=Certificate.from_arrays(cert) if cert else None)
+                        certificate=Certificate.from_arrays(cert) if cert else None,
+                        finer=from_arrays(finer) if finer else None)
