@@ -49,6 +49,7 @@ import numpy.typing as npt
 from aromm.core.profiles import Profile
 from aromm.core.system import FloatArray, ThermalSystem, dense
 from aromm.reduction.modal_integration import diagonalise
+from aromm.reduction.residual_form import ResidualForm
 
 log = logging.getLogger(__name__)
 
@@ -243,13 +244,9 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     rates, modes = diagonalise(*pencil)
     lam, vecs = rates[0], modes[0]
     r, p = cert.vtu.shape
-    factors = np.hstack([np.broadcast_to(theta[:nk], (s.size, nk)), s[:, None] * theta[None, nk:]])
 
     def solve(rhs: FloatArray) -> npt.NDArray[np.complex128]:  # (S, r): (K_r + s C_r)⁻¹ rhs for every s
         return (vecs @ ((vecs.T @ rhs)[None, :] / (lam[None, :] + s[:, None])).T).T
-
-    def coefficients(head: npt.NDArray[np.complex128], x: npt.NDArray[np.complex128]) -> npt.NDArray[np.complex128]:
-        return np.concatenate([head, -(factors[:, :, None] * x[:, None, :]).reshape(s.size, -1)], axis=1)
 
     # (K̂ + σĈ)⁻¹ ≤ θ N̂_a⁻¹ + (1 − θ) N̂_b⁻¹ for σ = θ σ_a + (1 − θ) σ_b (the inverse is operator convex), and
     # ≤ N̂_a⁻¹ for σ ≥ σ_a: between two rungs the two Gram matrices are interpolated, beyond them the nearest is used.
@@ -258,29 +255,16 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     upper = np.minimum(lower + 1, len(cert.sigmas) - 1)
     span = cert.sigmas[upper] - cert.sigmas[lower]
     share = np.where(span > 0, (cert.sigmas[upper] - sig) / np.where(span > 0, span, 1.0), 1.0)
-
+    weights = np.array([np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
+                        for j in range(len(cert.sigmas))])
     diags, summands = cert.floor_terms()
-    # contiguous once: a Gram matrix kept along a greedy's span is a view of a larger buffer, and numpy < 2 multiplies
-    # such a view without BLAS (the lowest-versions stage ran 3× slower)
-    grams = [np.ascontiguousarray(g) for g in cert.grams]
-
-    def norm(c: npt.NDArray[np.complex128]) -> FloatArray:
-        square, floor = np.zeros(s.size), np.zeros(s.size)
-        for j, g in enumerate(grams):  # one matrix product per rung of the ladder
-            weight = np.where(lower == j, share, 0.0) + np.where((upper == j) & (upper != lower), 1 - share, 0.0)
-            at = weight > 0
-            part, size = c[at], int(at.sum())
-            # Re(c* G c) = Re cᵀ G Re c + Im cᵀ G Im c for real G: two real products, G never copied to complex
-            split = np.concatenate([part.real, part.imag])
-            both = np.einsum("ki,ki->k", split, split @ g)
-            square[at] += weight[at] * (both[:size] + both[size:])
-            magnitude = np.abs(part)
-            floor[at] += weight[at] * 8 * summands * np.finfo(float).eps * (magnitude @ diags[j]) ** 2
-            if cert.spread is not None:  # the residuals' rounding in the Gram matrices (riesz)
-                floor[at] += weight[at] * 2 * np.finfo(float).eps * (magnitude @ cert.spread[j]) ** 2
-        return np.sqrt(np.maximum(square, 0.0) + floor)
-
     o = len(names)
+    form = ResidualForm.of(cert.grams, scales=diags, spread=cert.spread, summands=summands, head=p + o, theta=theta,
+                           conductances=nk)
+
+    def norm(head: npt.NDArray[np.complex128], x: npt.NDArray[np.complex128]) -> FloatArray:
+        return form.norm(s, head, x, weights)
+
     zero_head = np.zeros((s.size, p + o), dtype=complex)
     # zero-delay part of every input together (their errors may cancel: T0 = T_ext), each delayed piece alone
     head0, rhs0 = zero_head.copy(), np.zeros((s.size, r), dtype=complex)
@@ -295,12 +279,12 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
         if late:
             unit_head = zero_head.copy()
             unit_head[:, j] = 1.0
-            unit = norm(coefficients(unit_head, solve(cert.vtu[:, j])))
+            unit = norm(unit_head, solve(cert.vtu[:, j]))
             for c, tau, k in late:
                 delayed += abs(scale * c) * unit * _damping(s, tau, times) / np.abs(s) ** k
     head0[:, cert.loads:p] += initial[None, :]
     rhs0 += (cert.vtu[:, cert.loads:] @ initial)[None, :]
-    primal = norm(coefficients(head0, _solve_rows(vecs, lam, s, rhs0))) * _damping(s, 0.0, times) + delayed
+    primal = norm(head0, _solve_rows(vecs, lam, s, rhs0)) * _damping(s, 0.0, times) + delayed
     kappa = np.cos(np.angle(s) / 2)
     coarse = np.zeros(s.size)
     coarse[::2] = _chords(s[::2])
@@ -308,7 +292,7 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     for i in range(o):
         head = zero_head.copy()
         head[:, p + i] = 1.0
-        dual = norm(coefficients(head, solve(rows[i])))
+        dual = norm(head, solve(rows[i]))
         integrand = dual * primal / (kappa * alpha)
         full = float(np.sum(w * integrand)) / np.pi
         half = float(np.sum(coarse * integrand)) / np.pi

@@ -21,6 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from aromm.core.system import FloatArray
+from aromm.reduction.residual_form import residual_norms
 
 #: Rows of M held at a time while forming MᵀM ...
 CHUNK = 32_768
@@ -59,14 +60,11 @@ class ResidualGram:
             gram += block.T @ block  # one symmetric rank-k update (BLAS syrk): half the flops of block by block
         return cls(key, gram, p, m, r)
 
-    def norms(self, a: FloatArray, theta: FloatArray, x: FloatArray) -> FloatArray:
-        """``‖b_i − Σ_t θ_kt A_t V x_ki‖`` (S × q) for input coefficients ``a`` (p × q), the terms' factors
-        ``theta`` (S × m) at each shift and reduced solutions ``x`` (S × r × q)."""
-        s, _, q = x.shape
-        parts = -(theta[:, None, :, None] * np.swapaxes(x, 1, 2)[:, :, None, :]).reshape(s, q, self.terms * self.order)
-        c = np.concatenate([np.broadcast_to(a.T, (s, q, self.inputs)), parts], axis=2)
-        squared = np.einsum("kij,jl,kil->ki", c, self.gram, c)
-        return np.sqrt(np.maximum(squared, 0.0))
+    def norms(self, a: FloatArray, *, k: FloatArray, c: FloatArray, shifts: FloatArray, x: FloatArray) -> FloatArray:
+        """``‖b_i − (K(μ) + s C(μ)) V x_ki‖`` (S × q) for input coefficients ``a`` (p × q), the conductance and capacity
+        terms' coefficients ``k``, ``c`` at μ, the ``shifts`` s and reduced solutions ``x`` (S × r × q)
+        (:func:`aromm.reduction.residual_form.residual_norms`)."""
+        return residual_norms(self.gram, a, k=k, c=c, shifts=shifts, solutions=x)
 
 
 def _rows_product(a: sp.csr_array, rows: slice, basis: FloatArray, work: FloatArray) -> FloatArray:

@@ -412,8 +412,7 @@ class ScipyEngine:
         v = self.system.values(values)
         k = np.array([float(t.coefficient(v)) for t in conduction])
         c = np.array([float(t.coefficient(v)) for t in capacity])
-        theta = np.hstack([np.broadcast_to(k, (len(shifts), k.size)), np.outer(shifts, c)])
-        return self._gram.norms(self.input_coefficients(values), theta, solutions)
+        return self._gram.norms(self.input_coefficients(values), k=k, c=c, shifts=shifts, x=solutions)
 
     def to_numpy(self, block: FloatArray) -> FloatArray:
         return block

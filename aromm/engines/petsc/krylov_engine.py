@@ -45,6 +45,7 @@ from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm
 from aromm.engines.petsc.projection import project
 from aromm.reduction.column_buffer import ColumnBuffer, GrowingProjection
 from aromm.reduction.engine_protocol import SolveStats
+from aromm.reduction.residual_form import residual_norms
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.scipy_engine import gram_orthonormal, input_coefficients, input_weights, pencil
 
@@ -333,15 +334,7 @@ class PetscKrylovEngine:
         v = self.system.values(values)
         k = np.array([float(t.coefficient(v)) for t in self.system.conductance])
         c = np.array([float(t.coefficient(v)) for t in self.system.capacity])
-        a = self.input_coefficients(values)
-        s, r, q = solutions.shape
-        z = np.empty((s, q, a.shape[0] + (k.size + c.size) * r))
-        z[:, :, :a.shape[0]] = a.T[None]
-        theta = np.concatenate([np.broadcast_to(k, (s, k.size)), shifts[:, None] * c[None, :]], axis=1)  # S × T
-        z[:, :, a.shape[0]:] = -(theta[:, None, :, None] * np.swapaxes(solutions, 1, 2)[:, :, None, :]).reshape(
-            s, q, -1)
-        squares = np.einsum("skm,mn,skn->sk", z, gram, z)
-        return np.sqrt(np.maximum(squares, 0.0))
+        return residual_norms(gram, self.input_coefficients(values), k=k, c=c, shifts=shifts, solutions=solutions)
 
     def to_numpy(self, block: FloatArray) -> FloatArray:
         """This rank's rows (the engine never gathers a basis)."""
