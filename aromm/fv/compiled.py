@@ -1,6 +1,13 @@
 """The compiled (numba) kernels of :mod:`aromm.fv.kernels`, at module level so that numba caches them on disk: the
 first run compiles them (≈ 5 s), later processes load them.  Imported only when a solve uses them (numba's own
 import costs ≈ 0.3 s).  The arithmetic, conventions and tests are those of :mod:`aromm.fv.kernels`.
+
+Every kernel runs row by row (fixed i, j; k the contiguous axis): :func:`_row` picks, once per row, the four
+neighbour rows along i and j and their links (a zero row where the box ends), so that its loop over the inner cells
+has no branch and LLVM vectorises it; the first and last cell of the row take the k links and the fixed faces of
+axis k.  A colour sweep computes the Gauss–Seidel value of every cell of the row (unit stride, vectorised) into a
+row buffer and copies back that colour's cells: a cell's value depends on the other colour only, which the sweep
+does not change (on an even periodic axis too; an odd periodic one is never swept: aromm.fv.multigrid).
 """
 
 from __future__ import annotations
@@ -14,74 +21,96 @@ from aromm.fv.kernels import NUMPY, Kernels
 from aromm.fv.stencil import Stencil
 
 JIT = numba.njit(parallel=True, cache=True, nogil=True)
+INLINE = numba.njit(inline="always", cache=True)
+PRODUCT, RESIDUAL, SWEEP = 0, 1, 2  # what _row writes per cell, from s = Σ g x_neighbour and d = Σ g + f (W/K)
 
 
-@numba.njit(inline="always", cache=True)
-def gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k):  # type: ignore[no-untyped-def]  # noqa: PLR0917
-    """(Σ g x_neighbour, Σ g + f) of cell (i, j, k); ``periodic``: the wrapped links too (link n − 1 of an axis joins
-    its last cell to its first)."""
-    nx, ny, nz = x.shape
-    s = 0.0
-    d = 0.0
-    if i > 0 or periodic:
-        g = np.float64(gx[i - 1, j, k])  # i − 1 = −1 reads the wrapped link n − 1 (periodic only)
-        s += g * x[i - 1, j, k]
-        d += g
-    if i < nx - 1 or periodic:
-        g = np.float64(gx[i, j, k])
-        s += g * x[(i + 1) % nx, j, k]
-        d += g
-    if j > 0 or periodic:
-        g = np.float64(gy[i, j - 1, k])
-        s += g * x[i, j - 1, k]
-        d += g
-    if j < ny - 1 or periodic:
-        g = np.float64(gy[i, j, k])
-        s += g * x[i, (j + 1) % ny, k]
-        d += g
-    if k > 0 or periodic:
-        g = np.float64(gz[i, j, k - 1])
-        s += g * x[i, j, k - 1]
-        d += g
-    if k < nz - 1 or periodic:
-        g = np.float64(gz[i, j, k])
-        s += g * x[i, j, (k + 1) % nz]
-        d += g
-    if axis == 0:
-        d += (low[j, k] if i == 0 else 0.0) + (high[j, k] if i == nx - 1 else 0.0)
-    elif axis == 1:
-        d += (low[i, k] if j == 0 else 0.0) + (high[i, k] if j == ny - 1 else 0.0)
+@INLINE
+def _update(mode, s, d, k, xr, br, outr):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+    """outr[k] ← (A x)_k = d x_k − s, (b − A x)_k, or the Gauss–Seidel value (b_k + s) / d (x_k where d = 0)."""
+    if mode == SWEEP:
+        outr[k] = (br[k] + s) / d if d > 0.0 else xr[k]
+    elif mode == RESIDUAL:
+        outr[k] = br[k] - (d * xr[k] - s)
     else:
-        d += (low[i, j] if k == 0 else 0.0) + (high[i, j] if k == nz - 1 else 0.0)
-    return s, d
+        outr[k] = d * xr[k] - s
+
+
+@INLINE
+def _plane(rows, k):  # type: ignore[no-untyped-def]
+    """(s, d) of cell k from the in-plane neighbours' rows (links along i and j, both sides) and fixed rows."""
+    ga, xa, gb, xb, gc, xc, gd, xd, fa, fb = rows
+    g1, g2, g3, g4 = np.float64(ga[k]), np.float64(gb[k]), np.float64(gc[k]), np.float64(gd[k])
+    return g1 * xa[k] + g2 * xb[k] + g3 * xc[k] + g4 * xd[k], g1 + g2 + g3 + g4 + fa[k] + fb[k]
+
+
+@INLINE
+def _row(gx, gy, gz, low, high, axis, periodic, b, x, outr, i, j, mode, zg, zf):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+    """``_update(mode)`` of every cell (i, j, ·) into the row ``outr``.  The neighbour rows along i and j and their
+    links are picked once (``zg``, ``zf``: zero rows of links and fixed terms where the box ends), so the loop over
+    the inner cells has no branch and vectorises; the row's two end cells add the k links and axis k's fixed faces.
+    Periodic: index −1 reads the wrapped link n − 1 (last cell to first)."""
+    nx, ny, nz = x.shape
+    xi = x[i]
+    xa, ga = (x[i - 1, j], gx[i - 1, j]) if i > 0 or periodic else (xi[j], zg)
+    xb, gb = (x[(i + 1) % nx, j], gx[i, j]) if i < nx - 1 or periodic else (xi[j], zg)
+    xc, gc = (xi[j - 1], gy[i, j - 1]) if j > 0 or periodic else (xi[j], zg)
+    xd, gd = (xi[(j + 1) % ny], gy[i, j]) if j < ny - 1 or periodic else (xi[j], zg)
+    fa = low[j] if axis == 0 and i == 0 else (low[i] if axis == 1 and j == 0 else zf)
+    fb = high[j] if axis == 0 and i == nx - 1 else (high[i] if axis == 1 and j == ny - 1 else zf)
+    rows = (ga, xa, gb, xb, gc, xc, gd, xd, fa, fb)
+    xr, br, gr = xi[j], b[i, j], gz[i, j]
+    last = nz - 1
+    s, d = _plane(rows, 0)  # the first cell
+    if last > 0:
+        s, d = s + np.float64(gr[0]) * xr[1], d + np.float64(gr[0])
+    if periodic and last > 0:
+        s, d = s + np.float64(gr[last]) * xr[last], d + np.float64(gr[last])
+    if axis == 2:
+        d += low[i, j] + (high[i, j] if last == 0 else 0.0)
+    _update(mode, s, d, 0, xr, br, outr)
+    for k in range(1, last):
+        gm, gp = np.float64(gr[k - 1]), np.float64(gr[k])
+        s, d = _plane(rows, k)
+        _update(mode, s + gm * xr[k - 1] + gp * xr[k + 1], d + gm + gp, k, xr, br, outr)
+    if last > 0:  # the last cell
+        s, d = _plane(rows, last)
+        s, d = s + np.float64(gr[last - 1]) * xr[last - 1], d + np.float64(gr[last - 1])
+        if periodic:
+            s, d = s + np.float64(gr[last]) * xr[0], d + np.float64(gr[last])
+        if axis == 2:
+            d += high[i, j]
+        _update(mode, s, d, last, xr, br, outr)
+
 
 @JIT
 def residual(gx, gy, gz, low, high, axis, periodic, b, x, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     nx, ny, nz = x.shape
+    zg, zf = np.zeros(nz, np.float32), np.zeros(nz)
     for i in prange(nx):
         for j in range(ny):
-            for k in range(nz):
-                s, d = gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k)
-                out[i, j, k] = b[i, j, k] - (d * x[i, j, k] - s)
+            _row(gx, gy, gz, low, high, axis, periodic, b, x, out[i, j], i, j, RESIDUAL, zg, zf)
+
 
 @JIT
 def product(gx, gy, gz, low, high, axis, periodic, x, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     nx, ny, nz = x.shape
+    zg, zf = np.zeros(nz, np.float32), np.zeros(nz)
     for i in prange(nx):
         for j in range(ny):
-            for k in range(nz):
-                s, d = gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k)
-                out[i, j, k] = d * x[i, j, k] - s
+            _row(gx, gy, gz, low, high, axis, periodic, x, x, out[i, j], i, j, PRODUCT, zg, zf)
+
 
 @JIT
 def sweep(gx, gy, gz, low, high, axis, periodic, b, x, colour):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     nx, ny, nz = x.shape
+    zg, zf = np.zeros(nz, np.float32), np.zeros(nz)
     for i in prange(nx):
+        t = np.empty(nz)  # the row's Gauss–Seidel values, both colours (module docstring)
         for j in range(ny):
-            for k in range((i + j + colour) % 2, nz, 2):
-                s, d = gather(gx, gy, gz, low, high, axis, periodic, x, i, j, k)
-                if d > 0.0:
-                    x[i, j, k] = (b[i, j, k] + s) / d
+            _row(gx, gy, gz, low, high, axis, periodic, b, x, t, i, j, SWEEP, zg, zf)
+            x[i, j, (i + j + colour) % 2::2] = t[(i + j + colour) % 2::2]
+
 
 @JIT
 def restrict(r, out):  # type: ignore[no-untyped-def]
