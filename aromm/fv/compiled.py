@@ -101,15 +101,37 @@ def product(gx, gy, gz, low, high, axis, periodic, x, out):  # type: ignore[no-u
             _row(gx, gy, gz, low, high, axis, periodic, x, x, out[i, j], i, j, PRODUCT, zg, zf)
 
 
+@INLINE
+def _sweep_plane(gx, gy, gz, low, high, axis, periodic, b, x, i, colour, t, zg, zf):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+    """Gauss–Seidel on the cells of plane i with ``(i + j + k) % 2 == colour``; ``t``: a row buffer."""
+    for j in range(x.shape[1]):
+        _row(gx, gy, gz, low, high, axis, periodic, b, x, t, i, j, SWEEP, zg, zf)
+        x[i, j, (i + j + colour) % 2::2] = t[(i + j + colour) % 2::2]
+
+
 @JIT
 def sweep(gx, gy, gz, low, high, axis, periodic, b, x, colour):  # type: ignore[no-untyped-def]  # noqa: PLR0917
-    nx, ny, nz = x.shape
+    nx, _, nz = x.shape
     zg, zf = np.zeros(nz, np.float32), np.zeros(nz)
     for i in prange(nx):
-        t = np.empty(nz)  # the row's Gauss–Seidel values, both colours (module docstring)
-        for j in range(ny):
-            _row(gx, gy, gz, low, high, axis, periodic, b, x, t, i, j, SWEEP, zg, zf)
-            x[i, j, (i + j + colour) % 2::2] = t[(i + j + colour) % 2::2]
+        _sweep_plane(gx, gy, gz, low, high, axis, periodic, b, x, i, colour, np.empty(nz), zg, zf)
+
+
+@JIT
+def residual_restrict(gx, gy, gz, low, high, axis, periodic, b, x, out):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+    """out ← Pᵀ (b − A x): each fine row's residual, summed by pairs into its coarse row (no fine residual kept)."""
+    nx, ny, nz = x.shape
+    zg, zf = np.zeros(nz, np.float32), np.zeros(nz)
+    for ci in prange(out.shape[0]):
+        t = np.empty(nz)
+        out[ci] = 0.0
+        for i in range(2 * ci, min(2 * ci + 2, nx)):
+            for j in range(ny):
+                _row(gx, gy, gz, low, high, axis, periodic, b, x, t, i, j, RESIDUAL, zg, zf)
+                o = out[ci, j // 2]
+                o[: nz // 2] += t[0 : nz - 1 : 2] + t[1:nz:2]
+                if nz % 2:
+                    o[nz // 2] += t[nz - 1]
 
 
 @JIT
@@ -144,6 +166,10 @@ def nb_product(st: Stencil, x: FloatArray, out: FloatArray) -> None:
 def nb_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
     sweep(*st.links, st.low, st.high, st.axis, st.periodic, b, x, colour)
 
+def nb_residual_restrict(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> None:
+    residual_restrict(*st.links, st.low, st.high, st.axis, st.periodic, b, x, out)
+
 
 # the diagonal is needed by the rounding floor only (once a solve): numpy's serves
-COMPILED = Kernels("numba", nb_product, NUMPY.diagonal, nb_residual, nb_sweep, restrict, prolong)
+COMPILED = Kernels("numba", nb_product, NUMPY.diagonal, nb_residual, nb_sweep, restrict, nb_residual_restrict,
+                   prolong)

@@ -31,8 +31,8 @@ log = logging.getLogger(__name__)
 class Kernels:
     """``product(st, x, out)``: out = A x; ``residual(st, b, x, out)``: out = b − A x; ``diagonal(st, out)``: the
     diagonal of A; ``sweep(st, b, x, colour)``: Gauss–Seidel on the cells with
-    ``(i + j + k) % 2 == colour``; ``restrict(r, out)``: out = Pᵀ r; ``prolong(e, x, alive, alpha)``:
-    x += alpha P e on the live cells."""
+    ``(i + j + k) % 2 == colour``; ``restrict(r, out)``: out = Pᵀ r; ``residual_restrict(st, b, x, out)``: out = Pᵀ (b − A x), no fine residual
+    kept; ``prolong(e, x, alive, alpha)``: x += alpha P e on the live cells."""
 
     name: str
     product: Callable[[Stencil, FloatArray, FloatArray], None]
@@ -40,6 +40,7 @@ class Kernels:
     residual: Callable[[Stencil, FloatArray, FloatArray, FloatArray], None]
     sweep: Callable[[Stencil, FloatArray, FloatArray, int], None]
     restrict: Callable[[FloatArray, FloatArray], None]
+    residual_restrict: Callable[[Stencil, FloatArray, FloatArray, FloatArray], None]
     prolong: Callable[[FloatArray, FloatArray, npt.NDArray[np.uint8], float], None]
 
 
@@ -113,12 +114,19 @@ def _np_restrict(r: FloatArray, out: FloatArray) -> None:
     out[...] = r
 
 
+def _np_residual_restrict(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> None:
+    r = np.empty(x.shape)
+    _np_residual(st, b, x, r)
+    _np_restrict(r, out)
+
+
 def _np_prolong(e: FloatArray, x: FloatArray, alive: npt.NDArray[np.uint8], alpha: float) -> None:
     fine = np.repeat(np.repeat(np.repeat(e, 2, axis=0), 2, axis=1), 2, axis=2)
     x += alpha * alive * fine[: x.shape[0], : x.shape[1], : x.shape[2]]
 
 
-NUMPY = Kernels("numpy", _np_product, _np_diagonal, _np_residual, _np_sweep, _np_restrict, _np_prolong)
+NUMPY = Kernels("numpy", _np_product, _np_diagonal, _np_residual, _np_sweep, _np_restrict,
+                _np_residual_restrict, _np_prolong)
 
 
 def kernels(name: str = "auto") -> Kernels:

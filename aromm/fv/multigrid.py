@@ -133,7 +133,7 @@ class VolumeMultigrid:
 
     def _level(self, st: Stencil, empty: FloatArray) -> _Level:
         """A level's data; the inverse diagonal of Jacobi where an odd periodic axis forbids red–black sweeps."""
-        level = _Level(st, st.alive(), empty, empty.copy(), empty.copy())
+        level = _Level(st, st.alive(), empty, empty.copy(), np.zeros(0))
         if st.periodic and any(n % 2 for n in st.shape):
             diagonal = np.empty(st.shape)
             self.ops.diagonal(st, diagonal)
@@ -148,8 +148,6 @@ class VolumeMultigrid:
     def precondition(self, r: FloatArray, z: FloatArray) -> FloatArray:
         """One V-cycle from a zero guess: ``z ≈ A⁻¹ r`` (flat or of the stencil's shape)."""
         shape = self.stencil.shape
-        if self.levels[0].r.size != self.stencil.cells:
-            self.levels[0].r = np.empty(self.stencil.cells)
         self._vcycle(0, r.reshape(shape), z.reshape(shape))
         return z
 
@@ -159,23 +157,23 @@ class VolumeMultigrid:
             x[...] = self._coarse_solve.solve(b.ravel(), check=False).reshape(x.shape)
             return
         x.fill(0.0)
-        self._smooth(level, b, x, (0, 1))
+        self._smooth(level, b, x, 0)
         if index + 1 < len(self.levels):
             coarse = self.levels[index + 1]
-            r = level.r.reshape(x.shape)
-            ops.residual(level.stencil, b, x, r)
-            ops.restrict(r, coarse.b)
+            ops.residual_restrict(level.stencil, b, x, coarse.b)
             self._coarse_correction(index + 1)
             ops.prolong(coarse.x, x, level.alive, SCALE)
-        self._smooth(level, b, x, (1, 0))
+        self._smooth(level, b, x, 1)
 
-    def _smooth(self, level: _Level, b: FloatArray, x: FloatArray, colours: tuple[int, int]) -> None:
-        """Red–black Gauss–Seidel in the order of ``colours``, or damped Jacobi on a level with an odd periodic
-        axis (its residual in the level's ``r``, free until the restriction)."""
+    def _smooth(self, level: _Level, b: FloatArray, x: FloatArray, first: int) -> None:
+        """Red–black Gauss–Seidel, colour ``first`` then the other, or damped Jacobi on a level with an odd
+        periodic axis (its residual in the level's ``r``, allocated at the first use)."""
         if not level.jacobi.size:
-            for colour in colours:
+            for colour in (first, 1 - first):
                 self.ops.sweep(level.stencil, b, x, colour)
             return
+        if level.r.size != x.size:
+            level.r = np.empty(x.shape)
         r = level.r.reshape(x.shape)
         for _ in range(JACOBI_STEPS):
             self.ops.residual(level.stencil, b, x, r)
