@@ -30,8 +30,8 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Kernels:
     """``product(st, x, out)``: out = A x; ``residual(st, b, x, out)``: out = b − A x; ``diagonal(st, out)``: the
-    diagonal of A; ``sweep(st, b, x, colour)``: Gauss–Seidel on the cells with
-    ``(i + j + k) % 2 == colour``; ``restrict(r, out)``: out = Pᵀ r; ``residual_restrict(st, b, x, out)``: out = Pᵀ (b − A x), no fine residual
+    diagonal of A; ``sweep(st, b, x, colour)``: Gauss–Seidel on the cells with ``(i + j + k) % 2 == colour``;
+    ``restrict(r, out)``: out = Pᵀ r; ``residual_restrict(st, b, x, out)``: out = Pᵀ (b − A x), no fine residual
     kept; ``prolong(e, x, alive, alpha)``: x += alpha P e on the live cells."""
 
     name: str
