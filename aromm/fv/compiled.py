@@ -25,15 +25,18 @@ from aromm.fv.stencil import Stencil
 
 JIT = numba.njit(parallel=True, cache=True, nogil=True)
 INLINE = numba.njit(inline="always", cache=True)
-PRODUCT, RESIDUAL, SWEEP = 0, 1, 2  # what _row writes per cell, from s = Σ g x_neighbour and d = Σ g + f (W/K)
+PRODUCT, RESIDUAL, SWEEP, FIRST = 0, 1, 2, 3  # what _row writes per cell, from s = Σ g x_neighbour, d = Σ g + f (W/K)
 
 
 @INLINE
 def _update(mode, s, d, x, b, out, i, j, k, row):  # type: ignore[no-untyped-def]  # noqa: PLR0917
-    """out[row][k] ← (A x)_ijk = d x − s, (b − A x)_ijk, or the Gauss–Seidel value (b + s) / d (x where d = 0)."""
+    """out[row][k] ← (A x)_ijk = d x − s, (b − A x)_ijk, the Gauss–Seidel value (b + s) / d (x where d = 0), or
+    with FIRST that value from x = 0, b / d (0 where d = 0; x is not read)."""
     oi, oj = row
     if mode == SWEEP:
         out[oi, oj, k] = (b[i, j, k] + s) / d if d > 0.0 else x[i, j, k]
+    elif mode == FIRST:
+        out[oi, oj, k] = b[i, j, k] / d if d > 0.0 else 0.0
     elif mode == RESIDUAL:
         out[oi, oj, k] = b[i, j, k] - (d * x[i, j, k] - s)
     else:
@@ -123,17 +126,20 @@ def _links(gx, gy, low, high, axis, shape):  # type: ignore[no-untyped-def]  # n
 @numba.njit(cache=True, nogil=True)
 def _rows(gx, gy, gz, low, high, axis, periodic, b, x, out, i, oi, mode, colour):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     """``_row(mode)`` of every row j of plane i into ``out[oi, j]``; SWEEP: into a row buffer, whose ``colour``
-    cells are copied back.  Compiled apart from the threaded kernels: inlined there, _row's index tuples failed
-    numba's parallel array analysis."""
+    cells are copied back; FIRST: those cells, and 0 in the others (x's old values are never used).  Compiled
+    apart from the threaded kernels: inlined there, _row's index tuples failed numba's parallel array analysis."""
     _, ny, nz = x.shape
     i, oi = np.int64(i), np.int64(oi)  # a prange index may be unsigned: index arithmetic with it would be float
     gx, gy, fl, fh = _links(gx, gy, low, high, axis, x.shape)
-    t = np.empty((1, 1, nz if mode == SWEEP else 0))  # the row's Gauss–Seidel values, both colours
+    t = np.empty((1, 1, nz if mode >= SWEEP else 0))  # the row's Gauss–Seidel values, both colours
     for j in range(ny):
-        if mode != SWEEP:
+        if mode < SWEEP:
             _row(gx, gy, gz, low, high, fl, fh, axis, periodic, b, x, out, (oi, j), i, j, mode)
             continue
-        _row(gx, gy, gz, low, high, fl, fh, axis, periodic, b, x, t, (0, 0), i, j, SWEEP)
+        _row(gx, gy, gz, low, high, fl, fh, axis, periodic, b, x, t, (0, 0), i, j, mode)
+        if mode == FIRST:
+            for k in range((i + j + colour + 1) % 2, nz, 2):
+                x[i, j, k] = 0.0
         for k in range((i + j + colour) % 2, nz, 2):
             x[i, j, k] = t[0, 0, k]
 
@@ -154,6 +160,12 @@ def product(gx, gy, gz, low, high, axis, periodic, x, out):  # type: ignore[no-u
 def sweep(gx, gy, gz, low, high, axis, periodic, b, x, colour):  # type: ignore[no-untyped-def]  # noqa: PLR0917
     for i in prange(x.shape[0]):
         _rows(gx, gy, gz, low, high, axis, periodic, b, x, x, i, i, SWEEP, colour)
+
+
+@JIT
+def first_sweep(gx, gy, gz, low, high, axis, periodic, b, x, colour):  # type: ignore[no-untyped-def]  # noqa: PLR0917
+    for i in prange(x.shape[0]):
+        _rows(gx, gy, gz, low, high, axis, periodic, b, x, x, i, i, FIRST, colour)
 
 
 @JIT
@@ -204,10 +216,13 @@ def nb_product(st: Stencil, x: FloatArray, out: FloatArray) -> None:
 def nb_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
     sweep(*st.links, st.low, st.high, st.axis, st.periodic, b, x, colour)
 
+def nb_first_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
+    first_sweep(*st.links, st.low, st.high, st.axis, st.periodic, b, x, colour)
+
 def nb_residual_restrict(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> None:
     residual_restrict(*st.links, st.low, st.high, st.axis, st.periodic, b, x, out)
 
 
 # the diagonal is needed by the rounding floor only (once a solve): numpy's serves
-COMPILED = Kernels("numba", nb_product, NUMPY.diagonal, nb_residual, nb_sweep, restrict, nb_residual_restrict,
-                   prolong)
+COMPILED = Kernels("numba", nb_product, NUMPY.diagonal, nb_residual, nb_sweep, nb_first_sweep, restrict,
+                   nb_residual_restrict, prolong)

@@ -31,6 +31,7 @@ log = logging.getLogger(__name__)
 class Kernels:
     """``product(st, x, out)``: out = A x; ``residual(st, b, x, out)``: out = b − A x; ``diagonal(st, out)``: the
     diagonal of A; ``sweep(st, b, x, colour)``: Gauss–Seidel on the cells with ``(i + j + k) % 2 == colour``;
+    ``first_sweep(st, b, x, colour)``: that from x = 0 (x's values are not read: x ← 0, then the sweep);
     ``restrict(r, out)``: out = Pᵀ r; ``residual_restrict(st, b, x, out)``: out = Pᵀ (b − A x), no fine residual
     kept; ``prolong(e, x, alive, alpha)``: x += alpha P e on the live cells."""
 
@@ -39,6 +40,7 @@ class Kernels:
     diagonal: Callable[[Stencil, FloatArray], None]
     residual: Callable[[Stencil, FloatArray, FloatArray, FloatArray], None]
     sweep: Callable[[Stencil, FloatArray, FloatArray, int], None]
+    first_sweep: Callable[[Stencil, FloatArray, FloatArray, int], None]
     restrict: Callable[[FloatArray, FloatArray], None]
     residual_restrict: Callable[[Stencil, FloatArray, FloatArray, FloatArray], None]
     prolong: Callable[[FloatArray, FloatArray, npt.NDArray[np.uint8], float], None]
@@ -108,6 +110,11 @@ def _np_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
     x[update] = total[update] / diagonal[update]
 
 
+def _np_first_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
+    x.fill(0.0)
+    _np_sweep(st, b, x, colour)
+
+
 def _np_restrict(r: FloatArray, out: FloatArray) -> None:
     for ax in range(3):
         r = np.add.reduceat(r, np.arange(0, r.shape[ax], 2), axis=ax)
@@ -125,7 +132,7 @@ def _np_prolong(e: FloatArray, x: FloatArray, alive: npt.NDArray[np.uint8], alph
     x += alpha * alive * fine[: x.shape[0], : x.shape[1], : x.shape[2]]
 
 
-NUMPY = Kernels("numpy", _np_product, _np_diagonal, _np_residual, _np_sweep, _np_restrict,
+NUMPY = Kernels("numpy", _np_product, _np_diagonal, _np_residual, _np_sweep, _np_first_sweep, _np_restrict,
                 _np_residual_restrict, _np_prolong)
 
 

@@ -156,8 +156,7 @@ class VolumeMultigrid:
         if index == len(self.levels) - 1 and self._coarse_solve is not None:
             x[...] = self._coarse_solve.solve(b.ravel(), check=False).reshape(x.shape)
             return
-        x.fill(0.0)
-        self._smooth(level, b, x, 0)
+        self._smooth(level, b, x, 0, zero=True)
         if index + 1 < len(self.levels):
             coarse = self.levels[index + 1]
             ops.residual_restrict(level.stencil, b, x, coarse.b)
@@ -165,13 +164,16 @@ class VolumeMultigrid:
             ops.prolong(coarse.x, x, level.alive, SCALE)
         self._smooth(level, b, x, 1)
 
-    def _smooth(self, level: _Level, b: FloatArray, x: FloatArray, first: int) -> None:
+    def _smooth(self, level: _Level, b: FloatArray, x: FloatArray, first: int, zero: bool = False) -> None:
         """Red–black Gauss–Seidel, colour ``first`` then the other, or damped Jacobi on a level with an odd
-        periodic axis (its residual in the level's ``r``, allocated at the first use)."""
+        periodic axis (its residual in the level's ``r``, allocated at the first use); ``zero``: from x = 0 (x's
+        values unread)."""
         if not level.jacobi.size:
-            for colour in (first, 1 - first):
-                self.ops.sweep(level.stencil, b, x, colour)
+            (self.ops.first_sweep if zero else self.ops.sweep)(level.stencil, b, x, first)
+            self.ops.sweep(level.stencil, b, x, 1 - first)
             return
+        if zero:
+            x.fill(0.0)
         if level.r.size != x.size:
             level.r = np.empty(x.shape)
         r = level.r.reshape(x.shape)
