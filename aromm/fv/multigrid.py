@@ -3,7 +3,8 @@
 Levels: the fine :class:`~aromm.fv.stencil.Stencil`, then its Galerkin operators under 2 × 2 × 2 aggregation
 (:func:`aromm.fv.stencil.coarsen`; again 7-point stencils, so every level runs the same kernels) down to at most
 ``COARSEST_CELLS`` cells, solved directly.  Smoother: one red–black Gauss–Seidel sweep (red then black) before the
-coarse correction and its reverse (black then red) after.  Piecewise-constant transfers make a coarse operator about
+coarse correction and its reverse (black then red) after; the red half from the cycle's zero guess is b / d
+(``first_sweep``), and the residual is restricted as it is computed (``residual_restrict``: no fine residual kept).  Piecewise-constant transfers make a coarse operator about
 twice too stiff for smooth errors [Braess1995]: the coarse correction is scaled by ``SCALE``, and each coarse level
 is solved by ``CYCLES`` = 2 cycles (a W-cycle; CG iterations on white-noise media of contrast 100 at 16³–128³:
 28, 33, 35, 38, against 28, 38, 45, 58 with a V-cycle; tests/test_fv_multigrid.py).  Each cycle is symmetric, a
@@ -19,9 +20,9 @@ consistent singular system: the right-hand side has no component in the null spa
 the residual, and the constants per cluster that the iterate picks up are irrelevant to the cell problem (it uses
 the field's differences).
 
-Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the V-cycle's residual, which
-CG's update step shares (8), the links (12, float32), the live-cell byte (1), coarse levels ≈ (12 + 1 + 40) / 7 ≈
-7.6: ≈ 69 B in all (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general
+Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the links (12, float32), the
+live-cell byte (1), coarse levels (links, live byte, b, x and a W-cycle's residual and correction) ≈ (12 + 1 + 32) / 7
+≈ 6.4: ≈ 60 B in all (a level with an odd periodic axis adds its residual and Jacobi's diagonal, 16) (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general
 ``solve(b)`` adds b's 8; measured in benchmarks/fv_solver.py).
 
 CG stops when the true relative residual ``‖b − A x‖ / ‖b‖ ≤ rtol`` or at the rounding floor
