@@ -4,12 +4,12 @@ Levels: the fine :class:`~aromm.fv.stencil.Stencil`, then its Galerkin operators
 (:func:`aromm.fv.stencil.coarsen`; again 7-point stencils, so every level runs the same kernels) down to at most
 ``COARSEST_CELLS`` cells, solved directly.  Smoother: one red–black Gauss–Seidel sweep (red then black) before the
 coarse correction and its reverse (black then red) after; the red half from the cycle's zero guess is b / d
-(``first_sweep``), and the residual is restricted as it is computed (``residual_restrict``: no fine residual kept).  Piecewise-constant transfers make a coarse operator about
-twice too stiff for smooth errors [Braess1995]: the coarse correction is scaled by ``SCALE``, and each coarse level
-is solved by ``CYCLES`` = 2 cycles (a W-cycle; CG iterations on white-noise media of contrast 100 at 16³–128³:
-28, 33, 35, 38, against 28, 38, 45, 58 with a V-cycle; tests/test_fv_multigrid.py).  Each cycle is symmetric, a
-positive scale keeps the coarse correction positive semi-definite, so the preconditioner is symmetric positive
-definite and plain CG applies.
+(``first_sweep``), and the residual is restricted as it is computed (``residual_restrict``: no fine residual kept).
+Piecewise-constant transfers make a coarse operator about twice too stiff for smooth errors [Braess1995]: the coarse
+correction is scaled by ``SCALE``, and each coarse level is solved by ``CYCLES`` = 2 cycles (a W-cycle; CG
+iterations on white-noise media of contrast 100 at 16³–128³: 28, 33, 35, 38, against 28, 38, 45, 58 with a V-cycle;
+tests/test_fv_multigrid.py).  Each cycle is symmetric, a positive scale keeps the coarse correction positive
+semi-definite, so the preconditioner is symmetric positive definite and plain CG applies.
 
 A periodic stencil (:func:`aromm.fv.stencil.periodic_stencil`) with an odd axis cannot be coloured red–black (the
 last and first cells of that axis are neighbours of one colour): such a level is smoothed by ``JACOBI_STEPS`` steps
@@ -21,9 +21,10 @@ the residual, and the constants per cluster that the iterate picks up are irrele
 the field's differences).
 
 Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the links (12, float32), the
-live-cell byte (1), coarse levels (links, live byte, b, x and a W-cycle's residual and correction) ≈ (12 + 1 + 32) / 7
-≈ 6.4: ≈ 60 B in all (a level with an odd periodic axis adds its residual and Jacobi's diagonal, 16) (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general
-``solve(b)`` adds b's 8; measured in benchmarks/fv_solver.py).
+live-cell byte (1), coarse levels (links, live byte, b, x and a W-cycle's residual and correction) ≈ (12 + 1 + 32) /
+7 ≈ 6.4: ≈ 60 B in all (a level with an odd periodic axis adds its residual and Jacobi's diagonal, 16)
+(:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general ``solve(b)`` adds b's 8;
+benchmarks/fv_solver.py measures it).
 
 CG stops when the true relative residual ``‖b − A x‖ / ‖b‖ ≤ rtol`` or at the rounding floor
 ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖`` (:mod:`aromm.linalg.factorizations`), and raises
