@@ -2,8 +2,8 @@
 first run compiles them (≈ 5 s), later processes load them.  Imported only when a solve uses them (numba's own
 import costs ≈ 0.3 s).  The arithmetic, conventions and tests are those of :mod:`aromm.fv.kernels`.
 
-Every kernel runs row by row (fixed i, j; k the contiguous axis) and indexes the 3-d arrays directly (a view per
-row costs numba two reference counts, ≈ 2 ns a cell at 46³).  :func:`_row` picks, once per row, the indices of the
+Every kernel runs row by row (fixed i, j; k the contiguous axis) and indexes the 3-d arrays directly (with a view
+of each neighbour row, whose references numba counts, a colour sweep took 5.0 ns a cell at 46³ instead of 2.5).  :func:`_row` picks, once per row, the indices of the
 neighbours along i and j and of their links; where the box ends, a valid index and a weight 0 stand for the missing
 link, and where a row lies on a fixed face of axis i or j, its term ``f`` is weighted in: those rows run the weighted
 loop, the others (nearly all) the plain one.  Both loops are free of branches, and LLVM vectorises them; the first
