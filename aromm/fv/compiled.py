@@ -2,15 +2,15 @@
 first run compiles them (≈ 5 s), later processes load them.  Imported only when a solve uses them (numba's own
 import costs ≈ 0.3 s).  The arithmetic, conventions and tests are those of :mod:`aromm.fv.kernels`.
 
-Every kernel runs row by row (fixed i, j; k the contiguous axis) and indexes the 3-d arrays directly (with a view
-of each neighbour row, whose references numba counts, a colour sweep took 5.0 ns a cell at 46³ instead of 2.5).  :func:`_row` picks, once per row, the indices of the
-neighbours along i and j and of their links; where the box ends, a valid index and a weight 0 stand for the missing
-link, and where a row lies on a fixed face of axis i or j, its term ``f`` is weighted in: those rows run the weighted
-loop, the others (nearly all) the plain one.  Both loops are free of branches, and LLVM vectorises them; the first
-and last cell of a row take the k links and axis k's fixed faces.  A colour sweep computes the Gauss–Seidel value
-of every cell of the row (unit stride, vectorised) into a row buffer and copies back that colour's cells: a cell's
-value depends on the other colour only, which the sweep does not change (on an even periodic axis too; an odd
-periodic one is never swept: aromm.fv.multigrid).
+Every kernel runs row by row (fixed i, j; k the contiguous axis) and indexes the 3-d arrays directly (with a view of
+each neighbour row, whose references numba counts, a colour sweep took 5.0 ns a cell at 46³ instead of 2.5).
+:func:`_row` picks, once per row, the indices of the neighbours along i and j and of their links; where the box
+ends, a valid index and a weight 0 stand for the missing link, and where a row lies on a fixed face of axis i or j,
+its term ``f`` is weighted in: those rows run the weighted loop, the others (nearly all) the plain one.  Both loops
+are free of branches, and LLVM vectorises them; the first and last cell of a row take the k links and axis k's fixed
+faces.  A colour sweep computes the Gauss–Seidel value of every cell of the row (unit stride, vectorised) into a row
+buffer and copies back that colour's cells: a cell's value depends on the other colour only, which the sweep does
+not change (on an even periodic axis too; an odd periodic one is never swept: aromm.fv.multigrid).
 """
 
 from __future__ import annotations
