@@ -67,6 +67,15 @@ def test_kernels_apply_the_assembled_matrix(backend: str, axis: int) -> None:
     expect = x.ravel().copy()
     expect[red] = (b.ravel()[red] - dense[np.ix_(red, ~red)] @ x.ravel()[~red]) / dense.diagonal()[red]
     assert np.abs(y.ravel() - expect).max() <= 1e3 * EPS * np.abs(expect).max()
+    # the first sweep from x = 0 reads no x; the residual restricted in one kernel is Pᵀ (b − A x)
+    first, zero = np.full(st.shape, np.nan), np.zeros(st.shape)
+    ops.first_sweep(st, b, first, 1)
+    ops.sweep(st, b, zero, 1)
+    assert np.array_equal(first, zero)
+    coarse, r = np.empty(tuple((n + 1) // 2 for n in st.shape)), np.empty(st.shape)
+    ops.residual_restrict(st, b, x, coarse)
+    ops.residual(st, b, x, r)
+    assert np.abs(coarse.ravel() - _aggregation(st.shape).T @ r.ravel()).max() <= 8 * scale * np.abs(x).max()
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

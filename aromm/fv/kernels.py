@@ -30,16 +30,19 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Kernels:
     """``product(st, x, out)``: out = A x; ``residual(st, b, x, out)``: out = b − A x; ``diagonal(st, out)``: the
-    diagonal of A; ``sweep(st, b, x, colour)``: Gauss–Seidel on the cells with
-    ``(i + j + k) % 2 == colour``; ``restrict(r, out)``: out = Pᵀ r; ``prolong(e, x, alive, alpha)``:
-    x += alpha P e on the live cells."""
+    diagonal of A; ``sweep(st, b, x, colour)``: Gauss–Seidel on the cells with ``(i + j + k) % 2 == colour``;
+    ``first_sweep(st, b, x, colour)``: that from x = 0 (x's values are not read: x ← 0, then the sweep);
+    ``restrict(r, out)``: out = Pᵀ r; ``residual_restrict(st, b, x, out)``: out = Pᵀ (b − A x), no fine residual
+    kept; ``prolong(e, x, alive, alpha)``: x += alpha P e on the live cells."""
 
     name: str
     product: Callable[[Stencil, FloatArray, FloatArray], None]
     diagonal: Callable[[Stencil, FloatArray], None]
     residual: Callable[[Stencil, FloatArray, FloatArray, FloatArray], None]
     sweep: Callable[[Stencil, FloatArray, FloatArray, int], None]
+    first_sweep: Callable[[Stencil, FloatArray, FloatArray, int], None]
     restrict: Callable[[FloatArray, FloatArray], None]
+    residual_restrict: Callable[[Stencil, FloatArray, FloatArray, FloatArray], None]
     prolong: Callable[[FloatArray, FloatArray, npt.NDArray[np.uint8], float], None]
 
 
@@ -107,10 +110,21 @@ def _np_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
     x[update] = total[update] / diagonal[update]
 
 
+def _np_first_sweep(st: Stencil, b: FloatArray, x: FloatArray, colour: int) -> None:
+    x.fill(0.0)
+    _np_sweep(st, b, x, colour)
+
+
 def _np_restrict(r: FloatArray, out: FloatArray) -> None:
     for ax in range(3):
         r = np.add.reduceat(r, np.arange(0, r.shape[ax], 2), axis=ax)
     out[...] = r
+
+
+def _np_residual_restrict(st: Stencil, b: FloatArray, x: FloatArray, out: FloatArray) -> None:
+    r = np.empty(x.shape)
+    _np_residual(st, b, x, r)
+    _np_restrict(r, out)
 
 
 def _np_prolong(e: FloatArray, x: FloatArray, alive: npt.NDArray[np.uint8], alpha: float) -> None:
@@ -118,7 +132,8 @@ def _np_prolong(e: FloatArray, x: FloatArray, alive: npt.NDArray[np.uint8], alph
     x += alpha * alive * fine[: x.shape[0], : x.shape[1], : x.shape[2]]
 
 
-NUMPY = Kernels("numpy", _np_product, _np_diagonal, _np_residual, _np_sweep, _np_restrict, _np_prolong)
+NUMPY = Kernels("numpy", _np_product, _np_diagonal, _np_residual, _np_sweep, _np_first_sweep, _np_restrict,
+                _np_residual_restrict, _np_prolong)
 
 
 def kernels(name: str = "auto") -> Kernels:

@@ -3,12 +3,13 @@
 Levels: the fine :class:`~aromm.fv.stencil.Stencil`, then its Galerkin operators under 2 × 2 × 2 aggregation
 (:func:`aromm.fv.stencil.coarsen`; again 7-point stencils, so every level runs the same kernels) down to at most
 ``COARSEST_CELLS`` cells, solved directly.  Smoother: one red–black Gauss–Seidel sweep (red then black) before the
-coarse correction and its reverse (black then red) after.  Piecewise-constant transfers make a coarse operator about
-twice too stiff for smooth errors [Braess1995]: the coarse correction is scaled by ``SCALE``, and each coarse level
-is solved by ``CYCLES`` = 2 cycles (a W-cycle; CG iterations on white-noise media of contrast 100 at 16³–128³:
-28, 33, 35, 38, against 28, 38, 45, 58 with a V-cycle; tests/test_fv_multigrid.py).  Each cycle is symmetric, a
-positive scale keeps the coarse correction positive semi-definite, so the preconditioner is symmetric positive
-definite and plain CG applies.
+coarse correction and its reverse (black then red) after; the red half from the cycle's zero guess is b / d
+(``first_sweep``), and the residual is restricted as it is computed (``residual_restrict``: no fine residual kept).
+Piecewise-constant transfers make a coarse operator about twice too stiff for smooth errors [Braess1995]: the coarse
+correction is scaled by ``SCALE``, and each coarse level is solved by ``CYCLES`` = 2 cycles (a W-cycle; CG
+iterations on white-noise media of contrast 100 at 16³–128³: 28, 33, 35, 38, against 28, 38, 45, 58 with a V-cycle;
+tests/test_fv_multigrid.py).  Each cycle is symmetric, a positive scale keeps the coarse correction positive
+semi-definite, so the preconditioner is symmetric positive definite and plain CG applies.
 
 A periodic stencil (:func:`aromm.fv.stencil.periodic_stencil`) with an odd axis cannot be coloured red–black (the
 last and first cells of that axis are neighbours of one colour): such a level is smoothed by ``JACOBI_STEPS`` steps
@@ -19,10 +20,11 @@ consistent singular system: the right-hand side has no component in the null spa
 the residual, and the constants per cluster that the iterate picks up are irrelevant to the cell problem (it uses
 the field's differences).
 
-Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the V-cycle's residual, which
-CG's update step shares (8), the links (12, float32), the live-cell byte (1), coarse levels ≈ (12 + 1 + 40) / 7 ≈
-7.6: ≈ 69 B in all (:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general
-``solve(b)`` adds b's 8; measured in benchmarks/fv_solver.py).
+Memory, in bytes per cell of the fine grid: CG's x, r, z, p and q (float64, 40), the links (12, float32), the
+live-cell byte (1), coarse levels (links, live byte, b, x and a W-cycle's residual and correction) ≈ (12 + 1 + 32) /
+7 ≈ 6.4: ≈ 60 B in all (a level with an odd periodic axis adds its residual and Jacobi's diagonal, 16)
+(:meth:`VolumeMultigrid.solve_hot_face`, which keeps no right-hand side; a general ``solve(b)`` adds b's 8;
+benchmarks/fv_solver.py measures it).
 
 CG stops when the true relative residual ``‖b − A x‖ / ‖b‖ ≤ rtol`` or at the rounding floor
 ``FLOOR_FACTOR ε ‖abs(A) abs(x)‖ / ‖b‖`` (:mod:`aromm.linalg.factorizations`), and raises
@@ -46,7 +48,7 @@ from aromm.fv.stencil import Stencil, assembled, coarsen
 from aromm.linalg.factorizations import DEFAULT_RTOL, FLOOR_FACTOR, factorize_direct
 from aromm.linalg.multigrid.pcg import pcg
 
-COARSEST_CELLS = 4_000
+COARSEST_CELLS = 500  # a 5³–8³ coarsest grid; at 4,000 (12³–16³) a 46³ direction cost 0.026 CPU s, not 0.0225
 SCALE = 1.8  # coarse-correction factor of piecewise-constant aggregation (module docstring)
 MAX_ITERATIONS = 1_000
 CYCLES = 2
@@ -133,7 +135,7 @@ class VolumeMultigrid:
 
     def _level(self, st: Stencil, empty: FloatArray) -> _Level:
         """A level's data; the inverse diagonal of Jacobi where an odd periodic axis forbids red–black sweeps."""
-        level = _Level(st, st.alive(), empty, empty.copy(), empty.copy())
+        level = _Level(st, st.alive(), empty, empty.copy(), np.zeros(0))
         if st.periodic and any(n % 2 for n in st.shape):
             diagonal = np.empty(st.shape)
             self.ops.diagonal(st, diagonal)
@@ -148,8 +150,6 @@ class VolumeMultigrid:
     def precondition(self, r: FloatArray, z: FloatArray) -> FloatArray:
         """One V-cycle from a zero guess: ``z ≈ A⁻¹ r`` (flat or of the stencil's shape)."""
         shape = self.stencil.shape
-        if self.levels[0].r.size != self.stencil.cells:
-            self.levels[0].r = np.empty(self.stencil.cells)
         self._vcycle(0, r.reshape(shape), z.reshape(shape))
         return z
 
@@ -158,24 +158,26 @@ class VolumeMultigrid:
         if index == len(self.levels) - 1 and self._coarse_solve is not None:
             x[...] = self._coarse_solve.solve(b.ravel(), check=False).reshape(x.shape)
             return
-        x.fill(0.0)
-        self._smooth(level, b, x, (0, 1))
+        self._smooth(level, b, x, 0, zero=True)
         if index + 1 < len(self.levels):
             coarse = self.levels[index + 1]
-            r = level.r.reshape(x.shape)
-            ops.residual(level.stencil, b, x, r)
-            ops.restrict(r, coarse.b)
+            ops.residual_restrict(level.stencil, b, x, coarse.b)
             self._coarse_correction(index + 1)
             ops.prolong(coarse.x, x, level.alive, SCALE)
-        self._smooth(level, b, x, (1, 0))
+        self._smooth(level, b, x, 1)
 
-    def _smooth(self, level: _Level, b: FloatArray, x: FloatArray, colours: tuple[int, int]) -> None:
-        """Red–black Gauss–Seidel in the order of ``colours``, or damped Jacobi on a level with an odd periodic
-        axis (its residual in the level's ``r``, free until the restriction)."""
+    def _smooth(self, level: _Level, b: FloatArray, x: FloatArray, first: int, zero: bool = False) -> None:
+        """Red–black Gauss–Seidel, colour ``first`` then the other, or damped Jacobi on a level with an odd
+        periodic axis (its residual in the level's ``r``, allocated at the first use); ``zero``: from x = 0 (x's
+        values unread)."""
         if not level.jacobi.size:
-            for colour in colours:
-                self.ops.sweep(level.stencil, b, x, colour)
+            (self.ops.first_sweep if zero else self.ops.sweep)(level.stencil, b, x, first)
+            self.ops.sweep(level.stencil, b, x, 1 - first)
             return
+        if zero:
+            x.fill(0.0)
+        if level.r.size != x.size:
+            level.r = np.empty(x.shape)
         r = level.r.reshape(x.shape)
         for _ in range(JACOBI_STEPS):
             self.ops.residual(level.stencil, b, x, r)

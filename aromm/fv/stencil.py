@@ -98,13 +98,16 @@ def harmonic_links(k: FloatArray, voxel_size: tuple[float, float, float], axis: 
     >>> harmonic_links(np.array([1.0, 3.0, 0.0]).reshape(3, 1, 1), (1.0, 1.0, 1.0), 0).ravel().tolist()
     [1.5, 0.0]
     """
-    n = k.shape[axis]
-    a = np.take(k, np.arange(n - 1), axis=axis)
-    b = np.take(k, np.arange(1, n), axis=axis)
+    lo: list[slice] = [slice(None)] * 3
+    hi: list[slice] = [slice(None)] * 3
+    lo[axis], hi[axis] = slice(0, -1), slice(1, None)
+    a, b = k[tuple(lo)], k[tuple(hi)]  # views: the cells before and after each link
     factor = float(np.prod(voxel_size)) / voxel_size[axis] ** 2
     s = a + b
+    product = np.multiply(a, 2.0 * factor)
+    product *= b
     out = np.zeros(a.shape, dtype=np.float32)
-    np.divide(2.0 * factor * a * b, s, out=out, where=s > 0, casting="unsafe")
+    np.divide(product, s, out=out, where=s > 0, casting="unsafe")
     return out
 
 

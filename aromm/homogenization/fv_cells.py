@@ -11,8 +11,8 @@ PuMA and OpenImpala.
 An insulating phase (``k = 0``) carries no unknown; a direction without a percolating path gives ``k = 0`` exactly
 (with fixed temperatures: no conducting cluster touches both faces; said in the log), not an error.
 Solvers: the direct methods of :mod:`aromm.linalg.direct`; ``mg``, CG preconditioned by the aggregation multigrid
-of :mod:`aromm.fv.multigrid` on the matrix-free 7-point stencil (the probes: fixed temperatures ≈ 70 B per voxel,
-flux ≈ 80 with its right-hand side; links in float32: k̄ within 6e-8 relatively of the float64 operator's); or ``amg``
+of :mod:`aromm.fv.multigrid` on the matrix-free 7-point stencil (the probes: fixed temperatures ≈ 60 B per voxel,
+flux ≈ 70 with its right-hand side; links in float32: k̄ within 6e-8 relatively of the float64 operator's); or ``amg``
 (pyamg CG on the assembled matrix).  All to the relative residual ``rtol``.  ``auto`` takes ``mg`` from
 :data:`aromm.homogenization.cell_problems.MG_CROSSOVER_VOXELS` voxels on (the periodic cell: ``amg`` where the
 matrix-free multigrid cannot run: a rotated tensor).
