@@ -55,7 +55,8 @@ def _stepper(system: DistributedSystem, a: float, *, c: Any, k: Any, rows: np.nd
 
 def transient(system: DistributedSystem, values: ParamValues | None = None, times: npt.ArrayLike | None = None, *,
               scheme: str = "bdf2", solver: str = "gamg") -> Observables:
-    """Implicit time integration from the uniform ``initial.T`` (collective)."""
+    """Implicit time integration from the uniform ``initial.T`` and the system's initial terms (a coupled system's
+    ``initial.phi``; collective)."""
     grid = transient_grid(system.time, system.is_steady, scheme)
     t_out, steps = output_steps(times, grid)
     v = system.values(values)
@@ -67,8 +68,7 @@ def transient(system: DistributedSystem, values: ParamValues | None = None, time
     fixed = f.duplicate()
     fixed.set(0.0)
     fixed.getArray()[local_rows] = temps
-    x_prev = f.duplicate()
-    x_prev.set(float(np.asarray(v["initial.T"])))
+    x_prev = system.initial_state(v)
     x_prev.getArray()[local_rows] = temps
     x_older = x_prev.copy()
     history_t, history_y = [0.0], [list(face_means(system, x_prev).values())]
