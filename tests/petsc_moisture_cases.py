@@ -48,6 +48,27 @@ def steady_scene() -> Scene:
     return scene(None)
 
 
+def step_condition() -> float:
+    """The largest 2-norm condition number of the matrices the petsc engine solves for :func:`transient_scene` at
+    :data:`PROBE` (Euler's and BDF2's steps) and :func:`steady_scene`, with identity rows and columns on the fixed
+    unknowns as PETSc eliminates them (aromm.engines.petsc.transient, steady)."""
+    out = 0.0
+    for case, leads in ((transient_scene(), (1.0, 1.5)), (steady_scene(), (0.0,))):
+        system = assemble(case)
+        values = system.values(PROBE)
+        k = system.conductance.evaluate(values).toarray()
+        c = system.capacity.evaluate(values).toarray() if system.capacity else np.zeros_like(k)
+        fixed = np.concatenate([d.dofs for d in system.dirichlet])
+        dt = case.time.dt if case.time is not None else 1.0
+        for lead in leads:
+            a = lead * c / dt + k
+            a[fixed, :] = 0.0
+            a[:, fixed] = 0.0
+            a[fixed, fixed] = 1.0
+            out = max(out, float(np.linalg.cond(a)))
+    return out
+
+
 def results(comm: Any) -> dict[str, np.ndarray]:
     """Everything the tests compare, by the petsc engine on ``comm`` (collective)."""
     from aromm.engines.petsc.problem import box_layout

@@ -104,6 +104,11 @@ class MoistureScene:
                        vapour={f: v for f, v in self.vapour.items() if f in faces},
                        flux={f: v for f, v in self.flux.items() if f in faces})
 
+    def with_extent(self, extent: Sequence[float]) -> MoistureScene:
+        """The same conditions on a box of edge lengths ``extent`` (m): each moisture flux's area is its face's
+        (a scene read around a stand-in image, as the petsc engine reads it, is given its image's extent here)."""
+        return replace(self, flux={f: (g, face_area(f, extent)) for f, (g, _) in self.flux.items()})
+
     def coupled(self, thermal: ThermalSystem, outputs: Sequence[str], sensors: Sequence[Sensor] = ()) -> ThermalSystem:
         """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal face ``outputs`` and
         ``sensors``' outputs, and the ``phi:<name>`` of ``mean_phi``'s faces and sensors (a camera's: every pixel)."""

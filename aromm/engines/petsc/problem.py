@@ -180,7 +180,7 @@ def load_problem(path: str | Path, comm: Any, discretisation: str | None = None)
     data = with_discretisation(read_toml(path), discretisation)
     geo = data.get("geometry")
     outputs = data.get("outputs")
-    named = [k for k in outputs if k != "mean_T"] if isinstance(outputs, dict) else []
+    named = [k for k in outputs if k not in ("mean_T", "mean_phi")] if isinstance(outputs, dict) else []
     if named:  # checked before the stand-in image, whose box is not the body's
         raise InputError(f"{path}: outputs.{named[0]}: {SENSORS_REFUSED}")
     if not isinstance(geo, dict) or ("image" in geo) == ("generator" in geo):
@@ -202,6 +202,8 @@ def load_problem(path: str | Path, comm: Any, discretisation: str | None = None)
     refuse_histories(scene.moisture, scene.where)
     geometry = scene.geometry
     assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
+    extent = tuple(n * h for n, h in zip(image.shape, geometry.voxel_size, strict=True))
+    moisture = None if scene.moisture is None else scene.moisture.with_extent(extent)  # read around the stand-in
     return VoxelProblem(image, geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time,
                         scene.outputs, tuple(present), scene.where, scene.reduction, path, scene.discretisation,
-                        scene.moisture)
+                        moisture)

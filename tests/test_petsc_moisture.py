@@ -1,0 +1,134 @@
+"""The petsc engine's coupled heat and moisture (the full model) against the serial engine's: face-mean T and φ of the
+transient and the steady state of tests/petsc_moisture_cases.py at 1 rank (in the pytest process), 2 ranks (the
+process grid's own cut) and 4 ranks cut 2×2×1 (boxes); `aromm simulate --engine petsc --json` at 2 ranks; what the
+petsc engine still refuses of a coupled scene.
+
+Tolerance, from the solvers' own: every step is solved by CG to a relative residual STEP_RTOL (the serial engine
+directly), so its relative error is at most κ · STEP_RTOL [Higham2002, § 7.1], κ the condition number of the step
+matrix as PETSc holds it (identity rows on the fixed unknowns); the face means (weights summing to 1) of a state
+whose largest value is max |y| then differ by at most κ · STEP_RTOL · max |y| (κ ≈ 1e5 here: 2e-5, where 2-8e-8 °C
+and 1e-9 in φ are found).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import petsc_moisture_cases as cases
+import pytest
+from test_petsc_engine import decompositions, mpiexec, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
+
+from aromm.cli import main
+from aromm.core.errors import InputError
+
+SCENE = """
+[geometry]
+image = "img.npy"
+voxel_size = [1e-3, 1.2e-3, 0.9e-3]
+
+[phases.fibre]
+label = 1
+k = 0.3
+c = 1.5e6
+xi = 200.0
+D_phi = 2e-8
+delta_p = 2e-11
+
+[phases.gas]
+label = 0
+k = 0.025
+c = 1.2e5
+xi = 20.0
+D_phi = 1e-9
+delta_p = 1.8e-10
+
+[moisture]
+T_ref = 20.0
+phi_ref = 0.5
+
+[boundary.z0]
+T = 20.0
+phi = 0.8
+
+[boundary.z1]
+flux = 50.0
+g = 1e-6
+
+[initial]
+T = 20.0
+phi = 0.5
+
+[time]
+end = 600.0
+dt = 60.0
+
+[outputs]
+mean_T = ["z1"]
+mean_phi = ["z1"]
+"""
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
+    return decompositions(tmp_path_factory, cases, 2)
+
+
+@pytest.fixture(scope="module")
+def serial() -> dict[str, np.ndarray]:
+    return cases.serial()
+
+
+def tolerance(y: np.ndarray) -> float:
+    """κ · STEP_RTOL · max |y| (module docstring)."""
+    from aromm.engines.petsc.transient import STEP_RTOL
+
+    return cases.step_condition() * STEP_RTOL * float(np.abs(y).max())
+
+
+def test_decompositions_are_the_ones_asked(runs: dict[str, dict[str, np.ndarray]]) -> None:
+    assert [tuple(r["grid"]) for r in runs.values()] == [(1, 1, 1), (2, 1, 1), (2, 2, 1)]
+
+
+def test_full_coupled_model_equals_serial(runs: dict[str, dict[str, np.ndarray]],
+                                          serial: dict[str, np.ndarray]) -> None:
+    """mean T and mean φ of both faces, transient and steady, at every decomposition."""
+    names = list(serial["names"])
+    assert names == ["z1", "phi:z1", "x1", "phi:x1"]
+    phi = [i for i, name in enumerate(names) if name.startswith("phi:")]
+    moved = np.ptp(serial["transient"], axis=0)
+    assert moved[phi].max() > 0.02 and np.delete(moved, phi).max() > 0.2  # a real wetting and heating
+    for label, found in runs.items():
+        assert list(found["names"]) == names, label
+        for case in ("transient", "steady"):
+            assert found[case].shape == serial[case].shape, label
+            assert np.abs(found[case] - serial[case]).max() <= tolerance(serial[case]), (label, case)
+
+
+def test_cli_simulate_on_two_ranks_equals_scipy(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`mpiexec -n 2 aromm simulate --engine petsc --json` prints one document, with mean_phi beside mean_T, equal to
+    the scipy engine's."""
+    np.save(tmp_path / "img.npy", cases.labels())
+    path = tmp_path / "s.toml"
+    path.write_text(SCENE, encoding="utf-8")
+    assert main(["simulate", str(path), "--json"]) == 0
+    expected = json.loads(capsys.readouterr().out)
+    run = mpiexec("aromm", "simulate", str(path), "--engine", "petsc", "--json")
+    assert run.returncode == 0, run.stderr[-3000:]
+    lines = [line for line in run.stdout.splitlines() if line.strip()]
+    assert len(lines) == 1  # rank 0 only
+    found = json.loads(lines[0])
+    assert found["t"] == expected["t"]
+    for kind in ("mean_T", "mean_phi"):
+        y = np.asarray(expected[kind]["z1"])
+        assert np.abs(np.asarray(found[kind]["z1"]) - y).max() <= tolerance(y), kind
+
+
+def test_what_the_petsc_engine_still_refuses_of_a_coupled_scene() -> None:
+    """Its reduced models (modal or Krylov): an InputError naming the scene's [moisture] and the way out."""
+    from aromm import api
+
+    with pytest.raises(InputError, match="moisture: the petsc engine builds no reduced model of coupled heat and "
+                                         "moisture yet"):
+        api.reduce(cases.transient_scene(), 4, engine="petsc", method="krylov", cache=False)
