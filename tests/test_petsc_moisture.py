@@ -1,12 +1,12 @@
 """The petsc engine's coupled heat and moisture (the full model) against the serial engine's: face-mean T and φ of the
-transient and the steady state of tests/petsc_moisture_cases.py at 1 rank (in the pytest process), 2 ranks (the
-process grid's own cut) and 4 ranks cut 2×2×1 (boxes); `aromm simulate --engine petsc --json` at 2 ranks; what the
-petsc engine still refuses of a coupled scene.
+transient and the steady state of tests/petsc_moisture_cases.py, in Q1 and in finite volumes, at 1 rank (in the
+pytest process), 2 ranks (the process grid's own cut) and 4 ranks cut 2×2×1 (boxes); `aromm simulate --engine petsc
+--json` at 2 ranks; what the petsc engine still refuses of a coupled scene.
 
 Tolerance, from the solvers' own: every step is solved by CG to a relative residual STEP_RTOL (the serial engine
 directly), so its relative error is at most κ · STEP_RTOL [Higham2002, § 7.1], κ the condition number of the step
 matrix as PETSc holds it (identity rows on the fixed unknowns); the face means (weights summing to 1) of a state
-whose largest value is max |y| then differ by at most κ · STEP_RTOL · max |y| (κ ≈ 1e5 here: 2e-5, where 2-8e-8 °C
+whose largest value is max |y| then differ by at most κ · STEP_RTOL · max |y| (κ ≈ 1e5 here: 2e-5, where 1-8e-8 °C
 and 1e-9 in φ are found).
 """
 
@@ -80,30 +80,31 @@ def serial() -> dict[str, np.ndarray]:
     return cases.serial()
 
 
-def tolerance(y: np.ndarray) -> float:
+def tolerance(y: np.ndarray, discretisation: str = "q1") -> float:
     """κ · STEP_RTOL · max |y| (module docstring)."""
     from aromm.engines.petsc.transient import STEP_RTOL
 
-    return cases.step_condition() * STEP_RTOL * float(np.abs(y).max())
+    return cases.step_condition(discretisation) * STEP_RTOL * float(np.abs(y).max())
 
 
 def test_decompositions_are_the_ones_asked(runs: dict[str, dict[str, np.ndarray]]) -> None:
     assert [tuple(r["grid"]) for r in runs.values()] == [(1, 1, 1), (2, 1, 1), (2, 2, 1)]
 
 
-def test_full_coupled_model_equals_serial(runs: dict[str, dict[str, np.ndarray]],
+@pytest.mark.parametrize("discretisation", cases.DISCRETISATIONS)
+def test_full_coupled_model_equals_serial(discretisation: str, runs: dict[str, dict[str, np.ndarray]],
                                           serial: dict[str, np.ndarray]) -> None:
     """mean T and mean φ of both faces, transient and steady, at every decomposition."""
-    names = list(serial["names"])
+    names = list(serial[f"{discretisation}_names"])
     assert names == ["z1", "phi:z1", "x1", "phi:x1"]
     phi = [i for i, name in enumerate(names) if name.startswith("phi:")]
-    moved = np.ptp(serial["transient"], axis=0)
+    moved = np.ptp(serial[f"{discretisation}_transient"], axis=0)
     assert moved[phi].max() > 0.02 and np.delete(moved, phi).max() > 0.2  # a real wetting and heating
     for label, found in runs.items():
-        assert list(found["names"]) == names, label
-        for case in ("transient", "steady"):
+        assert list(found[f"{discretisation}_names"]) == names, label
+        for case in (f"{discretisation}_transient", f"{discretisation}_steady"):
             assert found[case].shape == serial[case].shape, label
-            assert np.abs(found[case] - serial[case]).max() <= tolerance(serial[case]), (label, case)
+            assert np.abs(found[case] - serial[case]).max() <= tolerance(serial[case], discretisation), (label, case)
 
 
 def test_cli_simulate_on_two_ranks_equals_scipy(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

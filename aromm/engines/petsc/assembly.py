@@ -190,10 +190,14 @@ def _take(operators: dict[str, Any], name: str, size: int, vector: bool, order: 
     its unknowns taken in ``order`` (:func:`interlacing`; None: as they are)."""
     if name not in operators:
         return np.zeros(size) if vector else sp.csr_array((size, size))  # the box has none of this phase / face
-    op = operators.pop(name)
+    return permuted(operators.pop(name), order)
+
+
+def permuted(op: Any, order: np.ndarray | None) -> Any:
+    """A matrix or vector ``op`` with its unknowns taken in ``order`` (None: ``op`` itself)."""
     if order is None:
         return op
-    return np.asarray(op, dtype=float)[order] if vector else sp.csr_array(op)[order][:, order]
+    return sp.csr_array(op)[order][:, order] if sp.issparse(op) else np.asarray(op, dtype=float)[order]
 
 
 def interlacing(fields: int, nodes: int) -> np.ndarray | None:
@@ -269,9 +273,7 @@ def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
         local = nodes.vector(face_mass(shape, problem.voxel_size, face) @ np.ones(surface.shape[0]) if face in faces
                              else np.zeros(surface.shape[0]), comm)
         means[face] = local / runtime.allsum([local.sum()], comm)[0]
-    observation = {name: convert.vector(_on_field(means[name.removeprefix(PHI_PREFIX)],
-                                                  template.fields.index(output_kind(name)), count), rows, comm)
-                   for name in template.observation}
+    observation = field_outputs(template, means, rows, comm)
     dirichlet = {}
     for d in template.dirichlet:
         own = fixed.get(d.name, np.zeros(0, dtype=np.int64))
@@ -292,10 +294,17 @@ def assemble_boxes(problem: VoxelProblem, comm: Any) -> DistributedSystem:
     )
 
 
-def _on_field(values: np.ndarray, field: int, count: int) -> np.ndarray:
-    """Node ``values`` placed on the interlaced entries of ``field`` (of ``count``), zero on the others."""
-    out = np.zeros(values.size * count)
-    out[field::count] = values
+def field_outputs(template: ThermalSystem, means: Mapping[str, np.ndarray], rows: RowLayout, comm: Any,
+                  ) -> dict[str, Any]:
+    """The output vectors of ``template``'s outputs (``<face>`` on T, ``phi:<face>`` on φ) from this rank's entries
+    of each face's mean row ``means[face]`` (one per node or cell), placed on the output's field of the interlaced
+    rows ``rows`` (zero on the other fields)."""
+    count = len(template.fields)
+    out = {}
+    for name in template.observation:
+        values = np.zeros(rows.local)
+        values[template.fields.index(output_kind(name))::count] = means[name.removeprefix(PHI_PREFIX)]
+        out[name] = convert.vector(values, rows, comm)
     return out
 
 
