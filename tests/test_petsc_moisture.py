@@ -5,14 +5,16 @@ pytest process), 2 ranks (the process grid's own cut) and 4 ranks cut 2×2×1 (b
 
 Tolerance, from the solvers' own: every step is solved by CG to a relative residual STEP_RTOL (the serial engine
 directly), so its relative error is at most κ · STEP_RTOL [Higham2002, § 7.1], κ the condition number of the step
-matrix as PETSc holds it (identity rows on the fixed unknowns); the face means (weights summing to 1) of a state
-whose largest value is max |y| then differ by at most κ · STEP_RTOL · max |y| (κ ≈ 1e5 here: 2e-5, where 1-8e-8 °C
-and 1e-9 in φ are found).
+matrix as PETSc holds it (identity rows on the fixed unknowns).  Taken at the scale of the outputs, max |y| (the
+entries of the state are of their size), that is κ · STEP_RTOL · max |y| on a face mean (weights summing to 1); the
+2-norm bound would add √N over the N unknowns and the accumulation over the steps, absent in practice (κ ≈ 1e5
+here: 2e-5, where 1-8e-8 °C and 1e-9 in φ are found).
 """
 
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -126,10 +128,23 @@ def test_cli_simulate_on_two_ranks_equals_scipy(tmp_path: Path, capsys: pytest.C
         assert np.abs(np.asarray(found[kind]["z1"]) - y).max() <= tolerance(y), kind
 
 
-def test_what_the_petsc_engine_still_refuses_of_a_coupled_scene() -> None:
-    """Its reduced models (modal or Krylov): an InputError naming the scene's [moisture] and the way out."""
+def test_what_the_petsc_engine_still_refuses_of_a_coupled_scene(tmp_path: Path) -> None:
+    """Its reduced models (modal or Krylov), and a history of a boundary value in the full model (moisture or
+    thermal: the steps hold boundary values constant): an InputError naming the key and the way out."""
     from aromm import api
+    from aromm.core.profiles import Profile
+    from aromm.core.vocabulary import FaceSpec
 
+    scene = cases.transient_scene()
     with pytest.raises(InputError, match="moisture: the petsc engine builds no reduced model of coupled heat and "
                                          "moisture yet"):
-        api.reduce(cases.transient_scene(), 4, engine="petsc", method="krylov", cache=False)
+        api.reduce(scene, 4, engine="petsc", method="krylov", cache=False)
+    ramp = Profile((0.0, 600.0), (0.5, 0.8))
+    wet = replace(scene, moisture=replace(scene.moisture, fixed_phi={"z0": ramp}))
+    with pytest.raises(InputError, match=r"boundary\.z0\.phi: the petsc engine's full model holds boundary values "
+                                         r"constant; a history needs the scipy engine's \(--engine scipy\)"):
+        api.simulate(wet, engine="petsc")
+    heated = replace(scene, boundary=(*scene.boundary[:1], FaceSpec("z1", flux=Profile((0.0, 600.0), (0.0, 50.0))),
+                                      *scene.boundary[2:]))
+    with pytest.raises(InputError, match=r"boundary\.z1\.flux: the petsc engine's full model holds"):
+        api.simulate(replace(heated, moisture=None), engine="petsc")

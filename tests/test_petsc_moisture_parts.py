@@ -1,11 +1,10 @@
 """The petsc engine's reading of a coupled heat–moisture scene without PETSc (aromm.engines.petsc.problem): the
 scene is no longer refused; the boxes' coupled systems (VoxelProblem.part, what each rank assembles) add up to the
-whole image's serial coupled system, term by term, load by load, fixed set by fixed set; what is still refused
-names its key.  The distributed solves are tested under MPI (tests/test_petsc_moisture.py)."""
+whole image's serial coupled system, term by term, load by load, fixed set by fixed set.  The distributed solves,
+and what the engine still refuses, are tested under MPI (tests/test_petsc_moisture.py)."""
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +13,6 @@ import pytest
 import scipy.sparse as sp
 from test_hygrothermal_scene import _scene
 
-from aromm.core.errors import InputError
 from aromm.core.system import dense
 from aromm.engines.petsc.layout import BoxLayout
 from aromm.engines.petsc.problem import VoxelProblem
@@ -62,16 +60,10 @@ def test_boxes_add_up_to_the_whole_coupled_system(processors: tuple[int, int, in
     assert {d.name: set(d.dofs.tolist()) for d in whole.dirichlet} == fixed
 
 
-def test_a_coupled_scene_is_read_and_a_moisture_history_refused(tmp_path: Path) -> None:
-    """The problem keeps the scene's moisture (its template has the serial system's parameters and outputs); a
-    history of a moisture boundary value is refused naming its key: the petsc engine holds boundary values constant."""
-    path = _scene(tmp_path)
-    scene = load_scene(path)
-    template = VoxelProblem.from_scene(scene).template()
+def test_a_coupled_scene_is_read_with_the_serial_parameters_and_outputs(tmp_path: Path) -> None:
+    """The problem keeps the scene's moisture: its template has the serial system's parameters and outputs."""
+    scene = load_scene(_scene(tmp_path))
+    problem = VoxelProblem.from_scene(scene)
+    template = problem.template()
+    assert problem.moisture is not None and template.fields == ("T", "phi")
     assert template.parameters == assemble(scene).parameters and list(template.observation) == ["x1", "phi:x1"]
-    (tmp_path / "phi.csv").write_text("t,phi\n0,0.8\n7200,0.6\n", encoding="utf-8")
-    path.write_text(path.read_text(encoding="utf-8").replace("phi = 0.8", 'phi = "phi.csv"'), encoding="utf-8")
-    with pytest.raises(InputError, match=r"boundary\.x0\.phi: a history of a moisture boundary value needs the scipy"):
-        VoxelProblem.from_scene(load_scene(path))
-    thermal = VoxelProblem.from_scene(replace(load_scene(path), moisture=None))  # the thermal part is not refused
-    assert thermal.fields == 1

@@ -146,19 +146,9 @@ class VoxelProblem:
         if scene.sensors:
             raise InputError(f"{scene.where}outputs.{scene.sensors[0].name}: {SENSORS_REFUSED}")
         present = tuple(sorted(geometry.present()))
-        refuse_histories(scene.moisture, scene.where)
         return cls(ImageBoxes.from_array(geometry.labels, scene.where.rstrip(": ") or "labels"),
                    geometry.voxel_size, scene.phases, scene.boundary, scene.initial_T, scene.time, scene.outputs,
                    present, scene.where, scene.reduction, scene.path, scene.discretisation, scene.moisture)
-
-
-def refuse_histories(moisture: MoistureScene | None, where: str) -> None:
-    """Refuse a moisture boundary value given as a history: the petsc engine's time stepping holds every boundary
-    value constant."""
-    timed = sorted(moisture.histories) if moisture is not None else []
-    if timed:
-        raise InputError(f"{where}boundary.{timed[0]}: a history of a moisture boundary value needs the scipy engine's "
-                         "time stepping; run it with --engine scipy (the petsc engine takes constant values)")
 
 
 def box_layout(shape: tuple[int, int, int], comm: Any) -> BoxLayout:
@@ -199,7 +189,6 @@ def load_problem(path: str | Path, comm: Any, discretisation: str | None = None)
     present = sorted(runtime.union(image.labels_present(box_layout(image.shape, comm).box), comm))
     stand_in = np.asarray(present, dtype=np.int32).reshape(-1, 1, 1)
     scene = scene_from_dict(data, path, image=(stand_in, image.voxel_size))
-    refuse_histories(scene.moisture, scene.where)
     geometry = scene.geometry
     assert isinstance(geometry, VoxelGeometry)  # an image file is a voxel geometry
     extent = tuple(n * h for n, h in zip(image.shape, geometry.voxel_size, strict=True))

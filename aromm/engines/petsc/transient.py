@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aromm.core.errors import InputError
 from aromm.core.observables import Observables
 from aromm.core.system import ParamValues
 from aromm.engines.petsc import linear, runtime
@@ -32,10 +33,21 @@ def simulate(source: Source, values: ParamValues | None = None, times: npt.Array
     """Face means of the full model of ``source`` (steady, or at ``times``): collective, same on every rank."""
     solver = linear.check_solver(solver)
     system = distributed(source, comm if comm is not None else runtime.world())
+    refuse_histories(system)
     if system.is_steady or system.time is None:
         state = steady(system, values, solver)
         return Observables(t=np.zeros(1), mean_T={k: np.atleast_1d(v) for k, v in state.means.items()}, steady=True)
     return transient(system, values, times, scheme=scheme, solver=solver)
+
+
+def refuse_histories(system: DistributedSystem) -> None:
+    """Refuse boundary values given as histories (a load's or a fixed value's time function): the steps here hold
+    every boundary value constant (the reduced models of the petsc engine keep the histories)."""
+    timed = [t.coefficient.params[-1] for t in system.template.load.terms if t.time is not None]
+    timed += [d.param for d in system.template.dirichlet if d.time is not None]
+    if timed:
+        raise InputError(f"boundary.{timed[0]}: the petsc engine's full model holds boundary values constant; a "
+                         "history needs the scipy engine's (--engine scipy)")
 
 
 def _stepper(system: DistributedSystem, a: float, *, c: Any, k: Any, rows: np.ndarray, fixed: Any,
