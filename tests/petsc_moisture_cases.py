@@ -51,24 +51,24 @@ def steady_scene(discretisation: str = "q1") -> Scene:
     return scene(None, discretisation)
 
 
-def step_condition(discretisation: str) -> float:
-    """The largest 2-norm condition number of the matrices the petsc engine solves for :func:`transient_scene` at
-    :data:`PROBE` (Euler's and BDF2's steps) and :func:`steady_scene`, with identity rows and columns on the fixed
-    unknowns as PETSc eliminates them (aromm.engines.petsc.transient, steady)."""
+def step_condition(case: Scene) -> float:
+    """The largest 2-norm condition number of the matrices the petsc engine solves for ``case`` at :data:`PROBE`
+    (Euler's and BDF2's steps, or the steady matrix), with identity rows and columns on the fixed unknowns as PETSc
+    eliminates them (aromm.engines.petsc.transient, steady), symmetrically scaled by their diagonal as the engine
+    solves a coupled system (aromm.engines.petsc.linear.krylov)."""
+    system = assemble(case)
+    values = system.values({k: v for k, v in PROBE.items() if k in system.parameters})
+    k = system.conductance.evaluate(values).toarray()
+    c = system.capacity.evaluate(values).toarray() if case.time is not None else np.zeros_like(k)
+    fixed = np.concatenate([d.dofs for d in system.dirichlet])
     out = 0.0
-    for case, leads in ((transient_scene(discretisation), (1.0, 1.5)), (steady_scene(discretisation), (0.0,))):
-        system = assemble(case)
-        values = system.values(PROBE)
-        k = system.conductance.evaluate(values).toarray()
-        c = system.capacity.evaluate(values).toarray() if system.capacity else np.zeros_like(k)
-        fixed = np.concatenate([d.dofs for d in system.dirichlet])
-        dt = case.time.dt if case.time is not None else 1.0
-        for lead in leads:
-            a = lead * c / dt + k
-            a[fixed, :] = 0.0
-            a[:, fixed] = 0.0
-            a[fixed, fixed] = 1.0
-            out = max(out, float(np.linalg.cond(a)))
+    for lead in (1.0, 1.5) if case.time is not None else (0.0,):
+        a = lead * c / (case.time.dt if case.time is not None else 1.0) + k
+        a[fixed, :] = 0.0
+        a[:, fixed] = 0.0
+        a[fixed, fixed] = 1.0
+        scale = 1.0 / np.sqrt(np.diag(a))
+        out = max(out, float(np.linalg.cond(scale[:, None] * a * scale[None, :])))
     return out
 
 

@@ -82,6 +82,11 @@ class DistributedSystem:
         return self.rows.n
 
     @property
+    def fields(self) -> int:
+        """Unknowns per node (or cell): 1, T; 2, T and φ (a coupled system)."""
+        return len(self.template.fields)
+
+    @property
     def is_steady(self) -> bool:
         return self.template.is_steady
 

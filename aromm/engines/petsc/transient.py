@@ -24,7 +24,7 @@ from aromm.engines.petsc.reduction import Source, distributed
 from aromm.engines.petsc.steady import face_means, fixed_values, steady
 from aromm.full.solve import interpolate_rows, output_steps, transient_grid
 
-#: Relative residual of every time step.
+#: Relative residual of every time step (of a coupled system: :data:`aromm.engines.petsc.linear.COUPLED_RTOL`).
 STEP_RTOL = 1e-11
 
 
@@ -60,7 +60,8 @@ def _stepper(system: DistributedSystem, a: float, *, c: Any, k: Any, rows: np.nd
     mat.mult(fixed, lift)
     if system.dirichlet:  # collective: every rank calls it, with or without fixed rows of its own
         mat.zeroRowsColumns(rows.astype(runtime.petsc().IntType), 1.0)
-    ksp = linear.krylov(mat, solver, STEP_RTOL, "aromm_transient_")
+    ksp = linear.krylov(mat, solver, linear.tolerance(STEP_RTOL, system.fields), "aromm_transient_",
+                        fields=system.fields)
     ksp.setInitialGuessNonzero(solver == "gamg")  # CG starts from the previous step; a factorisation ignores it
     return ksp, lift
 
@@ -98,7 +99,7 @@ def transient(system: DistributedSystem, values: ParamValues | None = None, time
         rhs.axpy(1.0, f)
         rhs.axpy(-1.0, lift)
         rhs.getArray()[local_rows] = temps
-        linear.solve(ksp, rhs, x, f"time step {n} ({scheme})", STEP_RTOL)
+        linear.solve(ksp, rhs, x, f"time step {n} ({scheme})", linear.tolerance(STEP_RTOL, system.fields))
         if n == 1 and scheme == "bdf2" and steps > 1:
             ksp, lift = _stepper(system, 1.5, c=c, k=k, rows=rows, fixed=fixed, solver=solver)
         x_prev.copy(x_older)
