@@ -25,10 +25,10 @@ SOLVERS = ("gamg", "mumps")
 #: Relative residual of the steady solves (face means to ~1e-9 of the temperature scale on the test cases).
 STEADY_RTOL = 1e-11
 #: Relative residual of the solves of a coupled system (two fields, aromm.physics.hygrothermal), on its symmetrically
-#: Jacobi-scaled form (:func:`krylov` with ``fields`` > 1): the weight λ ≈ 8e7 J/kg of the moisture rows makes them
-#: outweigh the heat rows in ‖b‖, and the scaled steps are worse conditioned than a thermal one.  On
-#: data/scenes/wood_moisture.toml's 23³ image (2 ranks, transient, against the direct solve): face means to 2.2e-4 °C
-#: unscaled at 1e-11, 4.8e-6 °C scaled at 1e-11, 2.0e-8 °C (φ 1.1e-10) scaled at 1e-13, ≤ 27 CG iterations a step.
+#: Jacobi-scaled form (:func:`krylov` with ``fields`` > 1, which the weight λ ≈ 8e7 J/kg of the moisture rows calls
+#: for: unscaled, they outweigh the heat rows in ‖b‖).  On data/scenes/wood_moisture.toml's 23³ image (2 ranks,
+#: transient, against the direct solve): face means to 2.2e-4 °C unscaled at 1e-11, 4.8e-6 °C scaled at 1e-11,
+#: 2.0e-8 °C (φ 1.1e-10) scaled at 1e-13, ≤ 27 CG iterations a step.
 COUPLED_RTOL = 1e-13
 #: Largest number of CG iterations before a solve is declared failed.
 MAX_ITERATIONS = 5000
