@@ -1,7 +1,8 @@
 """The petsc engine's coupled heat and moisture (the full model) against the serial engine's: face-mean T and φ of the
 transient and the steady state of tests/petsc_moisture_cases.py, in Q1 and in finite volumes, at 1 rank (in the
 pytest process), 2 ranks (the process grid's own cut) and 4 ranks cut 2×2×1 (boxes); `aromm simulate --engine petsc
---json` at 2 ranks; what the petsc engine still refuses of a coupled scene.
+--json` and `aromm homogenize --engine petsc` (thermal probes) at 2 ranks; what the petsc engine still refuses of a
+coupled scene.
 
 Tolerance, from the solvers' own: every solve of a coupled system is CG on its diagonally scaled form to a relative
 residual linear.tolerance(STEP_RTOL, 2) = COUPLED_RTOL (the serial engine solves directly), so its relative error is
@@ -131,6 +132,22 @@ def test_cli_simulate_on_two_ranks_equals_scipy(tmp_path: Path, capsys: pytest.C
     for kind in ("mean_T", "mean_phi"):
         y = np.asarray(expected[kind]["z1"])
         assert np.abs(np.asarray(found[kind]["z1"]) - y).max() <= bound, kind
+
+
+def test_cli_homogenize_on_two_ranks_gives_the_thermal_conductivity(tmp_path: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """`aromm homogenize --engine petsc` of a coupled scene: its probes are thermal (the scene's moisture conditions
+    left out), k̄ the scipy engine's flux probe's (to 1e-7 relatively, as tests/test_petsc_engine.py's), and the note
+    that the moisture transport is homogenised on the scipy engine is said once."""
+    np.save(tmp_path / "img.npy", cases.labels())
+    path = tmp_path / "s.toml"
+    path.write_text(SCENE, encoding="utf-8")
+    assert main(["homogenize", str(path), "--boundary", "flux", "--json"]) == 0
+    expected = np.asarray(json.loads(capsys.readouterr().out)["k"])
+    run = mpiexec("aromm", "homogenize", str(path), "--engine", "petsc", "--json")
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert run.stderr.count("the moisture transport is homogenised on voxel images with the scipy engine only") == 1
+    np.testing.assert_allclose(np.asarray(json.loads(run.stdout)["k"]), expected, rtol=1e-7, atol=0.0)
 
 
 def test_what_the_petsc_engine_still_refuses_of_a_coupled_scene(tmp_path: Path) -> None:
