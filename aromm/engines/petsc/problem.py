@@ -104,7 +104,7 @@ class VoxelProblem:
         """The serial system of ``labels``, a part of the image (a rank's box) that touches the whole box's ``faces``
         (None: the whole box's faces, the stand-in of :meth:`template`): their conditions and face outputs, coupled
         with moisture by :meth:`MoistureScene.coupled`.  A part's face outputs are the whole face's mean restricted
-        to it (``B_f 1 / |f|``, |f| the whole face's area), so that a moisture flux's load ``λ g |f| e_f`` is the
+        to it (``B_f 1 / |f|``, ``|f|`` the whole face's area), so that a moisture flux's load ``λ g |f| e_f`` is the
         part's share of the face's."""
         boundary = tuple(f for f in self.boundary if faces is None or f.face in faces)
         outputs = tuple(o for o in self.observed if faces is None or o in faces)
