@@ -93,6 +93,10 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
     on ``max_points``, or the order asked cost more than half the tolerance) is returned with a
     :class:`~aromm.core.errors.ModelWarning` that says the estimated error and why, whether built or cached."""
     engine = check_engine(engine)
+    if engine == "petsc" and getattr(system, "moisture", None) is not None:
+        raise InputError(f"{getattr(system, 'where', '')}moisture: the petsc engine builds no reduced model of coupled "
+                         "heat and moisture yet (modal or krylov); reduce it with --engine scipy, or simulate its full "
+                         "model on the petsc engine (--model full)")
     run = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
     settings = _resolved(system, (settings or ReductionSettings()).updated(order=order, **options), run)
     rom = _cached_or_built(system, settings, engine, run)

@@ -224,7 +224,7 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     capacities = all(ph.c is not None for ph in sc.phases)
     image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
     boundary = boundary or default_boundary(sc, engine)
-    moisture = _moisture(sc, image is not None, solver, boundary)
+    moisture = _moisture(sc, image is not None, solver, boundary) if is_root(engine) else None  # its note once
     if image is None:
         result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
     else:

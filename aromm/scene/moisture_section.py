@@ -29,12 +29,13 @@ Parameters ``<phase>.xi``, ``<phase>.D_phi``, ``<phase>.delta_p``, ``<face>.phi`
 axes or a rotated tensor (a fibre axis; its D_phi and delta_p stay isotropic).  ``phi``, ``phi_ext`` and ``g`` may
 be histories, as temperatures and heat fluxes are: the name of a CSV file ``t,<value>``
 (:mod:`aromm.scene.histories`; a relative humidity as a fraction or in %RH, a moisture flux in kg/(m² s)), whose
-parameter is then its scale, 1.  Not yet: the petsc engine.
+parameter is then its scale, 1.  The petsc engine runs the full model (:mod:`aromm.engines.petsc.problem`: each rank
+couples its box with :meth:`MoistureScene.part`); its reduced models of a coupled scene are not built yet.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -95,6 +96,19 @@ class MoistureScene:
         extra = [f for f in (*self.outputs, *self.flux) if f in FACES and f not in outputs]
         return (*outputs, *dict.fromkeys(extra))
 
+    def part(self, faces: Collection[str], phases: Collection[str]) -> MoistureScene:
+        """The conditions of a part of the body (a rank's box of the image, on the petsc engine): those of the ``faces``
+        of the whole box that it touches, and the properties of the ``phases`` it holds."""
+        return replace(self, phases={k: v for k, v in self.phases.items() if k in phases},
+                       fixed_phi={f: v for f, v in self.fixed_phi.items() if f in faces},
+                       vapour={f: v for f, v in self.vapour.items() if f in faces},
+                       flux={f: v for f, v in self.flux.items() if f in faces})
+
+    def with_extent(self, extent: Sequence[float]) -> MoistureScene:
+        """The same conditions on a box of edge lengths ``extent`` (m): each moisture flux's area is its face's
+        (a scene read around a stand-in image, as the petsc engine reads it, is given its image's extent here)."""
+        return replace(self, flux={f: (g, face_area(f, extent)) for f, (g, _) in self.flux.items()})
+
     def coupled(self, thermal: ThermalSystem, outputs: Sequence[str], sensors: Sequence[Sensor] = ()) -> ThermalSystem:
         """The coupled system of the scene's assembled ``thermal`` one, keeping the thermal face ``outputs`` and
         ``sensors``' outputs, and the ``phi:<name>`` of ``mean_phi``'s faces and sensors (a camera's: every pixel)."""
@@ -144,8 +158,7 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
         if "g" in spec:
             if "phi" in spec or "beta" in spec:
                 raise r.fail(f"boundary.{face}", "a face takes one moisture condition: phi, beta with phi_ext, or g")
-            axis = "xyz".index(face[0])
-            area = float(np.prod([e for a, e in enumerate(extent) if a != axis]))
+            area = face_area(face, extent)
             g = spec["g"]
             key = f"boundary.{face}.g"
             flux[face] = (history(r, g, key, "moisture_flux") if isinstance(g, str) else r.number(g, key), area)
@@ -166,6 +179,16 @@ def parse_moisture(r: TableReader, data: Mapping[str, Any], phases: Sequence[Pha
         raise r.fail("outputs.mean_phi", f"must be a list of faces among {', '.join(FACES)} or of the scene's sensors "
                                          f"({', '.join(sensors) or 'none'}), got {faces!r}")
     return MoistureScene(state, values, fixed, initial_phi, tuple(faces), vapour, flux)
+
+
+def face_area(face: str, extent: Sequence[float]) -> float:
+    """The area (m²) of ``face`` of a box of edge lengths ``extent`` (m).
+
+    >>> face_area("z1", (2.0, 3.0, 5.0))
+    6.0
+    """
+    axis = "xyz".index(face[0])
+    return float(np.prod([e for a, e in enumerate(extent) if a != axis]))
 
 
 def _non_negative(r: TableReader, value: Any, key: str) -> float:

@@ -24,14 +24,15 @@ BLOCK = 8
 ROWS = 4096
 
 
-def matrix(block: sp.csr_array, rows: RowLayout, comm: Any) -> Any:
-    """Square MPIAIJ matrix from this rank's rows (``rows.local`` × n, global columns)."""
+def matrix(block: sp.csr_array, rows: RowLayout, comm: Any, fields: int = 1) -> Any:
+    """Square MPIAIJ matrix from this rank's rows (``rows.local`` × n, global columns); ``fields`` > 1: interlaced
+    unknowns per node, the matrix's block size (GAMG then coarsens nodes, not single unknowns)."""
     PETSc = runtime.petsc()
     csr = sp.csr_array(block)
     csr.sum_duplicates()
     csr.sort_indices()
     index = PETSc.IntType
-    mat = PETSc.Mat().createAIJ(size=((rows.local, rows.n), (rows.local, rows.n)),
+    mat = PETSc.Mat().createAIJ(size=((rows.local, rows.n), (rows.local, rows.n)), bsize=fields,
                                 csr=(csr.indptr.astype(index, copy=False), csr.indices.astype(index, copy=False),
                                      np.asarray(csr.data, dtype=float)), comm=comm)
     mat.assemble()

@@ -8,6 +8,7 @@ counted box by box (for a voxel image the Q1 phase mass ``1ᵀ C_p 1`` is exactl
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,11 @@ from aromm.scene.scene_file import Scene
 
 
 def as_problem(scene: Scene | VoxelProblem) -> VoxelProblem:
-    return scene if isinstance(scene, VoxelProblem) else VoxelProblem.from_scene(scene)
+    """The thermal problem of a probe: a ``[moisture]`` scene's probes of eq. 13 are thermal (its moisture transport
+    is homogenised by :mod:`aromm.homogenization.moisture_cells`, scipy engine)."""
+    if isinstance(scene, VoxelProblem):
+        return replace(scene, moisture=None)
+    return VoxelProblem.from_scene(replace(scene, moisture=None))
 
 
 def probe_solver(solver: str = "gamg", comm: Any = None) -> ProbeSolver:

@@ -61,6 +61,11 @@ class RowLayout:
     def even(cls, n: int, size: int, rank: int) -> RowLayout:
         return cls(even_split(n, size), rank)
 
+    def interlaced(self, fields: int) -> RowLayout:
+        """The rows of ``fields`` unknowns per row of this layout, interlaced (row ``fields i + f``: field f of
+        row i), as a DMDA of ``fields`` degrees of freedom numbers them."""
+        return RowLayout(tuple(fields * s for s in self.starts), self.rank)
+
 
 def process_grid(shape: tuple[int, int, int], size: int,
                  fixed: tuple[int, int, int] = (0, 0, 0)) -> tuple[int, int, int]:

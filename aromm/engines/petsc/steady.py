@@ -64,7 +64,8 @@ def steady(system: DistributedSystem, values: ParamValues | None = None, solver:
         x.setValues(rows.astype(index), temps)
         x.assemble()
         k.zeroRowsColumns(rows.astype(index), 1.0, x, f)
-    ksp = linear.krylov(k, solver, rtol, "aromm_steady_")
+    rtol = linear.tolerance(rtol, system.fields)
+    ksp = linear.krylov(k, solver, rtol, "aromm_steady_", fields=system.fields)
     iterations = linear.solve(ksp, f, x, "steady state", rtol)
     heat = {}
     if original is not None:

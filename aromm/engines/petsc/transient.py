@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aromm.core.errors import InputError
 from aromm.core.observables import Observables
 from aromm.core.system import ParamValues
 from aromm.engines.petsc import linear, runtime
@@ -23,7 +24,7 @@ from aromm.engines.petsc.reduction import Source, distributed
 from aromm.engines.petsc.steady import face_means, fixed_values, steady
 from aromm.full.solve import interpolate_rows, output_steps, transient_grid
 
-#: Relative residual of every time step.
+#: Relative residual of every time step (of a coupled system: :data:`aromm.engines.petsc.linear.COUPLED_RTOL`).
 STEP_RTOL = 1e-11
 
 
@@ -32,10 +33,21 @@ def simulate(source: Source, values: ParamValues | None = None, times: npt.Array
     """Face means of the full model of ``source`` (steady, or at ``times``): collective, same on every rank."""
     solver = linear.check_solver(solver)
     system = distributed(source, comm if comm is not None else runtime.world())
+    refuse_histories(system)
     if system.is_steady or system.time is None:
         state = steady(system, values, solver)
         return Observables(t=np.zeros(1), mean_T={k: np.atleast_1d(v) for k, v in state.means.items()}, steady=True)
     return transient(system, values, times, scheme=scheme, solver=solver)
+
+
+def refuse_histories(system: DistributedSystem) -> None:
+    """Refuse boundary values given as histories (a load's or a fixed value's time function): the steps here hold
+    every boundary value constant (the reduced models of the petsc engine keep the histories)."""
+    timed = [t.coefficient.params[-1] for t in system.template.load.terms if t.time is not None]
+    timed += [d.param for d in system.template.dirichlet if d.time is not None]
+    if timed:
+        raise InputError(f"boundary.{timed[0]}: the petsc engine's full model holds boundary values constant; a "
+                         "history needs the scipy engine's (--engine scipy)")
 
 
 def _stepper(system: DistributedSystem, a: float, *, c: Any, k: Any, rows: np.ndarray, fixed: Any,
@@ -48,14 +60,16 @@ def _stepper(system: DistributedSystem, a: float, *, c: Any, k: Any, rows: np.nd
     mat.mult(fixed, lift)
     if system.dirichlet:  # collective: every rank calls it, with or without fixed rows of its own
         mat.zeroRowsColumns(rows.astype(runtime.petsc().IntType), 1.0)
-    ksp = linear.krylov(mat, solver, STEP_RTOL, "aromm_transient_")
+    ksp = linear.krylov(mat, solver, linear.tolerance(STEP_RTOL, system.fields), "aromm_transient_",
+                        fields=system.fields)
     ksp.setInitialGuessNonzero(solver == "gamg")  # CG starts from the previous step; a factorisation ignores it
     return ksp, lift
 
 
 def transient(system: DistributedSystem, values: ParamValues | None = None, times: npt.ArrayLike | None = None, *,
               scheme: str = "bdf2", solver: str = "gamg") -> Observables:
-    """Implicit time integration from the uniform ``initial.T`` (collective)."""
+    """Implicit time integration from the uniform ``initial.T`` and the system's initial terms (a coupled system's
+    ``initial.phi``; collective)."""
     grid = transient_grid(system.time, system.is_steady, scheme)
     t_out, steps = output_steps(times, grid)
     v = system.values(values)
@@ -67,8 +81,7 @@ def transient(system: DistributedSystem, values: ParamValues | None = None, time
     fixed = f.duplicate()
     fixed.set(0.0)
     fixed.getArray()[local_rows] = temps
-    x_prev = f.duplicate()
-    x_prev.set(float(np.asarray(v["initial.T"])))
+    x_prev = system.initial_state(v)
     x_prev.getArray()[local_rows] = temps
     x_older = x_prev.copy()
     history_t, history_y = [0.0], [list(face_means(system, x_prev).values())]
@@ -86,7 +99,7 @@ def transient(system: DistributedSystem, values: ParamValues | None = None, time
         rhs.axpy(1.0, f)
         rhs.axpy(-1.0, lift)
         rhs.getArray()[local_rows] = temps
-        linear.solve(ksp, rhs, x, f"time step {n} ({scheme})", STEP_RTOL)
+        linear.solve(ksp, rhs, x, f"time step {n} ({scheme})", linear.tolerance(STEP_RTOL, system.fields))
         if n == 1 and scheme == "bdf2" and steps > 1:
             ksp, lift = _stepper(system, 1.5, c=c, k=k, rows=rows, fixed=fixed, solver=solver)
         x_prev.copy(x_older)

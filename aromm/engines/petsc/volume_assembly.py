@@ -33,7 +33,7 @@ from aromm.engines.petsc import convert, runtime
 from aromm.engines.petsc.layout import BoxLayout, RowLayout
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.fv.grid import AXES, VolumeGrid
-from aromm.fv.volumes import assemble_volumes, unknown_faces, volume_grid
+from aromm.fv.volumes import unknown_faces, volume_grid
 
 Box = tuple[tuple[int, int], tuple[int, int], tuple[int, int]]
 IntArray = npt.NDArray[np.int64]
@@ -112,18 +112,18 @@ class VolumeRows:
 
 
 def padded_system(problem: VoxelProblem, layout: BoxLayout) -> tuple[ThermalSystem, VolumeGrid, Box, np.ndarray]:
-    """The serial finite-volume system of this rank's padded box, the grid that numbers its unknowns, the box and
-    its labels."""
+    """The serial finite-volume system of this rank's padded box (:meth:`VoxelProblem.part`: coupled with moisture,
+    its fields one block after the other), the grid that numbers the unknowns of each field, the box and its
+    labels."""
     box = halo_box(layout)
     labels = problem.image.read(box)
     touched = layout.faces(box)
+    system = problem.part(labels, touched)
     boundary = tuple(f for f in problem.boundary if f.face in touched)
-    outputs = tuple(o for o in problem.outputs if o in touched)
-    system = assemble_volumes(labels, problem.voxel_size, problem.phases, boundary, time=problem.time,
-                              initial_T=problem.initial_T, outputs=outputs)
+    outputs = tuple(o for o in problem.observed if o in touched)
     grid = volume_grid(labels, problem.voxel_size, problem.phases, boundary, outputs, steady=problem.time is None)
-    if grid.n != system.n:
-        raise RuntimeError(f"padded box: {grid.n} unknowns numbered, the assembler made {system.n}")
+    if grid.n * problem.fields != system.n:
+        raise RuntimeError(f"padded box: {grid.n} unknowns per field numbered, the assembler made {system.n}")
     return system, grid, box, labels
 
 
@@ -146,9 +146,7 @@ def global_rows(grid: VolumeGrid, box: Box, numbering: VolumeRows) -> tuple[IntA
 def template(problem: VoxelProblem, padded: ThermalSystem, comm: Any) -> ThermalSystem:
     """The whole image's term list (module docstring): the stand-in's terms, with the interface terms of every phase
     pair that touches in some rank's padded box (collective)."""
-    stand_in = np.asarray(problem.present, dtype=np.int32).reshape(-1, 1, 1)
-    base = assemble_volumes(stand_in, problem.voxel_size, problem.phases, problem.boundary, time=problem.time,
-                            initial_T=problem.initial_T, outputs=problem.outputs)
+    base = problem.template()
     found = {t.name: t.coefficient for t in padded.conductance.terms if "|" in t.name}
     union: dict[str, Any] = {}
     for part in runtime.mpi(comm).allgather(found):
@@ -165,41 +163,55 @@ def assemble_volume_boxes(problem: VoxelProblem, comm: Any) -> Any:
     """Assemble ``problem`` in finite volumes by boxes (collective: every rank calls it); a
     :class:`~aromm.engines.petsc.assembly.DistributedSystem` without a node grid (the multigrid of the Krylov
     engine then falls back to GAMG)."""
-    from aromm.engines.petsc.assembly import DistributedSystem, DistributedTerm, problem_key
+    from aromm.engines.petsc.assembly import (
+        DistributedSystem,
+        DistributedTerm,
+        field_outputs,
+        interlacing,
+        permuted,
+        problem_key,
+    )
 
     problem.refuse_insulating()
     layout = problem.layout(comm)
-    numbering = VolumeRows(layout, unknown_faces(problem.boundary, problem.outputs))
-    rows = numbering.rows
+    count = problem.fields
+    numbering = VolumeRows(layout, unknown_faces(problem.boundary, problem.observed))
+    rows = numbering.rows.interlaced(count)
     padded, grid, box, padded_labels = padded_system(problem, layout)
-    where, mine = global_rows(grid, box, numbering)
-    order = np.flatnonzero(mine)[np.argsort(where[mine], kind="stable")]
+    cells, mine = global_rows(grid, box, numbering)
+    local = np.flatnonzero(mine)[np.argsort(cells[mine], kind="stable")]  # this rank's unknowns of one field
+    where = (cells[:, None] * count + np.arange(count)).ravel()  # interlaced rows of the padded box's unknowns
+    order = (local[:, None] * count + np.arange(count)).ravel()
     if not np.array_equal(where[order], np.arange(rows.lo, rows.hi)):
         raise RuntimeError("finite-volume rows: this rank's unknowns are not its row block")
     whole = template(problem, padded, comm)
+    fields = interlacing(count, grid.n)
 
     def owned(op: Any, vector: bool) -> Any:
+        op = permuted(op, fields)
         if vector:
             return convert.vector(np.asarray(op, dtype=float)[order], rows, comm)
         block = sp.csr_array(op)[order]
         block = sp.csr_array((block.data, where[block.indices], block.indptr), shape=(rows.local, rows.n))
-        return convert.matrix(block, rows, comm)
+        return convert.matrix(block, rows, comm, count)
 
-    ops = {t.name: t.operator for g in (padded.capacity, padded.conductance, padded.load) for t in g.terms}
+    ops = {t.name: t.operator for g in (padded.capacity, padded.conductance, padded.load, padded.initial)
+           for t in g.terms}
 
     def terms(group: Affine, vector: bool) -> tuple[DistributedTerm, ...]:
         empty = np.zeros(padded.n) if vector else sp.csr_array((padded.n, padded.n))
         return tuple(DistributedTerm(t.name, t.coefficient, owned(ops.get(t.name, empty), vector), t.role)
                      for t in group.terms)
 
-    observation = {}
-    for face in problem.outputs:  # e_f = B_f 1 / |f|, |f| summed over the ranks
-        weights = np.zeros(padded.n)
+    means = {}
+    for face in problem.observed:  # e_f = B_f 1 / |f|, |f| summed over the ranks
+        weights = np.zeros(grid.n)
         if face in grid.faces:
             weights = np.asarray(grid.face_mass(face) @ np.ones(grid.n))
-        local = weights[order]
-        observation[face] = convert.vector(local / runtime.allsum([local.sum()], comm)[0], rows, comm)
-    fixed = {d.name: d.dofs for d in padded.dirichlet}
+        means[face] = weights[local] / runtime.allsum([weights[local].sum()], comm)[0]
+    observation = field_outputs(whole, means, rows, comm)
+    position = np.argsort(fields) if fields is not None else np.arange(padded.n)  # interlaced place of each unknown
+    fixed = {d.name: position[d.dofs] for d in padded.dirichlet}
     dirichlet = {d.name: np.sort(where[np.intersect1d(fixed.get(d.name, np.zeros(0, np.int64)), order)])
                  for d in whole.dirichlet}
     m_, n_, p_ = layout.grid
@@ -211,4 +223,5 @@ def assemble_volume_boxes(problem: VoxelProblem, comm: Any) -> Any:
         load=terms(whole.load, True), dirichlet=dirichlet, observation=observation,
         boundary=owned(padded.boundary, False), fingerprint=problem_key(problem, labels, layout, comm),
         description=f"{problem.where}{problem.shape[0]}×{problem.shape[1]}×{problem.shape[2]} voxels in finite "
-                    f"volumes, {m_}×{n_}×{p_} boxes")
+                    f"volumes, {m_}×{n_}×{p_} boxes" + (f", {count} unknowns per cell" if count > 1 else ""),
+        initial=terms(whole.initial, True))
