@@ -1,11 +1,11 @@
 """The dual norms of the certificate's residuals, per contour point, from one pass over each Gram matrix.
 
 The residual of a reduced solution x(s) on the basis Ψ at the Laplace variable s is ``M c(s)`` with
-``M = [U, Eᵀ, K_1Ψ, …, K_mΨ, C_1Ψ, …, C_nΨ]`` (:mod:`aromm.reduction.certificate`) and
+``M = [U, Eᵀ, K_1Ψ, …, K_mΨ, C_1Ψ, …, C_nΨ]`` (:mod:`aromm.reduction.certificate`) and::
 
     c(s) = [h(s); −(w_K + s w_C) ⊗ x(s)],    w_K = (k_1(μ), …, k_m(μ), 0, …, 0),  w_C = (0, …, 0, c_1(μ), …, c_n(μ)),
 
-h(s) the inputs' and outputs' coordinates.  Its squared dual norm ``c* G c`` (G = ``Mᵀ N̂_σ⁻¹ M``, real symmetric) is
+h(s) the inputs' and outputs' coordinates.  Its squared dual norm ``c* G c`` (G = ``Mᵀ N̂_σ⁻¹ M``, real symmetric) is::
 
     h* G_hh h − 2 Re h* (B_K + s B_C) x + x* A_KK x + 2 Re s x* A_KC x + |s|² x* A_CC x,
 
