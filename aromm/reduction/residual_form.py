@@ -56,8 +56,10 @@ class RungForm:
 
     def square(self, s: Complex, head: Complex, x: Complex) -> FloatArray:
         """``c* G c`` at each point s (rows of ``head`` and ``x``)."""
-        def times(v: Complex, a: FloatArray) -> Complex:  # v Aᵀ in two real products (A never copied to complex)
-            return v.real @ a.T + 1j * (v.imag @ a.T)
+        def times(v: Complex, a: FloatArray) -> Complex:  # v Aᵀ in two real products (A never copied to complex);
+            # the parts made contiguous: numpy < 2 multiplies a strided view without BLAS (the notebook's 7³ coupled
+            # build 210 s against 28 in the lowest-versions stage)
+            return np.ascontiguousarray(v.real) @ a.T + 1j * (np.ascontiguousarray(v.imag) @ a.T)
 
         def form(a: FloatArray, u: Complex, v: Complex) -> Complex:  # u_k* A v_k per row k
             return np.einsum("ki,ki->k", u.conj(), times(v, a))
