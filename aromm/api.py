@@ -39,6 +39,7 @@ from aromm.reduction.certified import tolerance_note
 from aromm.reduction.krylov import KrylovReductor
 from aromm.reduction.model_key import model_key, scene_physics_key
 from aromm.reduction.offline import resolve_cache
+from aromm.reduction.referee import REFEREE_ORDER, refereed
 from aromm.reduction.rom import ReducedModel, from_arrays, to_arrays
 from aromm.scene.reduction_section import ReductionSettings
 from aromm.scene.scene_file import Scene, assemble
@@ -99,7 +100,7 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
                          "model on the petsc engine (--model full)")
     run = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
     settings = _resolved(system, (settings or ReductionSettings()).updated(order=order, **options), run)
-    rom = _cached_or_built(system, settings, engine, run)
+    rom = _refereed(system, settings, engine, run, _cached_or_built(system, settings, engine, run))
     note = tolerance_note(rom.info)
     if note is not None and is_root(engine):
         warnings.warn(note, ModelWarning, stacklevel=2)
@@ -151,6 +152,20 @@ def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run:
             store.save("rom", key, to_arrays(rom))
             _remember_order(store, system, settings, engine, run)
     return rom
+
+
+def _refereed(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any],
+              rom: ReducedModel) -> ReducedModel:
+    """A certified modal model given ``bounds``, with its Krylov referee over them (:mod:`aromm.reduction.referee`):
+    the Krylov model of the same scene over that box, from the cache or built (its own key: the modal model, cached
+    without it, serves every box)."""
+    modal = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance, settings.certify) is None
+    if not (modal and settings.bounds and rom.certificate is not None):
+        return rom
+    krylov = ReductionSettings(order=REFEREE_ORDER, method="krylov", basis=settings.basis, bounds=settings.bounds,
+                               tolerance=settings.tolerance, certify=settings.certify, solver=settings.solver)
+    options = {k: v for k, v in run.items() if k in ("cache", "progress")}
+    return refereed(rom, _cached_or_built(system, krylov, engine, options))
 
 
 def _remember_order(store: NpzCache, system: Any, settings: ReductionSettings, engine: str,

@@ -69,9 +69,9 @@ def test_certified_bound_of_the_petsc_build_holds_against_the_exact_full_model(
         bound = found["certified_bound"]
         assert np.all(np.isfinite(bound)), label
         assert np.all(bound >= actual - floor), (label, bound, actual)
-        # not vacuous: effectivity 8-96 measured at order 8 (the slow corner's far face the largest; 1,300-1,800 there
-        # at orders 14-24, said in docs/method/krylov.md)
-        assert np.all(bound <= 1000 * np.maximum(actual, floor)), (label, bound, actual)
+        # the target 100: effectivity 1.0-2.9 measured at order 8 through the span it was compressed from
+        # (8-96 directly; the direct bound's 1,300-1,800 at the slow corner at orders 14-24: docs/method/krylov.md)
+        assert np.all(bound <= 100 * np.maximum(actual, floor)), (label, bound, actual)
         assert int(found["certified_order"]) == int(serial["certified_order"]), label
         np.testing.assert_allclose(bound, serial["certified_bound"], rtol=1e-6, err_msg=label)
 

@@ -129,14 +129,15 @@ def mode_counts(settings: ReductionSettings, split: Callable[[int], tuple[int, i
 def plan(engine: ModalEngine, settings: ReductionSettings, reductor: Reductor, *extra: Any) -> ModalPlan:
     """Mode counts, correction samples (:func:`aromm.reduction.corrections.correction_samples` at the basis values
     unless ``settings.corrections`` names them) and the cache key: the engine's fingerprints, the settings, the
-    reductor and ``extra``."""
+    reductor and ``extra``; not the settings' ``bounds``, which no modal build uses (a certified modal model's Krylov
+    referee is kept apart: :mod:`aromm.reduction.referee`)."""
     n_d, n_s = mode_counts(settings, engine.split)
     default = correction_samples(engine.template, settings.basis) if settings.corrections is True else ()
     samples = settings.samples(default)
     name = getattr(reductor, "cache_key", reductor.name)
     grid = engine.template.time  # the model's output grid (its reference cases may run on their own)
     key = content_key(ROM_VERSION, engine.fingerprints(), None if grid is None else (grid.end, grid.dt), n_d, n_s,
-                      samples, name, settings.key(), *extra)
+                      samples, name, replace(settings, bounds={}).key(), *extra)
     return ModalPlan(n_d, n_s, samples, key)
 
 

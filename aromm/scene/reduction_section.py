@@ -48,7 +48,8 @@ class ReductionSettings:
     1.5 ñ + 20), ``n_dirichlet`` / ``n_steklov`` its split; ``basis`` / ``reference``: parameter overrides (name →
     value, SI) of the modal bases and of the reference simulation; ``relaxation``: the cooling reference case;
     ``corrections``: True, False or the parameter samples of the correction vectors; ``bounds``: name → (lower,
-    upper), the identification box, over which the Krylov reduction trains (the modal methods do not use it);
+    upper), the identification box, over which the Krylov reduction trains (a certified modal model is certified over
+    it through a Krylov referee, aromm.reduction.referee);
     ``tolerance`` (°C): the Krylov reduction's greedy stops at this estimated error (None: the reductor's default,
     aromm.reduction.krylov.KrylovReductor; a Krylov-only option, so ``"auto"`` then picks the Krylov method);
     ``certify``: attach the certified output error bound and stop the Krylov greedy on it (None: by size, by its cost:
