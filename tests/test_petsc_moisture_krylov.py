@@ -6,9 +6,9 @@ refuses (modal methods, fixed values).
 Tolerances.  Against the scipy engine (the same greedy, the same span, direct solves): the petsc engine's shifted
 solves stop at the relative residual RTOL of the diagonally scaled system, so each basis vector is off by at most
 κ · RTOL relatively [Higham2002, § 7.1] (κ the scaled operator's condition number,
-petsc_moisture_krylov_cases.condition), and the Galerkin model on the span moves by as much at the outputs' scale max |y|.  Against the exact full model
-(aromm.full.exact, dense, independent of both engines): the model's error within its tolerance, and its certified
-bound above the error up to the dense truth's own rounding.
+petsc_moisture_krylov_cases.condition), and the Galerkin model on the span moves by as much at the outputs' scale
+max |y|.  Against the exact full model (aromm.full.exact, dense, independent of both engines): the model's error
+within its tolerance, and its certified bound above the error up to the dense truth's own rounding.
 """
 
 from __future__ import annotations
@@ -31,14 +31,13 @@ NATURAL = SCENE.replace("[boundary.z0]\nT = 20.0\nphi = 0.8\n",
 REDUCTION = '\n[reduction]\nbounds = { "fibre.k" = [0.2, 0.6] }\ntolerance = 1e-3\ncertify = false\n'
 
 
-@pytest.fixture(scope="module")
-def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
-    return decompositions(tmp_path_factory, cases, 2)
+Runs = dict[str, dict[str, np.ndarray]]
 
 
 @pytest.fixture(scope="module")
-def serial() -> dict[str, np.ndarray]:
-    return cases.serial()
+def models(tmp_path_factory: pytest.TempPathFactory) -> tuple[Runs, dict[str, np.ndarray]]:
+    """The petsc engine's model by decomposition (1, 2 and 2×2×1 ranks), and the scipy engine's."""
+    return decompositions(tmp_path_factory, cases, 2), cases.serial()
 
 
 @pytest.fixture(scope="module")
@@ -52,10 +51,10 @@ def truth() -> np.ndarray:
     return np.stack([exact_outputs(system, p, system.time.times) for p in cases.POINTS])
 
 
-def test_petsc_krylov_model_of_moisture_equals_the_scipy_engines(runs: dict[str, dict[str, np.ndarray]],
-                                                                 serial: dict[str, np.ndarray]) -> None:
+def test_petsc_krylov_model_of_moisture_equals_the_scipy_engines(models: tuple[Runs, dict[str, np.ndarray]]) -> None:
     """mean T and mean φ of both faces at both points, on every decomposition: the same greedy (points, span) and
     outputs within κ · RTOL · max |y| (module docstring)."""
+    runs, serial = models
     assert list(serial["names"]) == ["z1", "phi:z1", "x1", "phi:x1"]
     tol = cases.condition() * cases.RTOL * float(np.abs(serial["outputs"]).max())
     for label, found in runs.items():
@@ -66,10 +65,11 @@ def test_petsc_krylov_model_of_moisture_equals_the_scipy_engines(runs: dict[str,
 
 
 def test_certified_bound_of_the_petsc_build_holds_against_the_exact_full_model(
-        runs: dict[str, dict[str, np.ndarray]], serial: dict[str, np.ndarray], truth: np.ndarray) -> None:
+        models: tuple[Runs, dict[str, np.ndarray]], truth: np.ndarray) -> None:
     """On every decomposition the model's error (T and φ) is within its tolerance and under its certified bound (Gram
     matrices by the scaled CG + GAMG solves, summed over the ranks), which is not vacuous and is the scipy engine's
     build's up to the residuals' rounding."""
+    runs, serial = models
     floor = 1e-11 * float(np.abs(truth).max())  # the dense truth's own rounding
     for label, found in {**runs, "serial": serial}.items():
         actual = np.abs(found["outputs"] - truth).max(axis=1)  # per point and output

@@ -15,6 +15,9 @@ over the ranks, so every rank holds the same small arrays and takes the same dec
   (:func:`grid_levels`); ``"gamg"``, PETSc's algebraic multigrid (any grid, the fallback); ``"mumps"``, one
   Cholesky factorisation per (μ, s).  Measured on the 16³ wood VER (96 solves, rtol 1e-10, 1 rank): PCMG
   11.4 CG iterations, 0.40 s of set-ups and 0.59 s of solves, GAMG 14.6 iterations, 0.69 s and 0.73 s.
+* A coupled heat–moisture system (two fields, :mod:`aromm.physics.hygrothermal`) is solved on its operator scaled once
+  by its diagonal, ``D^-1/2 (K + s C) D^-1/2`` (block size 2), its CG stopped on the scaled residual as the full
+  model's coupled solves (:func:`aromm.engines.petsc.linear.scale_symmetrically`); its initial φ is an input.
 * C(μ)-orthonormalisation: the algorithm of the scipy engine (:mod:`aromm.reduction.scipy_engine`) — block
   classical Gram–Schmidt twice, orthonormalisation of the new columns by the eigen-decomposition of their
   Gram matrix, one more pass — with every inner product summed over the ranks.  The basis lives in one
