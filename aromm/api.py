@@ -84,7 +84,8 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
     or ``mumps``, and ``eigensolver`` SLEPc's shift-invert or preconditioned eigensolver,
     aromm.engines.petsc.eigen); it keeps no fields and the basis in float64.  With
     ``method="krylov"`` (and ``"auto"`` above the size where it pays) the Krylov reductor runs on KSP solves only,
-    no SLEPc (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`).
+    no SLEPc (:func:`aromm.engines.petsc.krylov_reduction.reduce_krylov`); a scene with ``[moisture]`` is reduced
+    there by the Krylov method only (``"auto"`` takes it at any size, :func:`_coupled_method`).
 
     A voxel scene (a Scene, or the petsc engine's box-read VoxelProblem) is cached under the key of its model
     (:func:`aromm.reduction.model_key.model_key`), which names neither the engine nor the solvers: a model built
@@ -94,12 +95,8 @@ def reduce(system: ThermalSystem | Scene, order: int | None = None, *, engine: s
     on ``max_points``, or the order asked cost more than half the tolerance) is returned with a
     :class:`~aromm.core.errors.ModelWarning` that says the estimated error and why, whether built or cached."""
     engine = check_engine(engine)
-    if engine == "petsc" and getattr(system, "moisture", None) is not None:
-        raise InputError(f"{getattr(system, 'where', '')}moisture: the petsc engine builds no reduced model of coupled "
-                         "heat and moisture yet (modal or krylov); reduce it with --engine scipy, or simulate its full "
-                         "model on the petsc engine (--model full)")
     run = {k: options.pop(k) for k in RUN_OPTIONS if k in options}
-    settings = _resolved(system, (settings or ReductionSettings()).updated(order=order, **options), run)
+    settings = _resolved(system, (settings or ReductionSettings()).updated(order=order, **options), run, engine)
     rom = _refereed(system, settings, engine, run, _cached_or_built(system, settings, engine, run))
     note = tolerance_note(rom.info)
     if note is not None and is_root(engine):
@@ -113,7 +110,7 @@ def built_order(system: ThermalSystem | Scene, settings: ReductionSettings | Non
     (``aromm reduce --order 60`` then ``aromm identify``: identify asks for that model instead of building one at the
     default order), or None when there is none in the cache; ``run`` as :func:`reduce` (``cache``, ``references``).
     The petsc engine keeps no such record (None)."""
-    settings = _resolved(system, settings or ReductionSettings(), run)
+    settings = _resolved(system, settings or ReductionSettings(), run, engine)
     family = _family_key(system, settings, engine, run)
     store = resolve_cache(run.get("cache", True)) if family is not None else None
     found = store.load("model-order", family) if store is not None and family is not None else None
@@ -124,9 +121,34 @@ def built_order(system: ThermalSystem | Scene, settings: ReductionSettings | Non
 FAMILY = 0
 
 
-def _resolved(system: Any, settings: ReductionSettings, run: Mapping[str, Any]) -> ReductionSettings:
-    """``settings`` with ``method="auto"`` resolved by the system's size."""
-    return replace(settings, method=settings.method_for(_unknowns(system), references=bool(run.get("references"))))
+def _resolved(system: Any, settings: ReductionSettings, run: Mapping[str, Any],
+              engine: str = "scipy") -> ReductionSettings:
+    """``settings`` with ``method="auto"`` resolved by the system's size (:func:`_coupled_method` for a scene with
+    moisture on the petsc engine)."""
+    references = bool(run.get("references"))
+    method = settings.method_for(_unknowns(system), references=references)
+    if engine == "petsc" and getattr(system, "moisture", None) is not None:
+        method = _coupled_method(system, settings, method, references)
+    return replace(settings, method=method)
+
+
+def _coupled_method(system: Any, settings: ReductionSettings, method: Any, references: bool) -> Any:
+    """The method of a reduced model of coupled heat and moisture on the petsc engine: Krylov only (its shifted solves
+    are the full model's coupled KSP solves; the modal bases' SLEPc eigenproblems are not coupled), so ``"auto"``
+    takes ``"krylov"`` at any size unless modal options or reference cases ask for the amalgam; any other method is
+    refused (:class:`~aromm.core.errors.InputError` naming it and what is allowed)."""
+    modal = settings.modal_options()
+    if settings.method == "auto" and not modal and not references:
+        return "krylov"
+    if KrylovReductor.named(method, settings.bounds, settings.tolerance, settings.certify) is not None:
+        return method
+    asked = getattr(method, "name", method)
+    why = (f"method = {asked!r}" if settings.method != "auto" else
+           f"method = 'auto' with {', '.join(modal) if modal else 'reference cases'} (the amalgam's)")
+    where = getattr(system, "where", "")
+    raise InputError(f"{where}moisture: {why}: the petsc engine builds reduced models of coupled "
+                     "heat and moisture by the Krylov method only (method = \"krylov\" or \"auto\", without modal "
+                     "options or references); reduce it with --engine scipy for a modal model")
 
 
 def _cached_or_built(system: Any, settings: ReductionSettings, engine: str, run: dict[str, Any]) -> ReducedModel:

@@ -2,7 +2,7 @@
 transient and the steady state of tests/petsc_moisture_cases.py, in Q1 and in finite volumes, at 1 rank (in the
 pytest process), 2 ranks (the process grid's own cut) and 4 ranks cut 2×2×1 (boxes); `aromm simulate --engine petsc
 --json` and `aromm homogenize --engine petsc` (thermal probes) at 2 ranks; what the petsc engine still refuses of a
-coupled scene.
+coupled scene's full model.
 
 Tolerance, from the solvers' own: every solve of a coupled system is CG on its diagonally scaled form to a relative
 residual linear.tolerance(STEP_RTOL, 2) = COUPLED_RTOL (the serial engine solves directly), so its relative error is
@@ -151,16 +151,13 @@ def test_cli_homogenize_on_two_ranks_gives_the_thermal_conductivity(tmp_path: Pa
 
 
 def test_what_the_petsc_engine_still_refuses_of_a_coupled_scene(tmp_path: Path) -> None:
-    """Its reduced models (modal or Krylov), and a history of a boundary value in the full model (moisture or
-    thermal: the steps hold boundary values constant): an InputError naming the key and the way out."""
+    """A history of a boundary value in the full model (moisture or thermal: the steps hold boundary values constant):
+    an InputError naming the key and the way out (its reduced models' refusals: tests/test_petsc_moisture_krylov.py)."""
     from aromm import api
     from aromm.core.profiles import Profile
     from aromm.core.vocabulary import FaceSpec
 
     scene = cases.transient_scene()
-    with pytest.raises(InputError, match="moisture: the petsc engine builds no reduced model of coupled heat and "
-                                         "moisture yet"):
-        api.reduce(scene, 4, engine="petsc", method="krylov", cache=False)
     ramp = Profile((0.0, 600.0), (0.5, 0.8))
     wet = replace(scene, moisture=replace(scene.moisture, fixed_phi={"z0": ramp}))
     with pytest.raises(InputError, match=r"boundary\.z0\.phi: the petsc engine's full model holds boundary values "

@@ -114,7 +114,7 @@ def physics_key(digest: str, *, shape: Sequence[int], voxel_size: Sequence[float
                 box: Collection[str] = (), discretisation: str = "q1", moisture: Any = None) -> str:
     """Content hash of a voxel scene's physics; ``digest`` the image's (:mod:`aromm.microstructure.digest`); the
     values of the parameters named in ``box`` left out (:func:`masked`); ``discretisation`` q1 or fv; ``moisture``
-    the scene's moisture part as :func:`_moisture` gives it (None: a thermal scene, the key of before)."""
+    the scene's moisture part as :func:`moisture_part` gives it (None: a thermal scene, the key of before)."""
     initial = BOXED if "initial.T" in box else float(initial_T)
     parts = () if moisture is None else (plain(moisture),)
     return content_key("voxel physics", _VERSION, tuple(int(n) for n in shape), tuple(float(v) for v in voxel_size),
@@ -131,10 +131,10 @@ def scene_physics_key(scene: Scene, box: Collection[str] = ()) -> str | None:
                        voxel_size=geometry.voxel_size, phases=scene.phases, boundary=scene.boundary,
                        initial_T=scene.initial_T, time=scene.time, outputs=scene.outputs, sensors=scene.sensors,
                        box=box, discretisation=scene.discretisation,
-                       moisture=None if scene.moisture is None else _moisture(scene.moisture, box))
+                       moisture=None if scene.moisture is None else moisture_part(scene.moisture, box))
 
 
-def _moisture(moisture: Any, box: Collection[str]) -> tuple[Any, ...]:
+def moisture_part(moisture: Any, box: Collection[str]) -> tuple[Any, ...]:
     """A scene's moisture part (:class:`~aromm.scene.moisture_section.MoistureScene`) as key data: its reference
     state, its outputs, every parameter value, those in ``box`` replaced by :data:`BOXED`, and its boundary histories
     whole (their parameter is only their scale; a thermal face keeps its profile likewise, :func:`masked`)."""

@@ -341,7 +341,9 @@ def physics_key(problem: VoxelProblem, comm: Any, box: frozenset[str] = frozense
     digest = image_digest(problem.image.read(layout.box), layout, comm)
     return model_key.physics_key(digest, shape=problem.shape, voxel_size=problem.voxel_size, phases=problem.phases,
                                  boundary=problem.boundary, initial_T=problem.initial_T, time=problem.time,
-                                 outputs=problem.outputs, box=box, discretisation=problem.discretisation)
+                                 outputs=problem.outputs, box=box, discretisation=problem.discretisation,
+                                 moisture=None if problem.moisture is None else model_key.moisture_part(
+                                     problem.moisture, box))
 
 
 def distribute_system(system: ThermalSystem, comm: Any) -> DistributedSystem:

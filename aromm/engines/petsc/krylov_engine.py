@@ -15,6 +15,9 @@ over the ranks, so every rank holds the same small arrays and takes the same dec
   (:func:`grid_levels`); ``"gamg"``, PETSc's algebraic multigrid (any grid, the fallback); ``"mumps"``, one
   Cholesky factorisation per (μ, s).  Measured on the 16³ wood VER (96 solves, rtol 1e-10, 1 rank): PCMG
   11.4 CG iterations, 0.40 s of set-ups and 0.59 s of solves, GAMG 14.6 iterations, 0.69 s and 0.73 s.
+* A coupled heat–moisture system (two fields, :mod:`aromm.physics.hygrothermal`) is solved on its operator scaled once
+  by its diagonal, ``D^-1/2 (K + s C) D^-1/2`` (block size 2), its CG stopped on the scaled residual as the full
+  model's coupled solves (:func:`aromm.engines.petsc.linear.scale_symmetrically`); its initial φ is an input.
 * C(μ)-orthonormalisation: the algorithm of the scipy engine (:mod:`aromm.reduction.scipy_engine`) — block
   classical Gram–Schmidt twice, orthonormalisation of the new columns by the eigen-decomposition of their
   Gram matrix, one more pass — with every inner product summed over the ranks.  The basis lives in one
@@ -80,6 +83,10 @@ def grid_levels(grid: Any) -> int:
 
 
 PREFIX = "aromm_krylov_"
+#: What to do about fixed values of a coupled system (:data:`~aromm.core.system.PENALTY_INSTEAD`'s remedy, with φ's).
+COUPLED_PENALTY = ("are not supported (natural boundary conditions only); replace a fixed T by convection with a "
+                   "large h and a fixed phi by vapour exchange with a large beta on the same face (penalty), or "
+                   "reduce the scene with --engine scipy, which lifts them")
 
 
 def _key(values: Mapping[str, float]) -> tuple[tuple[str, float], ...]:
@@ -98,9 +105,11 @@ class PetscKrylovEngine:
 
     def __init__(self, system: DistributedSystem, solver: str = "gamg") -> None:
         template = system.template
-        require_free_transient(template, "the krylov reduction on the petsc engine", PENALTY_INSTEAD)
-        if template.initial.terms:
-            raise InputError("the krylov reduction on the petsc engine takes a uniform initial temperature only")
+        require_free_transient(template, "the krylov reduction on the petsc engine",
+                               PENALTY_INSTEAD if system.fields == 1 else COUPLED_PENALTY)
+        if template.feedthrough:
+            raise InputError("the krylov reduction on the petsc engine takes a system with no lifted fixed values "
+                             "(no feedthrough): give it the scene, or the system before its lifting")
         self.system, self.comm, self.rows = system, system.comm, system.rows
         if solver not in SOLVERS:
             raise InputError(f"krylov reduction on the petsc engine: unknown solver {solver!r}; allowed: "
@@ -111,9 +120,10 @@ class PetscKrylovEngine:
                              f"every rank (got {self.levels} levels): use gamg")
         self.solver = solver if solver != "auto" else "mg" if self.levels >= MG_MIN_LEVELS else "gamg"
         self._stats = SolveStats(method=f"petsc-{self.solver}")
-        self.initial = float(template.parameters.get("initial.T", 0.0)) != 0.0
+        # the initial inputs C_t T0: a coupled system's always (its initial φ), a thermal one's when T0 ≠ 0
+        self.initial = float(template.parameters.get("initial.T", 0.0)) != 0.0 or bool(template.initial.terms)
         self._terms = self._input_vectors()
-        self._ksp: tuple[tuple[Any, ...], Any] | None = None
+        self._ksp: tuple[tuple[Any, ...], Any, FloatArray | None] | None = None  # (key, KSP, s of a scaled one)
         self._capacities: dict[tuple[tuple[str, float], ...], Any] = {}
         self._columns = ColumnBuffer(self.rows.local)
         self._projections = GrowingProjection([t.operator for t in self._matrix_terms()], self._apply, self.dot)
@@ -132,10 +142,13 @@ class PetscKrylovEngine:
         return np.zeros((self.rows.local, columns), order="F")
 
     def _input_vectors(self) -> FloatArray:
+        """``[F_1, …, C_1 1, …, C_1 v_1, …]``: the load terms, then (:attr:`initial`) every capacity term times the
+        uniform field and times each initial field v_i of the system (field-major, as the scipy engine and
+        :func:`~aromm.engines.petsc.projection.project` lay them)."""
         cols = [convert.array(t.operator) for t in self.system.load]
         if self.initial:
-            ones = np.ones(self.rows.local)
-            cols += [convert.apply(t.operator, ones, self.rows, self.comm) for t in self.system.capacity]
+            fields = [np.ones(self.rows.local)] + [convert.array(t.operator) for t in self.system.initial]
+            cols += [convert.apply(t.operator, f, self.rows, self.comm) for f in fields for t in self.system.capacity]
         return np.asfortranarray(np.column_stack(cols)) if cols else self._block(0)
 
     def input_terms(self) -> FloatArray:
@@ -185,17 +198,16 @@ class PetscKrylovEngine:
         key = (_key(values), float(shift), float(rtol))
         if self._ksp is not None and self._ksp[0] == key:
             return self._ksp[1]
-        if self._ksp is not None:  # one hierarchy (or factorisation) alive at a time
-            self._ksp[1].getOperators()[0].destroy()
-            self._ksp[1].destroy()
-            self._ksp = None
+        self._release()  # one hierarchy (or factorisation) alive at a time
         start = time.process_time()
         v = self.system.values(values)
         mat = self.system.combine(self.system.conductance, v)
         mat.axpy(float(shift), self._capacity_matrix(values),
                  structure=runtime.petsc().Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        scale = (linear.scale_symmetrically(mat, f"krylov shifted operator, s = {shift:.3g} 1/s")
+                 if self.system.fields > 1 else None)
         ksp = self._krylov(mat, rtol)
-        self._ksp = (key, ksp)
+        self._ksp = (key, ksp, scale)
         self._stats.setups += 1
         self._stats.setup_seconds += time.process_time() - start
         return ksp
@@ -219,8 +231,21 @@ class PetscKrylovEngine:
                 options.delValue(k)
         return ksp
 
+    def _scale(self, values: Mapping[str, float], shift: float, rtol: float) -> FloatArray:
+        """``s = diag(A)^-1/2`` of the set-up operator A = K(μ) + s C(μ) of a coupled system (this rank's rows), whose
+        KSP holds ``Â = D^-1/2 A D^-1/2`` (:func:`aromm.engines.petsc.linear.scale_symmetrically`); ones for one
+        field (its KSP holds A)."""
+        self._setup(values, shift, rtol)
+        assert self._ksp is not None
+        scale = self._ksp[2]
+        return np.ones(self.rows.local) if scale is None else scale
+
     def shifted_solve(self, values: Mapping[str, float], shift: float, rhs: FloatArray, rtol: float,
                       guess: FloatArray | None = None) -> FloatArray:
+        """``(K(μ) + s C(μ)) X = rhs`` column by column; a coupled system's as ``Â Y = S rhs``, ``X = S Y``
+        (S = diag(s), :meth:`_scale`): its CG stops on the scaled residual ``‖S (b − A x)‖ ≤ rtol ‖S b‖``, the test of
+        the full model's coupled solves (:func:`aromm.engines.petsc.linear.krylov`)."""
+        scale = self._scale(values, shift, rtol)
         ksp = self._setup(values, shift, rtol)
         ksp.setInitialGuessNonzero(guess is not None and self.solver != "mumps")
         start = time.process_time()
@@ -228,13 +253,13 @@ class PetscKrylovEngine:
         b, x = mat.createVecLeft(), mat.createVecRight()
         out = self._block(rhs.shape[1])
         for j in range(rhs.shape[1]):
-            b.getArray()[:] = rhs[:, j]
+            b.getArray()[:] = rhs[:, j] * scale
             if guess is None:
                 x.set(0.0)
             else:
-                x.getArray()[:] = guess[:, j]
+                x.getArray()[:] = guess[:, j] / scale
             its = linear.solve(ksp, b, x, f"krylov shifted solve, s = {shift:.3g} 1/s", rtol)
-            out[:, j] = x.getArray(readonly=True)
+            out[:, j] = x.getArray(readonly=True) * scale
             if self.solver != "mumps":
                 self._stats.iterations.append(its)
         b.destroy()
@@ -245,19 +270,30 @@ class PetscKrylovEngine:
 
     def shifted_residual(self, values: Mapping[str, float], shift: float, solution: FloatArray, rhs: FloatArray,
                          rtol: float) -> FloatArray:
-        """``rhs − (K(μ) + s C(μ)) solution`` with the assembled operator of that shifted solve."""
-        return np.asarray(rhs, dtype=float) - self._apply(self._setup(values, shift, rtol).getOperators()[0], solution)
+        """``rhs − (K(μ) + s C(μ)) solution`` with the assembled operator of that shifted solve (a coupled system's
+        as ``rhs − S⁻¹ Â (S⁻¹ X)``, :meth:`_scale`)."""
+        scale = self._scale(values, shift, rtol)
+        product = self._apply(self._setup(values, shift, rtol).getOperators()[0], solution / scale[:, None])
+        return np.asarray(rhs, dtype=float) - product / scale[:, None]
 
     def residual_rounding(self, values: Mapping[str, float], shift: float, solution: FloatArray,
                           rtol: float) -> FloatArray:
         """ρ per column with ``ρ² = (k + 1) ‖A‖_∞ ‖x‖²`` ≥ ``(k + 1) |x|ᵀ|A||x|`` (A symmetric:
         ``‖|A|‖₂ ≤ ‖A‖_∞``; k the most terms in a row): the spread of :meth:`shifted_residual`'s rounding
-        (:func:`aromm.reduction.certificate.riesz`), without a product by ``|A|`` across the ranks."""
+        (:func:`aromm.reduction.certificate.riesz`), without a product by ``|A|`` across the ranks.
+
+        A coupled system's operator is held scaled, ``Â = S A S`` (:meth:`_scale`), and its residual formed as
+        ``rhs − S⁻¹ Â (S⁻¹ x)``: two more roundings per entry, so k + 3 in place of k + 1, and
+        ``|x|ᵀ|A||x| = |y|ᵀ|Â||y| ≤ ‖Â‖_∞ ‖y‖²`` with ``y = S⁻¹ x``.  Unscaled, ``‖A‖_∞ ‖x‖²`` would weigh the heat
+        unknowns with the λ-weighted moisture rows' norm (λ ≈ 8e7 J/kg): ``Â`` has a unit diagonal."""
+        scale = self._scale(values, shift, rtol)
         mat = self._setup(values, shift, rtol).getOperators()[0]
         indptr = mat.getValuesCSR()[0]
-        terms = runtime.allmax(float(np.diff(indptr).max(initial=0)), self.comm) + 1
+        extra = 1 if self._ksp is None or self._ksp[2] is None else 3
+        terms = runtime.allmax(float(np.diff(indptr).max(initial=0)), self.comm) + extra
         norm = float(mat.norm(runtime.petsc().NormType.INFINITY))
-        return np.sqrt(terms * norm * runtime.allsum(np.einsum("ij,ij->j", solution, solution), self.comm))
+        y = solution / scale[:, None]
+        return np.sqrt(terms * norm * runtime.allsum(np.einsum("ij,ij->j", y, y), self.comm))
 
     # ----------------------------------------------------------------- bases and projections
     def dot(self, left: FloatArray, right: FloatArray) -> FloatArray:
@@ -340,12 +376,16 @@ class PetscKrylovEngine:
         """This rank's rows (the engine never gathers a basis)."""
         return block
 
-    def close(self) -> None:
-        """Free the PETSc objects the engine made (solvers, capacity matrices)."""
+    def _release(self) -> None:
+        """Free the set-up solver and its operator."""
         if self._ksp is not None:
             self._ksp[1].getOperators()[0].destroy()
             self._ksp[1].destroy()
             self._ksp = None
+
+    def close(self) -> None:
+        """Free the PETSc objects the engine made (solvers, capacity matrices)."""
+        self._release()
         for mat in self._capacities.values():
             mat.destroy()
         self._capacities.clear()

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from aromm.core.errors import InputError, NumericalError
+from aromm.core.system import FloatArray
 from aromm.engines.petsc import mumps, runtime
 
 SOLVERS = ("gamg", "mumps")
@@ -92,6 +93,29 @@ def krylov(mat: Any, solver: str, rtol: float, prefix: str, grid: Any = None, *,
         for name in added:
             options.delValue(name)
     return ksp
+
+
+def scale_symmetrically(mat: Any, label: str) -> FloatArray:
+    """Scale ``mat`` in place to ``D^-1/2 A D^-1/2`` (D = diag A > 0) and return this rank's entries of
+    ``s = diag(A)^-1/2``: the scaled form :func:`krylov` asks PETSc for (``fields`` > 1), held explicitly, so that the
+    operator is scaled once (PETSc's ``ksp_diagonal_scale_fix`` scales and unscales it around every solve, which moves
+    its entries by a few ε each time).  ``A x = b`` is then ``Â y = s ∘ b``, ``x = s ∘ y``, and the scaled residual
+    ``s ∘ b − Â y = s ∘ (b − A x)``: each row relative to its own diagonal, a coupled system's heat rows as its
+    λ-weighted moisture rows.  A diagonal entry ≤ 0 (not positive definite) raises :class:`NumericalError`
+    (collective)."""
+    d = mat.getDiagonal()
+    local = d.getArray(readonly=True)
+    lowest = -runtime.allmax(-float(local.min(initial=np.inf)), mat.getComm())
+    if not lowest > 0.0:
+        d.destroy()
+        raise NumericalError(f"{label}: a diagonal entry of the operator is {lowest:.3g} (≤ 0): it is not positive "
+                             "definite, and cannot be scaled by its diagonal")
+    d.sqrtabs()
+    d.reciprocal()
+    mat.diagonalScale(d, d)
+    scale = np.array(d.getArray(readonly=True), dtype=float)
+    d.destroy()
+    return scale
 
 
 def solve(ksp: Any, b: Any, x: Any, label: str, rtol: float) -> int:

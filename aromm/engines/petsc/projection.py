@@ -45,11 +45,14 @@ def project(system: DistributedSystem, basis: FloatArray, memo: dict[int, FloatA
             out.append(Term(t.name, t.coefficient, memo[key], t.role, template.load[t.name].time if vector else None))
         return Affine(tuple(out))
 
-    ones = np.ones(rows.local)
+    # Ψᵀ C_t T0 per capacity term t and part of T0 = initial.T 1 + Σ_i c_i(p) v_i (a coupled system's v_i put
+    # initial.phi on φ), named and ordered as ReducedModel.from_system names them
+    fields = [(Coefficient(("initial.T",)), np.ones(rows.local), "")]
+    fields += [(t.coefficient, convert.array(t.operator), f"·{t.name}") for t in system.initial]
     initial = Affine(tuple(
-        Term(t.name, Coefficient((*t.coefficient.params, "initial.T"), scale=t.coefficient.scale),
-             convert.gram(basis, convert.apply(t.operator, ones, rows, comm), comm), "capacity")
-        for t in system.capacity))
+        Term(t.name + suffix, t.coefficient.times(coef),
+             convert.gram(basis, convert.apply(t.operator, vec, rows, comm), comm), "capacity")
+        for coef, vec, suffix in fields for t in system.capacity))
     observation = {k: convert.gram(convert.array(v)[:, None], basis, comm)[0] for k, v in system.observation.items()}
     reduced = ThermalSystem(
         n=basis.shape[1],
