@@ -32,9 +32,12 @@ from aromm.core.system import FloatArray
 
 #: Relative accuracy of a rate below which the symmetric eigenproblem is not trusted (diagonalise).
 RATE_ACCURACY = 1e-8
-#: The shift s of the stiff path, in units of r ε Λ_max (r the order); rates below it are the zero modes (the mean
-#: temperature of an adiabatic body comes out within a few ε Λ_max of zero; a rate that small is not resolved).
+#: The shift s of the stiff path, in units of r ε Λ_max (r the order): above the Cholesky factorisation's rounding of
+#: a singular S (the mean of an adiabatic body), it bounds σ_max of G⁻¹ by s^{-1/2}.
 SHIFT = 4.0
+#: Safety factor on the first-order rounding bound β_i of each rate of the stiff path; rates within it of zero are
+#: the zero modes.
+ROUNDING_MARGIN = 4.0
 #: Negative modal rates beyond this fraction of the largest mean a growing mode (refused).
 NEGATIVE_RATE = 1e-8
 #: Below this x = Λs the series of φ1 (two terms, error x²/6 < 2e-17) is used.
@@ -52,10 +55,21 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
     With ``L = R Rᵀ`` the rates are the eigenvalues of ``S = R⁻¹ A R⁻ᵀ`` and ``W = R⁻ᵀ Q``.  The symmetric
     eigenproblem gives every rate to an absolute ε Λ_max; where that leaves a rate unresolved to
     :data:`RATE_ACCURACY` (a stiff pencil: a Krylov basis over the massless face unknowns of finite volumes spans
-    rates 10¹² apart, and zeroing them there ran the slow modes away; or a zero mode, the mean of an adiabatic body),
-    the rates come instead from the singular values σ of ``G⁻¹``, ``S + s I = G Gᵀ`` with a shift s of a few ε Λ_max
-    (``Λ = 1/σ² − s``, ``Q`` the right singular vectors): the slow rates from the largest σ, to ε (Λ + s) where the
-    pencil is graded (its stiffness in a few basis vectors' scale), and rates below s are the zero modes."""
+    rates 10¹² and more apart; or a zero mode, the mean of an adiabatic body), the rates come instead from the
+    singular values σ of ``G⁻¹``, ``S + s I = G Gᵀ`` with the shift s = :data:`SHIFT` r ε Λ_max (s⁻¹ᐟ² bounds σ)::
+
+        Λ_i = 1/σ_i² − s,      Q = the right singular vectors v_i,
+
+    the slow rates from the largest σ, to the relative accuracy of ``1/σ² = v_iᵀ G Gᵀ v_i`` (2 ε of Λ_i + s).
+    Whether a rate is resolved is decided per rate, not against s: the Cholesky factor and S are exact for a
+    perturbation ``abs(E) ≤ γ (abs(G) abs(Gᵀ) + abs(S))`` (γ = (r + 1) ε), which moves Λ_i by at most (first order)
+
+        β_i = :data:`ROUNDING_MARGIN` γ (‖abs(Gᵀ) abs(v_i)‖² + abs(v_i)ᵀ abs(S) abs(v_i)),
+
+    and a rate with Λ_i ≤ β_i is a zero mode (an adiabatic body's mean: β ≈ ε Λ_max, a dense basis).  Where the
+    stiffness sits in a few directions (massless face unknowns) β_i ≪ ε Λ_max and the slow rates are kept: a coupled
+    fv pencil with rates 3.4e-4 … 2.5e12 s⁻¹ (β_1 = 1.9e-12) gives them to 1e-11 relatively, where zeroing every
+    rate below s ≈ 0.5 s⁻¹ made integrators of them."""
     try:
         chol = np.linalg.cholesky(lmat)
     except np.linalg.LinAlgError:
@@ -72,15 +86,19 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
     eps = np.finfo(float).eps
     if np.all(lam >= eps * top / RATE_ACCURACY):
         return lam, np.swapaxes(rinv, 1, 2) @ q
-    shift = SHIFT * sym.shape[-1] * eps * top  # (m, 1): above the Cholesky factorisation's rounding of S
+    r = sym.shape[-1]
+    shift = SHIFT * r * eps * top  # (m, 1): above the Cholesky factorisation's rounding of S
     try:
-        g = np.linalg.cholesky(sym + shift[..., None] * np.eye(sym.shape[-1]))
+        g = np.linalg.cholesky(sym + shift[..., None] * np.eye(r))
     except np.linalg.LinAlgError:
         raise NumericalError("reduced model: the projected conductance is not positive semi-definite to rounding "
                              f"(smallest rate {lam.min():.3e} s⁻¹ of {top.max():.3e})") from None
     _, sigma, vt = np.linalg.svd(np.linalg.inv(g))  # σ descending: rates ascending
     rates = 1.0 / sigma**2 - shift
-    return np.where(rates < shift, 0.0, rates), np.swapaxes(rinv, 1, 2) @ np.swapaxes(vt, 1, 2)
+    v = np.abs(np.swapaxes(vt, 1, 2))  # (m, r, r): abs(v_i) in columns
+    spread = np.sum((np.abs(np.swapaxes(g, 1, 2)) @ v) ** 2, axis=1) + np.sum(v * (np.abs(sym) @ v), axis=1)
+    beta = ROUNDING_MARGIN * (r + 1) * eps * spread
+    return np.where(rates <= beta, 0.0, rates), np.swapaxes(rinv, 1, 2) @ np.swapaxes(vt, 1, 2)
 
 
 def phi1(x: FloatArray) -> FloatArray:
