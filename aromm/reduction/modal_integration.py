@@ -33,7 +33,7 @@ from aromm.core.system import FloatArray
 #: Relative accuracy of a rate below which the symmetric eigenproblem is not trusted (diagonalise).
 RATE_ACCURACY = 1e-8
 #: The shift s of the stiff path, in units of r ε Λ_max (r the order): above the Cholesky factorisation's rounding of
-#: a singular S (the mean of an adiabatic body), it bounds σ_max of G⁻¹ by s^{-1/2}.
+#: a singular A (the mean of an adiabatic body), it bounds σ_max of G⁻¹ R by s^{-1/2}.
 SHIFT = 4.0
 #: Safety factor on the first-order rounding bound β_i of each rate of the stiff path; rates within it of zero are
 #: the zero modes.
@@ -56,20 +56,25 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
     eigenproblem gives every rate to an absolute ε Λ_max; where that leaves a rate unresolved to
     :data:`RATE_ACCURACY` (a stiff pencil: a Krylov basis over the massless face unknowns of finite volumes spans
     rates 10¹² and more apart; or a zero mode, the mean of an adiabatic body), the rates come instead from the
-    singular values σ of ``G⁻¹``, ``S + s I = G Gᵀ`` with the shift s = :data:`SHIFT` r ε Λ_max (s⁻¹ᐟ² bounds σ)::
+    inverse pencil, the singular values σ of ``G⁻¹ R`` with ``A + s L = G Gᵀ`` and the shift s = :data:`SHIFT`
+    r ε Λ_max (s⁻¹ᐟ² bounds σ)::
 
-        Λ_i = 1/σ_i² − s,      Q = the right singular vectors v_i,
+        σ_i² = eig((A + s L)⁻¹ L) = 1/(Λ_i + s),      Λ_i = 1/σ_i² − s,      W = R⁻ᵀ V (V the right singular vectors):
 
-    the slow rates from the largest σ, to the relative accuracy of ``1/σ² = v_iᵀ G Gᵀ v_i`` (2 ε of Λ_i + s).
-    Whether a rate is resolved is decided per rate, not against s: the Cholesky factor and S are exact for a
-    perturbation ``abs(E) ≤ γ (abs(G) abs(Gᵀ) + abs(S))`` (γ = (r + 1) ε), which moves Λ_i by at most (first order)
+    the slow rates are the largest σ, to the relative accuracy of ``A`` and ``L`` as they stand (G is factored from A
+    itself: forming S first mixes the stiffness of a few directions into all of them when L is not diagonal).
+    Whether a rate is resolved is decided per rate: the factors and A are exact for perturbations
+    ``abs(E_A) ≤ γ (abs(G) abs(Gᵀ) + abs(A))``, ``abs(E_L) ≤ γ abs(R) abs(Rᵀ)`` (γ = (r + 1) ε), which move Λ_i by
+    at most (first order, w_i the i-th column of W)
 
-        β_i = :data:`ROUNDING_MARGIN` γ (‖abs(Gᵀ) abs(v_i)‖² + abs(v_i)ᵀ abs(S) abs(v_i)),
+        β_i = :data:`ROUNDING_MARGIN` γ (‖abs(Gᵀ) abs(w_i)‖² + abs(w_i)ᵀ abs(A) abs(w_i)
+              + (Λ_i + s) ‖abs(Rᵀ) abs(w_i)‖²),
 
-    and a rate with Λ_i ≤ β_i is a zero mode (an adiabatic body's mean: β ≈ ε Λ_max, a dense basis).  Where the
-    stiffness sits in a few directions (massless face unknowns) β_i ≪ ε Λ_max and the slow rates are kept: a coupled
-    fv pencil with rates 3.4e-4 … 2.5e12 s⁻¹ (β_1 = 1.9e-12) gives them to 1e-11 relatively, where zeroing every
-    rate below s ≈ 0.5 s⁻¹ made integrators of them."""
+    and a rate ≤ min(β_i, s) is a zero mode (an adiabatic body's mean: β ≈ ε Λ_max in a dense basis), as are the
+    negative rates the growing-mode check lets pass.  Where the stiffness sits in a few directions (massless face
+    unknowns), β_i ≪ ε Λ_max and the slow rates are kept: a coupled fv Krylov pencil with rates 3.4e-4 … 2.5e12 s⁻¹
+    (β_1 = 2e-8 Λ_1, β_i ≤ 0.012 Λ_i below 1 s⁻¹) gives them to 2e-10 of a 40-digit inverse, where zeroing every
+    rate below s (0.53 s⁻¹ there) made integrators of them."""
     try:
         chol = np.linalg.cholesky(lmat)
     except np.linalg.LinAlgError:
@@ -87,18 +92,20 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
     if np.all(lam >= eps * top / RATE_ACCURACY):
         return lam, np.swapaxes(rinv, 1, 2) @ q
     r = sym.shape[-1]
-    shift = SHIFT * r * eps * top  # (m, 1): above the Cholesky factorisation's rounding of S
+    shift = SHIFT * r * eps * top  # (m, 1): above the Cholesky factorisation's rounding of A
     try:
-        g = np.linalg.cholesky(sym + shift[..., None] * np.eye(r))
+        g = np.linalg.cholesky((amat + np.swapaxes(amat, 1, 2)) / 2 + shift[..., None] * lmat)
     except np.linalg.LinAlgError:
         raise NumericalError("reduced model: the projected conductance is not positive semi-definite to rounding "
                              f"(smallest rate {lam.min():.3e} s⁻¹ of {top.max():.3e})") from None
-    _, sigma, vt = np.linalg.svd(np.linalg.inv(g))  # σ descending: rates ascending
+    _, sigma, vt = np.linalg.svd(np.linalg.inv(g) @ chol)  # σ descending: rates ascending
     rates = 1.0 / sigma**2 - shift
-    v = np.abs(np.swapaxes(vt, 1, 2))  # (m, r, r): abs(v_i) in columns
-    spread = np.sum((np.abs(np.swapaxes(g, 1, 2)) @ v) ** 2, axis=1) + np.sum(v * (np.abs(sym) @ v), axis=1)
+    w = np.swapaxes(rinv, 1, 2) @ np.swapaxes(vt, 1, 2)
+    aw = np.abs(w)
+    spread = (np.sum((np.abs(np.swapaxes(g, 1, 2)) @ aw) ** 2, axis=1) + np.sum(aw * (np.abs(amat) @ aw), axis=1)
+              + (rates + shift) * np.sum((np.abs(np.swapaxes(chol, 1, 2)) @ aw) ** 2, axis=1))
     beta = ROUNDING_MARGIN * (r + 1) * eps * spread
-    return np.where(rates <= beta, 0.0, rates), np.swapaxes(rinv, 1, 2) @ np.swapaxes(vt, 1, 2)
+    return np.where(rates <= np.minimum(beta, shift), 0.0, rates), w
 
 
 def phi1(x: FloatArray) -> FloatArray:
