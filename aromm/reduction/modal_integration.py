@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import blas, solve_triangular
 
 from aromm.core.errors import NumericalError
 from aromm.core.profiles import Profile
@@ -63,12 +64,11 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
 
     the slow rates are the largest σ, to the relative accuracy of ``A`` and ``L`` as they stand (G is factored from A
     itself: forming S first mixes the stiffness of a few directions into all of them when L is not diagonal).
-    Whether a rate is resolved is decided per rate: the factors and A are exact for perturbations
+    Whether a rate is resolved is decided per rate: the factors and A + s L are exact for perturbations
     ``abs(E_A) ≤ γ (abs(G) abs(Gᵀ) + abs(A))``, ``abs(E_L) ≤ γ abs(R) abs(Rᵀ)`` (γ = (r + 1) ε), which move Λ_i by
-    at most (first order, w_i the i-th column of W)
+    at most (first order, w_i the i-th column of W; ``abs(A) ≤ abs(G) abs(Gᵀ) + s abs(R) abs(Rᵀ)``)
 
-        β_i = :data:`ROUNDING_MARGIN` γ (‖abs(Gᵀ) abs(w_i)‖² + abs(w_i)ᵀ abs(A) abs(w_i)
-              + (Λ_i + s) ‖abs(Rᵀ) abs(w_i)‖²),
+        β_i = :data:`ROUNDING_MARGIN` γ (2 ‖abs(Gᵀ) abs(w_i)‖² + (Λ_i + 2 s) ‖abs(Rᵀ) abs(w_i)‖²),
 
     and a rate ≤ min(β_i, s) is a zero mode (an adiabatic body's mean: β ≈ ε Λ_max in a dense basis), as are the
     negative rates the growing-mode check lets pass.  Where the stiffness sits in a few directions (massless face
@@ -98,14 +98,20 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
     except np.linalg.LinAlgError:
         raise NumericalError("reduced model: the projected conductance is not positive semi-definite to rounding "
                              f"(smallest rate {lam.min():.3e} s⁻¹ of {top.max():.3e})") from None
-    _, sigma, vt = np.linalg.svd(np.linalg.inv(g) @ chol)  # σ descending: rates ascending
+    ginv_r = np.stack([solve_triangular(gk, rk, lower=True) for gk, rk in zip(g, chol, strict=True)])
+    _, sigma, vt = np.linalg.svd(ginv_r)  # σ descending: rates ascending
     rates = 1.0 / sigma**2 - shift
     w = np.swapaxes(rinv, 1, 2) @ np.swapaxes(vt, 1, 2)
-    aw = np.abs(w)
-    spread = (np.sum((np.abs(np.swapaxes(g, 1, 2)) @ aw) ** 2, axis=1) + np.sum(aw * (np.abs(amat) @ aw), axis=1)
-              + (rates + shift) * np.sum((np.abs(np.swapaxes(chol, 1, 2)) @ aw) ** 2, axis=1))
+    spread = (2 * _spread(np.asarray(g, dtype=float), w)
+              + (rates + 2 * shift) * _spread(np.asarray(chol, dtype=float), w))
     beta = ROUNDING_MARGIN * (r + 1) * eps * spread
     return np.where(rates <= np.minimum(beta, shift), 0.0, rates), w
+
+
+def _spread(lower: FloatArray, w: FloatArray) -> FloatArray:
+    """‖abs(Fᵀ) abs(w_i)‖² (m, r) for lower-triangular factors F (m, r, r) and the columns w_i of w (m, r, r)."""
+    return np.stack([np.sum(blas.dtrmm(1.0, np.abs(f), np.abs(wk), lower=1, trans_a=1) ** 2, axis=0)
+                     for f, wk in zip(lower, w, strict=True)])
 
 
 def phi1(x: FloatArray) -> FloatArray:
