@@ -73,7 +73,7 @@ def diagonalise(lmat: FloatArray, amat: FloatArray) -> tuple[FloatArray, FloatAr
     and a rate ≤ min(β_i, s) is a zero mode (an adiabatic body's mean: β ≈ ε Λ_max in a dense basis), as are the
     negative rates the growing-mode check lets pass.  Where the stiffness sits in a few directions (massless face
     unknowns), β_i ≪ ε Λ_max and the slow rates are kept: a coupled fv Krylov pencil with rates 3.4e-4 … 2.5e12 s⁻¹
-    (β_1 = 2e-8 Λ_1, β_i ≤ 0.012 Λ_i below 1 s⁻¹) gives them to 2e-10 of a 40-digit inverse, where zeroing every
+    (β_1 = 3e-8 Λ_1, β_i ≤ 0.013 Λ_i below 1 s⁻¹) gives them to 2e-10 of a 40-digit inverse, where zeroing every
     rate below s (0.53 s⁻¹ there) made integrators of them."""
     try:
         chol = np.linalg.cholesky(lmat)
