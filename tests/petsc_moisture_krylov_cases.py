@@ -7,8 +7,8 @@ reductions lift no fixed value): z0 exchanges heat and vapour with humid air (φ
 cases' fixed φ), z1 takes a heat and a moisture flux, x1 exchanges heat and vapour with dry air; T0 = 20 °C, φ0 = 0.5
 (the coupled initial state's φ part is an initial term, ``initial.phi − initial.T`` on φ).  The greedy runs over
 :data:`BOX` (one thermal, one moisture property), certified (its Gram matrices by the
-same scaled solves, summed over the ranks).  Q1 only: the shared Krylov reductor's model of a coupled system in
-finite volumes is wrong on the scipy engine as well (docs/notes/hygrothermal.md)."""
+same scaled solves, summed over the ranks).  Q1 (the coupled fv Krylov model is checked against the exact model on
+the scipy engine, tests/test_stiff_pencils.py)."""
 
 from __future__ import annotations
 
