@@ -166,8 +166,10 @@ class KrylovReductor:
 
 
 #: Most points of the default training set (:func:`training_set`): 2⁶ = 64 corners of a six-axis box, the tensor
-#: grid's largest; a coupled heat–moisture scene's default box has ten axes (k, c, ξ, D_φ, δ_p of two phases), whose
-#: 1,024 corners cost 249 s for the compression's simulations on a 6×5×4 image (2026-12-06).
+#: grid's largest.  A coupled heat–moisture scene's default box has ten axes (k, c, ξ, D_φ, δ_p of two phases): on a
+#: 6×5×4 image (tests/petsc_moisture_krylov_cases.py's scene, scipy engine, defaults, one BLAS thread, load 1.0–2.3,
+#: 2026-12-06) its build over 65 points took 390 CPU s, 249 of them the greedy's certified bound at 0.9 s per point
+#: and step; its 1,024 corners would take about 16× that.
 TRAINING_POINTS = 64  # a power of 2: the Sobol sequence's balance
 
 
