@@ -93,6 +93,6 @@ def rounding(system: ThermalSystem, values: Mapping[str, float], times: FloatArr
     """The truth's own rounding, measured: per output, the largest difference over ``times`` between
     :func:`exact_outputs` with the unknowns numbered forwards and backwards (°C).  The dense eigendecomposition gives
     every rate to an absolute ε λ_max, so the slow modes' amplitudes carry about ε λ_max / λ_min of the outputs'
-    size: 3e-9–1e-8 °C on 6³ bodies of 20 °C (tests/test_certificate.py), far above ε |y|."""
+    size: 3e-9–1e-8 °C on 6³ bodies of 20 °C (tests/test_certificate.py), far above ε times the outputs."""
     forward = exact_outputs(system, values, times)
     return np.asarray(np.abs(forward - exact_outputs(system, values, times, reverse=True)).max(axis=0), dtype=float)
