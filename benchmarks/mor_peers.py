@@ -347,9 +347,10 @@ def krylov_rows(study: Study, orders: Sequence[int], compressions: Sequence[str]
     """aromm.reduction.krylov: one greedy rational-Krylov span over KRYLOV_BOX (timed once, counted in every row), then
     each compression to each order (its own time added); ``krylov-span`` is the whole span (the floor)."""
     from aromm.reduction.compression import compress, loss
-    from aromm.reduction.krylov import KrylovReductor, build_span, material_box, training_set
+    from aromm.reduction.krylov import KrylovReductor, build_span
     from aromm.reduction.rom import one_blas_thread
     from aromm.reduction.scipy_engine import ScipyEngine
+    from aromm.reduction.training_box import material_box, training_set
 
     system = study.system
     assert system.time is not None

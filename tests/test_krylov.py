@@ -21,10 +21,11 @@ from aromm.core.profiles import Profile
 from aromm.core.system import ThermalSystem, TimeGrid, dense
 from aromm.core.vocabulary import FaceSpec, PhaseSpec
 from aromm.fem import assemble_voxels
-from aromm.reduction.krylov import ESTIMATE_SAFETY, KrylovReductor, build_span, centre, training_set
+from aromm.reduction.krylov import ESTIMATE_SAFETY, KrylovReductor, build_span
 from aromm.reduction.offline import reduce
 from aromm.reduction.rom import one_blas_thread
 from aromm.reduction.scipy_engine import ScipyEngine
+from aromm.reduction.training_box import centre, training_set
 from aromm.scene.scene_file import load_scene
 
 BOX = {"fibre.k": (0.1, 1.0), "fibre.c": (1e6, 1e7)}

@@ -21,6 +21,7 @@ from aromm.reduction.certificate import Certificate, CertifyingEngine, error_bou
 from aromm.reduction.certificate import certify as certificate_of
 from aromm.reduction.certificate_gram import GramLedger
 from aromm.reduction.rom import ReducedModel
+from aromm.reduction.training_box import Box, centre, training_set
 
 #: Left to itself (``certify`` None), a Krylov greedy stops on the certified bound below this many unknowns (and the
 #: bound certifies every model built on one process up to :data:`CERTIFY_AFTER_BELOW`).  The certificate's offline cost
@@ -137,10 +138,10 @@ class SpanBound:
     model's certificate once :meth:`compressed` has been told its coefficients."""
 
     def __init__(self, engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
-                 box: krylov.Box) -> None:
+                 box: Box) -> None:
         self.engine, self.system, self.reductor = engine, system, reductor
-        self.training = krylov.training_set(box, reductor.per_axis)
-        self.ledger = GramLedger(engine, system, krylov.centre(box), reductor.rtol)
+        self.training = training_set(box, reductor.per_axis)
+        self.ledger = GramLedger(engine, system, centre(box), reductor.rtol)
         self.final: Certificate | None = None
         self.finer: ReducedModel | None = None
 
@@ -163,7 +164,7 @@ class SpanBound:
 
 
 def span_bound(engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
-               box: krylov.Box) -> SpanBound | None:
+               box: Box) -> SpanBound | None:
     """The greedy's certified bound when it is to stop on it (:func:`stops_on_bound`)."""
     if not stops_on_bound(system, reductor.certify) or wanted(system, reductor.certify,
                                                               width(engine, system, 1)) is not None:

@@ -55,12 +55,10 @@ from aromm.core.system import FloatArray, ThermalSystem, TimeGrid
 from aromm.reduction.compression import COMPRESSIONS, batch, best, compress, loss
 from aromm.reduction.engine_protocol import Block, ReductionEngine
 from aromm.reduction.rom import ReducedModel
+from aromm.reduction.training_box import Box, centre, material_box, training_set
 
 log = logging.getLogger(__name__)
 
-#: Default box around the scene's values when none is given: each material parameter × [1/10, 10] (the extremes
-#: of the POD-greedy's training factors, aromm.reduction.greedy.TRAINING_FACTORS).
-DEFAULT_FACTOR = 10.0
 #: A moment vector whose part outside the basis is below this fraction of its C-norm adds nothing; with solves
 #: to a relative residual rtol above it, the threshold is rtol (:attr:`KrylovReductor.drop`).
 DROP = 1e-10
@@ -69,9 +67,6 @@ DROP = 1e-10
 ESTIMATE_SAFETY = 10.0
 #: The residual indicator scans this many shifts per interpolation shift.
 INDICATOR_REFINEMENT = 3
-
-Box = tuple[tuple[str, float, float], ...]
-
 
 class Bound(Protocol):
     """The certified bound of a span's Galerkin model (basis, model) at every training point (°C, max over outputs);
@@ -85,10 +80,12 @@ class Bound(Protocol):
 class KrylovReductor:
     """Options of the Krylov reduction (module docstring).
 
-    ``bounds``: (name, lower, upper) per parameter of the identification box (empty: :data:`DEFAULT_FACTOR`
-    around the scene's material parameters); ``tolerance`` (°C) of the greedy; ``shifts`` per parameter point;
+    ``bounds``: (name, lower, upper) per parameter of the identification box (empty:
+    :data:`~aromm.reduction.training_box.DEFAULT_FACTOR` around the scene's material parameters); ``tolerance``
+    (°C) of the greedy; ``shifts`` per parameter point;
     ``steps`` moments per shift; ``rtol`` of the shifted solves; ``compression`` (aromm.reduction.compression);
-    ``max_points``; ``per_axis`` training points per box axis (0: 5 for ≤ 2 parameters, 3 for ≤ 4, else 2);
+    ``max_points``; ``per_axis`` training points per box axis (0: 5 for ≤ 2 parameters, 3 for ≤ 4, else 2, and
+    above six a Sobol set, :func:`~aromm.reduction.training_box.training_set`);
     ``dual``: the outputs' moments too; ``solver``: the engine's linear solver (``"auto"``: by size);
     ``highest``: the largest shift is ``highest / t_first`` (the response at t_first carries frequencies above
     1/t_first); ``certify``: attach the certified output error bound (:mod:`aromm.reduction.certificate`) and stop
@@ -163,53 +160,6 @@ class KrylovReductor:
     def shift_values(self, grid: TimeGrid) -> FloatArray:
         """The interpolation shifts (1/s): ``shifts`` log-spaced over 1/t_end … highest/t_first."""
         return np.geomspace(1.0 / grid.end, self.highest / grid.dt, self.shifts)
-
-
-#: Most points of the default training set (:func:`training_set`): 2⁶ = 64 corners of a six-axis box, the tensor
-#: grid's largest.  A coupled heat–moisture scene's default box has ten axes (k, c, ξ, D_φ, δ_p of two phases): on a
-#: 6×5×4 image (tests/petsc_moisture_krylov_cases.py's scene, scipy engine, defaults, one BLAS thread, load 1.0–2.3,
-#: 2026-12-06) its build over 65 points took 390 CPU s, 249 of them the greedy's certified bound at 0.9 s per point
-#: and step; its 1,024 corners would take about 16× that.
-TRAINING_POINTS = 64  # a power of 2: the Sobol sequence's balance
-
-
-def material_box(system: ThermalSystem, bounds: Box) -> Box:
-    """``bounds`` checked against the system, or :data:`DEFAULT_FACTOR` around its material parameters."""
-    if bounds:
-        unknown = sorted({name for name, _, _ in bounds} - system.parameter_names)
-        if unknown:
-            raise InputError(f"krylov bounds: unknown parameter(s) {unknown}; the system has "
-                             f"{sorted(system.parameter_names)}")
-        return bounds
-    terms = (*system.capacity.terms, *system.conductance.with_role("conduction").terms)
-    names = sorted({p for t in terms for p in t.coefficient.params})
-    return tuple((n, float(system.parameters[n]) / DEFAULT_FACTOR, float(system.parameters[n]) * DEFAULT_FACTOR)
-                 for n in names)
-
-
-def training_set(box: Box, per_axis: int = 0) -> list[dict[str, float]]:
-    """Tensor grid log-spaced along every axis of the box (``per_axis`` 0: by the number of axes); left to itself
-    (``per_axis`` 0) a box whose grid would exceed :data:`TRAINING_POINTS` (seven axes and more) gets that many points
-    of the unscrambled Sobol sequence instead, log-spaced (its first point is the lower corner), and the upper corner
-    [Sobol1967].
-
-    >>> len(training_set(tuple((f"p{i}.k", 0.1, 10.0) for i in range(10))))  # 2¹⁰ corners otherwise
-    65
-    """
-    count = per_axis or (5 if len(box) <= 2 else 3 if len(box) <= 4 else 2)
-    if per_axis == 0 and count ** len(box) > TRAINING_POINTS:
-        from scipy.stats import qmc
-
-        sobol = qmc.Sobol(len(box), scramble=False).random_base2(int(np.log2(TRAINING_POINTS)))
-        unit = np.vstack([sobol, np.ones(len(box))])
-        lo, hi = np.array([[lo, hi] for _, lo, hi in box]).T
-        return [{name: float(v) for (name, _, _), v in zip(box, lo * (hi / lo) ** u, strict=True)} for u in unit]
-    axes = [np.geomspace(lo, hi, count) if hi > lo else np.array([lo]) for _, lo, hi in box]
-    return [{name: float(v) for (name, _, _), v in zip(box, point, strict=True)} for point in itertools.product(*axes)]
-
-
-def centre(box: Box) -> dict[str, float]:
-    return {name: float(np.sqrt(lo * hi)) for name, lo, hi in box}
 
 
 @dataclass

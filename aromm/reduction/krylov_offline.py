@@ -20,6 +20,7 @@ from aromm.reduction.lifting import lift
 from aromm.reduction.model_key import system_key
 from aromm.reduction.rom import ReducedModel, from_arrays, one_blas_thread, to_arrays
 from aromm.reduction.scipy_engine import SOLVERS, ScipyEngine
+from aromm.reduction.training_box import centre, material_box, training_set
 
 WithFields = Callable[[ReducedModel, ThermalSystem, FloatArray, Mapping[str, float], str], ReducedModel]
 
@@ -34,7 +35,7 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     lifting to the model (``aromm.reduction.offline``)."""
     reductor.check()
     linear = reductor.solver if reductor.solver != "auto" or solver not in SOLVERS else solver
-    box = krylov.material_box(system, reductor.bounds)
+    box = material_box(system, reductor.bounds)
     key = system_key(system, box, order, reductor.cache_key, dict(basis_values), solver, linear)
     if store is not None:
         stored = store.load("rom", key)
@@ -49,8 +50,8 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     with one_blas_thread():  # small dense algebra dominates: threaded BLAS only fights for the shared cores
         bound = span_bound(engine, lifted, reductor, box)
         rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress, bound=bound)
-        rom, extra = certified(engine, lifted, rom, psi, certify=reductor.certify, reference=krylov.centre(box),
-                               training=krylov.training_set(box, reductor.per_axis), rtol=reductor.rtol,
+        rom, extra = certified(engine, lifted, rom, psi, certify=reductor.certify, reference=centre(box),
+                               training=training_set(box, reductor.per_axis), rtol=reductor.rtol,
                                tolerance=reductor.tolerance, certificate=bound.final if bound else None,
                                finer=bound.finer if bound else None)
     info.update(extra)

@@ -27,8 +27,8 @@ from dataclasses import replace
 import numpy as np
 
 from aromm.core.system import FloatArray
-from aromm.reduction import krylov
 from aromm.reduction.rom import ReducedModel
+from aromm.reduction.training_box import training_set
 from aromm.scene.reduction_section import ReductionSettings
 
 #: The referee's order asked: the Krylov default (the compression keeps what its tolerance needs).
@@ -43,7 +43,7 @@ def refereed(rom: ReducedModel, referee: ReducedModel) -> ReducedModel:
     if referee.certificate is None:
         return replace(rom, info={**rom.info, "referee": f"none: {referee.info.get('certificate', 'not certified')}"})
     rom = replace(rom, finer=replace(referee, info={}))
-    points: list[Mapping[str, float]] = [*krylov.training_set(referee.box), dict(rom.parameters)]
+    points: list[Mapping[str, float]] = [*training_set(referee.box), dict(rom.parameters)]
     worst = max(float(np.max(_bound(rom, mu))) for mu in points)
     return replace(rom, info={**rom.info, "error_bound": worst, "referee_order": referee.order,
                               "referee_bound": float(referee.info.get("error_bound", float("nan"))),

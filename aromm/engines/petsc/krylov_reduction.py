@@ -27,10 +27,11 @@ from aromm.engines.petsc.krylov_engine import SOLVERS, PetscKrylovEngine
 from aromm.engines.petsc.memory import StageMemory
 from aromm.engines.petsc.reduction import Source, cached, distributed
 from aromm.reduction.certified import CERTIFY_BELOW, certified, span_bound
-from aromm.reduction.krylov import KrylovReductor, centre, krylov_model, material_box, training_set
+from aromm.reduction.krylov import KrylovReductor, krylov_model
 from aromm.reduction.model_key import system_key
 from aromm.reduction.offline import resolve_cache
 from aromm.reduction.rom import ReducedModel, one_blas_thread, to_arrays
+from aromm.reduction.training_box import centre, material_box, training_set
 
 
 def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solver: str = "auto",

@@ -1,0 +1,66 @@
+"""The Krylov reduction's parameter box and its training set (:mod:`aromm.reduction.krylov`).
+
+A box is (name, lower, upper) per parameter (SI); without one, :data:`DEFAULT_FACTOR` around the scene's material
+parameters.  The greedy's candidate points are a log-spaced tensor grid of the box, or above six axes points of a
+low-discrepancy sequence (:func:`training_set`).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from aromm.core.errors import InputError
+from aromm.core.system import ThermalSystem
+
+Box = tuple[tuple[str, float, float], ...]
+
+#: Default box around the scene's values when none is given: each material parameter × [1/10, 10] (the extremes
+#: of the POD-greedy's training factors, aromm.reduction.greedy.TRAINING_FACTORS).
+DEFAULT_FACTOR = 10.0
+#: Most points of the default training set (:func:`training_set`): 2⁶ = 64 corners of a six-axis box, the tensor
+#: grid's largest.  A coupled heat–moisture scene's default box has ten axes (k, c, ξ, D_φ, δ_p of two phases): on a
+#: 6×5×4 image (tests/petsc_moisture_krylov_cases.py's scene, scipy engine, defaults, one BLAS thread, load 1.0–2.3,
+#: 2026-12-06) its build over 65 points took 390 CPU s, 249 of them the greedy's certified bound at 0.9 s per point
+#: and step; its 1,024 corners would take about 16× that.
+TRAINING_POINTS = 64  # a power of 2: the Sobol sequence's balance
+
+
+def material_box(system: ThermalSystem, bounds: Box) -> Box:
+    """``bounds`` checked against the system, or :data:`DEFAULT_FACTOR` around its material parameters."""
+    if bounds:
+        unknown = sorted({name for name, _, _ in bounds} - system.parameter_names)
+        if unknown:
+            raise InputError(f"krylov bounds: unknown parameter(s) {unknown}; the system has "
+                             f"{sorted(system.parameter_names)}")
+        return bounds
+    terms = (*system.capacity.terms, *system.conductance.with_role("conduction").terms)
+    names = sorted({p for t in terms for p in t.coefficient.params})
+    return tuple((n, float(system.parameters[n]) / DEFAULT_FACTOR, float(system.parameters[n]) * DEFAULT_FACTOR)
+                 for n in names)
+
+
+def training_set(box: Box, per_axis: int = 0) -> list[dict[str, float]]:
+    """Tensor grid log-spaced along every axis of the box (``per_axis`` 0: by the number of axes); left to itself
+    (``per_axis`` 0) a box whose grid would exceed :data:`TRAINING_POINTS` (seven axes and more) gets that many points
+    of the unscrambled Sobol sequence instead, log-spaced (its first point is the lower corner), and the upper corner
+    [Sobol1967].
+
+    >>> len(training_set(tuple((f"p{i}.k", 0.1, 10.0) for i in range(10))))  # 2¹⁰ corners otherwise
+    65
+    """
+    count = per_axis or (5 if len(box) <= 2 else 3 if len(box) <= 4 else 2)
+    if per_axis == 0 and count ** len(box) > TRAINING_POINTS:
+        from scipy.stats import qmc
+
+        sobol = qmc.Sobol(len(box), scramble=False).random_base2(int(np.log2(TRAINING_POINTS)))
+        unit = np.vstack([sobol, np.ones(len(box))])
+        lo, hi = np.array([[lo, hi] for _, lo, hi in box]).T
+        return [{name: float(v) for (name, _, _), v in zip(box, lo * (hi / lo) ** u, strict=True)} for u in unit]
+    axes = [np.geomspace(lo, hi, count) if hi > lo else np.array([lo]) for _, lo, hi in box]
+    return [{name: float(v) for (name, _, _), v in zip(box, point, strict=True)} for point in itertools.product(*axes)]
+
+
+def centre(box: Box) -> dict[str, float]:
+    return {name: float(np.sqrt(lo * hi)) for name, lo, hi in box}
