@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from aromm.core.cache import NpzCache
+from aromm.core.cache import NpzCache, content_key
 from aromm.core.errors import InputError, ModelWarning
 from aromm.core.observables import Observables
 from aromm.core.system import FloatArray, ParamValues, ThermalSystem
@@ -180,14 +180,24 @@ def _refereed(system: Any, settings: ReductionSettings, engine: str, run: dict[s
               rom: ReducedModel) -> ReducedModel:
     """A certified modal model given ``bounds``, with its Krylov referee over them (:mod:`aromm.reduction.referee`):
     the Krylov model of the same scene over that box, from the cache or built (its own key: the modal model, cached
-    without it, serves every box)."""
+    without it, serves every box).  The worst bound over the box is kept in the cache under both models' keys: a
+    warm call loads it instead of evaluating the bound at every training point again (2.6 CPU s for an amalgam of
+    order 200 on 16³ voxels, against 6 ms for one simulation)."""
     modal = KrylovReductor.named(settings.method, settings.bounds, settings.tolerance, settings.certify) is None
     if not (modal and settings.bounds and rom.certificate is not None):
         return rom
     krylov = ReductionSettings(order=REFEREE_ORDER, method="krylov", basis=settings.basis, bounds=settings.bounds,
                                tolerance=settings.tolerance, certify=settings.certify, solver=settings.solver)
     options = {k: v for k, v in run.items() if k in ("cache", "progress")}
-    return refereed(rom, _cached_or_built(system, krylov, engine, options))
+    referee = _cached_or_built(system, krylov, engine, options)
+    keys = (rom.info.get("model_key"), referee.info.get("model_key"))
+    store = resolve_cache(run.get("cache", True)) if all(keys) and is_root(engine) else None
+    key = content_key("referee", *keys)
+    found = store.load("referee", key) if store is not None else None
+    out = refereed(rom, referee, None if found is None else float(found["worst"]))
+    if store is not None and found is None and referee.certificate is not None:
+        store.save("referee", key, {"worst": np.array(float(out.info["error_bound"]))})
+    return out
 
 
 def _remember_order(store: NpzCache, system: Any, settings: ReductionSettings, engine: str,

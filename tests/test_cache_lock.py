@@ -58,7 +58,7 @@ def test_an_entry_of_another_kind_is_rebuilt_with_a_warning(tmp_path: Path) -> N
     with pytest.warns(CacheWarning, match="without vectors"):
         assert cache.load("corrections", "k") is None
     assert set(KINDS) == {"basis", "corrections", "rom", "reconstruction", "krylov-basis", "model-order",
-                          "discretisation-gap"}
+                          "discretisation-gap", "referee"}
 
 
 def test_reduce_rebuilds_over_a_wrong_entry_and_two_concurrent_builds_build_once(tmp_path: Path,

@@ -7,6 +7,8 @@ bound alone misses it by far (asserted, so these tests fail without the referee)
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from test_certificate import BOX, INSIDE, OUTSIDE, against_truth, body
@@ -57,3 +59,22 @@ def test_the_referee_survives_the_cache_format_and_each_box_has_its_own(tmp_path
     assert other.finer is not None and one.finer is not None and same.finer is not None
     assert other.finer.box != one.finer.box and same.finer.box == one.finer.box
     assert float(other.info["error_bound"]) != float(one.info["error_bound"])  # over its own box
+
+
+def test_a_warm_call_loads_the_worst_bound_over_the_box(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A scene's amalgam and its referee come from the cache on the second call, and so does the worst bound over the
+    box (evaluated once: every training point's bound is the warm path's cost otherwise); the same value both times."""
+    from inverse_cases import twin_case
+
+    from aromm.reduction import referee
+    from aromm.scene.scene_file import load_scene
+
+    scene = load_scene(twin_case(tmp_path)[0])
+    counted = []
+    original = referee.worst_bound
+    monkeypatch.setattr(referee, "worst_bound", lambda *a: counted.append(1) or original(*a))
+    box = {"fibre.k": (0.1, 0.5), "fibre.c": (1e6, 1e7)}
+    first = reduce(scene, order=8, method="aromm", bounds=box, cache=tmp_path / "cache")
+    second = reduce(scene, order=8, method="aromm", bounds=box, cache=tmp_path / "cache")
+    assert int(second.info["cached"]) == 1 and "referee" in str(second.info["certificate"])
+    assert len(counted) == 1 and float(second.info["error_bound"]) == float(first.info["error_bound"])

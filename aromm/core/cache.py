@@ -48,6 +48,8 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
     "krylov-basis": ("the Krylov model's basis Ψ, for temperature fields (aromm.reduction.krylov_offline)", ("psi",)),
     "model-order": ("the order of the model last built for a scene and its settings, whatever the order asked "
                     "(aromm.api.built_order)", ("order",)),
+    "referee": ("a certified modal model's worst bound over its Krylov referee's box, under both models' keys "
+                "(aromm.api.reduce, aromm.reduction.referee)", ("worst",)),
     "discretisation-gap": ("identify's default discretisation row at estimates rounded to six digits "
                            "(aromm.homogenization.discretisation_gap)", ("k_model", "k_other", "slope")),
 }

@@ -97,13 +97,18 @@ def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel
     if certificate is None:
         certificate = certificate_of(engine, system, psi, reference, rtol)
     rom = replace(rom, certificate=certificate, finer=finer)
-    bounds = [rom.error_bound(mu) for mu in training]
-    worst = max(float(np.max(b)) for b in bounds if b is not None)
+    worst = worst_bound(rom, training)
     info: Info = {"error_bound": worst, "certificate": "primal-dual contour bound",
                   "certify_seconds": time.process_time() - start}
     if tolerance is not None and worst > tolerance:
         info["converged"] = 0
     return rom, info
+
+
+def worst_bound(rom: ReducedModel, points: Sequence[Mapping[str, float]]) -> float:
+    """The largest certified bound (°C) of a certified ``rom`` over outputs and ``points``."""
+    bounds = [rom.error_bound(mu) for mu in points]
+    return max(float(np.max(b)) for b in bounds if b is not None)
 
 
 def _grid(system: ThermalSystem) -> tuple[float, float]:

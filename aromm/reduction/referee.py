@@ -24,9 +24,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import replace
 
-import numpy as np
-
-from aromm.core.system import FloatArray
+from aromm.reduction.certified import worst_bound
 from aromm.reduction.rom import ReducedModel
 from aromm.reduction.training_box import training_set
 from aromm.scene.reduction_section import ReductionSettings
@@ -35,23 +33,18 @@ from aromm.scene.reduction_section import ReductionSettings
 REFEREE_ORDER = ReductionSettings().order
 
 
-def refereed(rom: ReducedModel, referee: ReducedModel) -> ReducedModel:
+def refereed(rom: ReducedModel, referee: ReducedModel, worst: float | None = None) -> ReducedModel:
     """``rom`` (a certified modal model) with the certified Krylov model ``referee`` of the same full model as its
     ``finer`` model, and in its info the worst bound (°C) over the referee's training grid and the model's own values
-    (``error_bound``), the referee's order and its own worst bound.  An uncertified referee (too large to certify)
-    leaves ``rom``'s bound as it was, and its info says why."""
+    (``error_bound``: ``worst`` when it was computed before for these two models, :func:`aromm.api.reduce` keeps
+    it), the referee's order and its own worst bound.  An uncertified referee (too large to certify) leaves ``rom``'s
+    bound as it was, and its info says why."""
     if referee.certificate is None:
         return replace(rom, info={**rom.info, "referee": f"none: {referee.info.get('certificate', 'not certified')}"})
     rom = replace(rom, finer=replace(referee, info={}))
     points: list[Mapping[str, float]] = [*training_set(referee.box), dict(rom.parameters)]
-    worst = max(float(np.max(_bound(rom, mu))) for mu in points)
-    return replace(rom, info={**rom.info, "error_bound": worst, "referee_order": referee.order,
+    return replace(rom, info={**rom.info, "error_bound": worst_bound(rom, points) if worst is None else worst,
+                              "referee_order": referee.order,
                               "referee_bound": float(referee.info.get("error_bound", float("nan"))),
                               "certificate": "primal-dual contour bound, through a certified Krylov referee over "
                                              f"the box ({len(points)} points)"})
-
-
-def _bound(rom: ReducedModel, values: Mapping[str, float]) -> FloatArray:
-    bound = rom.error_bound(values)
-    assert bound is not None  # rom is certified
-    return bound
