@@ -21,6 +21,7 @@ import sys
 import time
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 import pytest
@@ -76,6 +77,22 @@ def decompositions(tmp_path_factory: pytest.TempPathFactory, module: ModuleType,
     name = module.__name__
     return {"1 rank": module.results(runtime.world()), f"{slabs} ranks": worker(tmp_path_factory, name, slabs),
             "2x2x1 boxes": worker(tmp_path_factory, name, BOXES, petsc_cases.BOXES_2x2x1)}
+
+
+def case_fixtures(module: ModuleType, slabs: int) -> tuple[Any, Any]:
+    """The module-scoped fixtures ``runs`` (:func:`decompositions` of the cases ``module`` with ``slabs``) and
+    ``serial`` (the serial engine's results, ``module.serial()``) of a test file: ``runs, serial =
+    case_fixtures(cases, 2)``."""
+
+    @pytest.fixture(scope="module")
+    def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
+        return decompositions(tmp_path_factory, module, slabs)
+
+    @pytest.fixture(scope="module")
+    def serial() -> dict[str, np.ndarray]:
+        return module.serial()  # type: ignore[no-any-return]
+
+    return runs, serial
 
 
 @pytest.fixture(scope="module")

@@ -8,17 +8,9 @@ from __future__ import annotations
 import numpy as np
 import petsc_fv_cases as cases
 import pytest
-from test_petsc_engine import decompositions, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
+from test_petsc_engine import case_fixtures, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
 
-
-@pytest.fixture(scope="module")
-def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
-    return decompositions(tmp_path_factory, cases, 3)
-
-
-@pytest.fixture(scope="module")
-def serial() -> dict[str, np.ndarray]:
-    return cases.serial()
+runs, serial = case_fixtures(cases, 3)
 
 
 @pytest.mark.filterwarnings("ignore::aromm.core.errors.ModelWarning")

@@ -19,20 +19,13 @@ import numpy as np
 import petsc_cases
 import petsc_krylov_cases as cases
 import pytest
-from test_petsc_engine import decompositions, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
+from test_petsc_engine import case_fixtures, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
 
 HERE = Path(__file__).parent
 TOL = 1e-8  # °C
 
 
-@pytest.fixture(scope="module")
-def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
-    return decompositions(tmp_path_factory, cases, 2)
-
-
-@pytest.fixture(scope="module")
-def serial() -> dict[str, np.ndarray]:
-    return cases.serial()
+runs, serial = case_fixtures(cases, 2)
 
 
 @pytest.mark.parametrize("name", list(cases.RUNS))

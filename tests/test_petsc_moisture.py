@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import petsc_moisture_cases as cases
 import pytest
-from test_petsc_engine import decompositions, mpiexec, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
+from test_petsc_engine import case_fixtures, mpiexec, pytestmark  # noqa: F401  (the same marks: mpi, skipped without PETSc)
 
 from aromm.cli import main
 from aromm.core.errors import InputError
@@ -74,14 +74,7 @@ mean_phi = ["z1"]
 """
 
 
-@pytest.fixture(scope="module")
-def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, np.ndarray]]:
-    return decompositions(tmp_path_factory, cases, 2)
-
-
-@pytest.fixture(scope="module")
-def serial() -> dict[str, np.ndarray]:
-    return cases.serial()
+runs, serial = case_fixtures(cases, 2)
 
 
 def tolerance(y: np.ndarray, case: Scene) -> float:
