@@ -231,6 +231,33 @@ def test_bad_options_are_refused_before_any_solve() -> None:
     assert len(training_set((("a", 1.0, 4.0), ("b", 1.0, 1.0)))) == 5
 
 
+class _Stop(RuntimeError):
+    pass
+
+
+def test_a_default_box_of_many_axes_is_said_before_any_solve(caplog: pytest.LogCaptureFixture,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """Four phases and no bounds: the default box has eight axes (k and c of each), trained on a Sobol set that costs
+    minutes; the build says so, naming the remedy, before its first shifted solve, and only then; with bounds it is
+    silent."""
+    labels = np.random.default_rng(5).integers(0, 4, (4, 4, 4))
+    phases = [PhaseSpec(f"p{i}", i, 0.1 * (i + 1), 1e6 * (i + 1)) for i in range(4)]
+    system = assemble_voxels(labels, (1e-4,) * 3, phases, [FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)],
+                             time=TimeGrid(5.0, 0.5), outputs=["z1"])
+
+    def stop(*_: object, **__: object) -> None:
+        raise _Stop
+
+    monkeypatch.setattr(ScipyEngine, "shifted_solve", stop)
+    for bounds, said in ((None, 1), ({"p0.k": (0.05, 0.2)}, 0)):
+        caplog.clear()
+        with caplog.at_level("WARNING", logger="aromm.reduction.training_box"), pytest.raises(_Stop):
+            reduce(system, order=10, method="krylov", bounds=bounds, cache=False)
+        notes = [r.getMessage() for r in caplog.records if "no bounds given" in r.getMessage()]
+        assert len(notes) == said, notes
+        assert all("8 axes" in n and "[reduction] bounds" in n and "--unknown" in n for n in notes)
+
+
 def test_a_system_without_free_outputs_is_refused_before_any_solve() -> None:
     """The reduction is output-aware: no outputs, or outputs only on fixed-temperature faces, is an input error."""
     labels = random_labels(5)

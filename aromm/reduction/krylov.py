@@ -55,7 +55,7 @@ from aromm.core.system import FloatArray, ThermalSystem, TimeGrid
 from aromm.reduction.compression import COMPRESSIONS, batch, best, compress, loss
 from aromm.reduction.engine_protocol import Block, ReductionEngine
 from aromm.reduction.rom import ReducedModel
-from aromm.reduction.training_box import Box, centre, material_box, training_set
+from aromm.reduction.training_box import Box, centre, say_default, training_set
 
 log = logging.getLogger(__name__)
 
@@ -292,6 +292,7 @@ def build_span(engine: ReductionEngine, reductor: KrylovReductor, box: Box, time
     output error bound of a span's model at every training point, °C, :mod:`aromm.reduction.certificate`), a span
     whose estimate meets the tolerance is kept only when its bound is below half of it (the other half is the
     compression's); else the next point is where the bound is largest."""
+    say_default(reductor.bounds, box)
     training = training_set(box, reductor.per_axis)
     reference = centre(box)
     fine = np.geomspace(shifts[0], shifts[-1], INDICATOR_REFINEMENT * len(shifts))
@@ -362,9 +363,10 @@ def _check_outputs(engine: ReductionEngine, names: tuple[str, ...]) -> None:
                          "reduce for): add an output on another face or a sensor, or use method = \"aromm\"")
 
 
-def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: KrylovReductor, order: int, *,
+def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: KrylovReductor, order: int, box: Box, *,
                  progress: bool = False, bound: Bound | None = None) -> tuple[ReducedModel, Block, Info]:
-    """The reduced model of order ≤ ``order``, its basis Ψ (an engine block) and what the build recorded.
+    """The reduced model of order ≤ ``order`` over ``box`` (:func:`~aromm.reduction.training_box.material_box` of the
+    reductor's bounds), its basis Ψ (an engine block) and what the build recorded.
 
     Errors are measured at the scene's output times (those of the outputs the model is used for)."""
     reductor.check()
@@ -372,7 +374,6 @@ def krylov_model(engine: ReductionEngine, system: ThermalSystem, reductor: Krylo
         raise InputError("the krylov reduction needs a time grid ([time] section)")
     times = system.time.times
     _check_outputs(engine, tuple(system.observation))
-    box = material_box(system, reductor.bounds)
     shifts = reductor.shift_values(system.time)
     start = time.process_time()
     span = build_span(engine, reductor, box, times, shifts, max_width=max(4 * order, 2), progress=progress,

@@ -49,7 +49,7 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
     engine = ScipyEngine(lifted, linear)
     with one_blas_thread():  # small dense algebra dominates: threaded BLAS only fights for the shared cores
         bound = span_bound(engine, lifted, reductor, box)
-        rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, progress=progress, bound=bound)
+        rom, psi, info = krylov.krylov_model(engine, lifted, reductor, order, box, progress=progress, bound=bound)
         rom, extra = certified(engine, lifted, rom, psi, certify=reductor.certify, reference=centre(box),
                                training=training_set(box, reductor.per_axis), rtol=reductor.rtol,
                                tolerance=reductor.tolerance, certificate=bound.final if bound else None,

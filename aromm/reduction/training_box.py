@@ -8,6 +8,7 @@ low-discrepancy sequence (:func:`training_set`).
 from __future__ import annotations
 
 import itertools
+import logging
 
 import numpy as np
 
@@ -15,6 +16,8 @@ from aromm.core.errors import InputError
 from aromm.core.system import ThermalSystem
 
 Box = tuple[tuple[str, float, float], ...]
+
+log = logging.getLogger(__name__)
 
 #: Default box around the scene's values when none is given: each material parameter × [1/10, 10] (the extremes
 #: of the POD-greedy's training factors, aromm.reduction.greedy.TRAINING_FACTORS).
@@ -25,6 +28,8 @@ DEFAULT_FACTOR = 10.0
 #: 2026-12-06) its build over 65 points took 390 CPU s, 249 of them the greedy's certified bound at 0.9 s per point
 #: and step; its 1,024 corners would take about 16× that.
 TRAINING_POINTS = 64  # a power of 2: the Sobol sequence's balance
+#: Most axes of the default tensor grid (2 points per axis: 2⁶ = :data:`TRAINING_POINTS`).
+GRID_AXES = 6
 
 
 def material_box(system: ThermalSystem, bounds: Box) -> Box:
@@ -39,6 +44,16 @@ def material_box(system: ThermalSystem, bounds: Box) -> Box:
     names = sorted({p for t in terms for p in t.coefficient.params})
     return tuple((n, float(system.parameters[n]) / DEFAULT_FACTOR, float(system.parameters[n]) * DEFAULT_FACTOR)
                  for n in names)
+
+
+def say_default(bounds: Box, box: Box) -> None:
+    """Say before a build over the default box of more than :data:`GRID_AXES` axes (a coupled heat–moisture scene's
+    ten) that it is slow and how to avoid it: a WARNING record, in the log and on a terminal (aromm.cli.logs)."""
+    if not bounds and len(box) > GRID_AXES:
+        log.warning("no bounds given: the reduced model is trained over every material parameter × [1/%g, %g] (%d "
+                    "axes: %s); that costs minutes even on a small image — give the box of the parameters that will "
+                    "vary ([reduction] bounds in the scene, or identify's --unknown ranges)", DEFAULT_FACTOR,
+                    DEFAULT_FACTOR, len(box), ", ".join(name for name, _, _ in box))
 
 
 def training_set(box: Box, per_axis: int = 0) -> list[dict[str, float]]:

@@ -67,7 +67,7 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
     try:
         with one_blas_thread(), runtime.root_logs(comm, krylov_model.__module__):
             bound = span_bound(engine, system.template, reductor, box)
-            rom, psi, info = krylov_model(engine, system.template, reductor, int(order),
+            rom, psi, info = krylov_model(engine, system.template, reductor, int(order), box,
                                           progress=progress and runtime.is_root(comm), bound=bound)
             rom, extra = certified(engine, system.template, rom, psi, certify=reductor.certify, reference=centre(box),
                                    training=training_set(box, reductor.per_axis), rtol=reductor.rtol,
