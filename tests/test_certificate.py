@@ -196,6 +196,35 @@ def test_the_span_ledger_gives_the_certificates_certify_computes() -> None:
             assert np.all(ours >= theirs * (1 - 1e-6)) and np.all(ours <= theirs * 1.5), (mu, ours, theirs)
 
 
+def test_the_greedys_last_bounds_of_the_span_are_the_ones_certify_would_compute(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A greedy that stopped on its certified bound has evaluated the span's bound at every training point; certified()
+    takes those (aromm.reduction.certified.SpanBound.finer_bounds) instead of evaluating them again.  They must be the
+    span model's own bounds there, and the recorded worst bound the one computed without them (the same arithmetic,
+    one BLAS thread: equal to rounding, ≤ 1e-12 relative)."""
+    from aromm.reduction import krylov_offline
+    from aromm.reduction.certified import worst_bound
+    from aromm.reduction.rom import one_blas_thread
+
+    seen: dict[str, object] = {}
+    original = krylov_offline.certified
+
+    def spy(*args: object, **kwargs: object) -> object:
+        seen.update(kwargs)
+        return original(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(krylov_offline, "certified", spy)
+    system = body([FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)])
+    with one_blas_thread():
+        rom = reduce(system, order=14, method="krylov", bounds=BOX, cache=False)  # stops on its bound (4 points)
+        known, training = seen["finer_bounds"], seen["training"]
+        assert isinstance(known, list) and isinstance(training, list) and rom.finer is not None
+        assert len(known) == len(training)
+        for mu, bound in zip(training, known, strict=True):
+            np.testing.assert_allclose(bound, rom.finer.error_bound(mu), rtol=1e-12)
+        np.testing.assert_allclose(rom.info["error_bound"], worst_bound(rom, training), rtol=1e-12)
+
+
 def test_the_gram_matrices_of_iterative_solves_are_corrected_by_their_residuals() -> None:
     """aromm.reduction.certificate.riesz: multigrid-CG solves to rtol 1e-10 leave first-order errors |RᵀZ| of about
     5e-12 of the Gram entries' scale √(G_ii G_jj) on this 12³ body (rtol √κ), far above the rounding floor of the

@@ -300,17 +300,18 @@ def error_bound(model: Any, cert: Certificate, values: Mapping[str, float]) -> F
     return out
 
 
-def through_finer(model: Any, finer: Any, values: Mapping[str, float]) -> FloatArray:
+def through_finer(model: Any, finer: Any, values: Mapping[str, float], own: FloatArray | None = None) -> FloatArray:
     """Upper bound (°C) of ``|y_r − y|`` per output over the output times through a finer certified model of the
     same full model: ``max_t |y_r − y_f| + bound_f`` (the triangle inequality; the difference is computed exactly in
     time, the finer model's bound by :func:`error_bound`).  Where the finer model's error is far below the model's,
     the difference is nearly the model's actual error: a model compressed from its span to a low order then has an
     effectivity near 1, where the direct bound's product of residual norms loses up to 10⁴ (a fixed-temperature
-    face at order 12, docs/method/krylov.md)."""
+    face at order 12, docs/method/krylov.md).  ``own``: the finer model's bound at ``values`` when it is known
+    already (a Krylov greedy's last evaluation over its training set, :class:`aromm.reduction.certified.SpanBound`)."""
     names = model.parameter_names
     # values of the initial terms' own parameters (e.g. initial.phi) other than the models' cannot be simulated
     other = any(k not in names and v != model.parameters.get(k, v) for k, v in values.items())
-    own = finer.error_bound(values)
+    own = finer.error_bound(values) if own is None else own
     if own is None or model.time is None or other:
         return np.full(len(model.outputs), np.inf)
     batch = {k: [v] for k, v in values.items() if k in names}

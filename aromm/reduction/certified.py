@@ -82,9 +82,11 @@ def wanted(system: ThermalSystem, certify: bool | None, columns: int, *,
 def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel, psi: FloatArray, *,
               certify: bool | None, reference: Mapping[str, float], training: Sequence[Mapping[str, float]],
               rtol: float, tolerance: float | None = None, certificate: Certificate | None = None,
-              after_below: int | None = None, finer: ReducedModel | None = None) -> tuple[ReducedModel, Info]:
+              after_below: int | None = None, finer: ReducedModel | None = None,
+              finer_bounds: Sequence[FloatArray] | None = None) -> tuple[ReducedModel, Info]:
     """``rom`` (Galerkin on the basis ``psi`` of the lifted ``system``) with its certificate at the reference values
-    (and the ``finer`` certified model it was compressed from, which tightens its bound),
+    (and the ``finer`` certified model it was compressed from, which tightens its bound; ``finer_bounds``: that
+    model's bounds at the ``training`` points when the greedy has them, :attr:`SpanBound.finer_bounds`),
     and what its info records: the worst bound over ``training`` (``error_bound``, °C), the CPU seconds, and
     ``converged = 0`` when that bound exceeds ``tolerance`` (issue 35, item 4); without one when :func:`wanted` says
     no (``certificate`` then says why).  A ``certificate`` given (a Krylov build's, formed from its span's Gram
@@ -97,7 +99,7 @@ def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel
     if certificate is None:
         certificate = certificate_of(engine, system, psi, reference, rtol)
     rom = replace(rom, certificate=certificate, finer=finer)
-    worst = worst_bound(rom, training)
+    worst = worst_bound(rom, training, finer_bounds)
     info: Info = {"error_bound": worst, "certificate": "primal-dual contour bound",
                   "certify_seconds": time.process_time() - start}
     if tolerance is not None and worst > tolerance:
@@ -105,9 +107,12 @@ def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel
     return rom, info
 
 
-def worst_bound(rom: ReducedModel, points: Sequence[Mapping[str, float]]) -> float:
-    """The largest certified bound (°C) of a certified ``rom`` over outputs and ``points``."""
-    bounds = [rom.error_bound(mu) for mu in points]
+def worst_bound(rom: ReducedModel, points: Sequence[Mapping[str, float]],
+                finer_bounds: Sequence[FloatArray] | None = None) -> float:
+    """The largest certified bound (°C) of a certified ``rom`` over outputs and ``points`` (``finer_bounds``: its
+    finer model's bounds there, when known)."""
+    known = finer_bounds if finer_bounds is not None else [None] * len(points)
+    bounds = [rom.error_bound(mu, finer_bound=b) for mu, b in zip(points, known, strict=True)]
     return max(float(np.max(b)) for b in bounds if b is not None)
 
 
@@ -140,7 +145,10 @@ def tolerance_note(info: Mapping[str, float | int | str]) -> str | None:
 class SpanBound:
     """The greedy's certified bound (:class:`aromm.reduction.krylov.Bound`) over the training set, from Gram matrices
     kept along the growing span (:class:`~aromm.reduction.certificate_gram.GramLedger`); ``final`` is the compressed
-    model's certificate once :meth:`compressed` has been told its coefficients."""
+    model's certificate once :meth:`compressed` has been told its coefficients, ``finer`` the span's model it was
+    compressed from and ``finer_bounds`` that model's bounds (°C, per output) at the training points when the greedy's
+    last evaluation was of the final span (:func:`certified` then does not evaluate them again: they cost as much as
+    the greedy's last step)."""
 
     def __init__(self, engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
                  box: Box) -> None:
@@ -149,6 +157,8 @@ class SpanBound:
         self.ledger = GramLedger(engine, system, centre(box), reductor.rtol)
         self.final: Certificate | None = None
         self.finer: ReducedModel | None = None
+        self.finer_bounds: list[FloatArray] | None = None
+        self._last: tuple[int, list[FloatArray]] | None = None  # (span width, bounds) of the last evaluation
 
     def _too_large(self, columns: int) -> bool:
         return wanted(self.system, self.reductor.certify, width(self.engine, self.system, columns)) is not None
@@ -158,7 +168,9 @@ class SpanBound:
             return np.zeros(len(self.training))  # too large to certify: the estimate decides, as without a bound
         self.ledger.extend(basis)
         cert = self.ledger.certificate()
-        return np.array([float(np.max(error_bound(model, cert, mu))) for mu in self.training])
+        bounds = [error_bound(model, cert, mu) for mu in self.training]
+        self._last = (basis.shape[1], bounds)
+        return np.array([float(np.max(b)) for b in bounds])
 
     def compressed(self, basis: FloatArray, model: ReducedModel, coefficients: FloatArray) -> None:
         if not self._too_large(basis.shape[1]):
@@ -166,6 +178,8 @@ class SpanBound:
             self.final = self.ledger.certificate(coefficients)
             if coefficients.shape[1] < coefficients.shape[0]:  # compressed: the span certifies it more tightly
                 self.finer = replace(model, info={}, certificate=self.ledger.certificate())
+                if self._last is not None and self._last[0] == basis.shape[1]:  # the span last evaluated
+                    self.finer_bounds = self._last[1]
 
 
 def span_bound(engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,

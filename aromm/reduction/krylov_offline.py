@@ -53,7 +53,8 @@ def reduce_krylov(system: ThermalSystem, order: int, reductor: krylov.KrylovRedu
         rom, extra = certified(engine, lifted, rom, psi, certify=reductor.certify, reference=centre(box),
                                training=training_set(box, reductor.per_axis), rtol=reductor.rtol,
                                tolerance=reductor.tolerance, certificate=bound.final if bound else None,
-                               finer=bound.finer if bound else None)
+                               finer=bound.finer if bound else None,
+                               finer_bounds=bound.finer_bounds if bound else None)
     info.update(extra)
     info.update({"offline_seconds": time.perf_counter() - start, "cached": 0, "key": key,
                  "lifted_faces": len(system.dirichlet)})

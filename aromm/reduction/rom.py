@@ -196,18 +196,22 @@ class ReducedModel:
         value = float(self.info.get("reference_error", 0.0))
         return value if math.isfinite(value) else 0.0
 
-    def error_bound(self, params: Mapping[str, float] | None = None) -> FloatArray | None:
+    def error_bound(self, params: Mapping[str, float] | None = None, *,
+                    finer_bound: FloatArray | None = None) -> FloatArray | None:
         """Certified upper bound (°C) of the largest ``|reduced − full|`` over the output times, per output, at
         ``params`` (:mod:`aromm.reduction.certificate`: against the same full model exact in time); None without a
         certificate (a model built on another engine, or too large to certify).  With a ``finer`` certified model of
         the same full model (a Krylov model's span before its compression) the smaller of the two valid bounds:
         the direct one, and the difference to the finer model plus the finer model's bound
-        (:func:`~aromm.reduction.certificate.through_finer`)."""
+        (:func:`~aromm.reduction.certificate.through_finer`; ``finer_bound``: the finer model's bound there, when
+        known)."""
         if self.certificate is None:
             return None
         values = {**self.parameters, **(params or {})}
         direct = error_bound(self, self.certificate, values)
-        return direct if self.finer is None else np.minimum(direct, through_finer(self, self.finer, values))
+        if self.finer is None:
+            return direct
+        return np.minimum(direct, through_finer(self, self.finer, values, finer_bound))
 
     # ----------------------------------------------------------------- protocol
     @property

@@ -73,6 +73,7 @@ def reduce_krylov(source: Source, order: int, reductor: KrylovReductor, *, solve
                                    training=training_set(box, reductor.per_axis), rtol=reductor.rtol,
                                    tolerance=reductor.tolerance, certificate=bound.final if bound else None,
                                    finer=bound.finer if bound else None,
+                                   finer_bounds=bound.finer_bounds if bound else None,
                                    after_below=CERTIFY_BELOW)  # its wide blocks iterate (KSP)
             info.update(extra)
     finally:
