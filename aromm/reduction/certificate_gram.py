@@ -103,7 +103,9 @@ class GramLedger:
     def certificate(self, coefficients: FloatArray | None = None) -> Certificate:
         """The certificate of the model on the accounted basis V, or on ``V @ coefficients`` (no solve)."""
         layout = np.argsort(self._order())  # arrival column of each term-major one
-        grams, spread = self.grams[:, layout][:, :, layout], self.spread[:, layout]
+        # one gather (np.ix_), not two fancy indexings that each copy every rung
+        grams = self.grams[np.ix_(np.arange(len(self.sigmas)), layout, layout)]
+        spread = self.spread[:, layout]
         if coefficients is None:
             return Certificate(self.theta, self.sigmas, grams, self.vtu, self.loads, spread=spread)
         w = np.asarray(coefficients, dtype=float)
