@@ -16,6 +16,9 @@ seconds (process_time; wall seconds beside them) of:
     OMP_NUM_THREADS=1 python benchmarks/referee_cost.py                      # 16³, order 200
     OMP_NUM_THREADS=1 python benchmarks/referee_cost.py --size 8 --order 40
 
+Measured at 3343793, 16³ and order 200 (record benchmarks/records/referee_cost_16_200_3343793.txt, load 0.9–1.7):
+build 12.8 CPU s, cold worst bound 2.8 CPU s over 26 points, warm reduce 0.028 CPU s, one simulation 6.4 ms.
+
 Record: benchmarks/records/referee_cost_<size>_<order>_<commit>.txt.
 """
 

@@ -14,6 +14,10 @@ and stay out of the ranges that close each order.  CPU seconds of the build (pro
     OMP_NUM_THREADS=1 python benchmarks/slow_corner.py                  # orders 8 14 24
     OMP_NUM_THREADS=1 python benchmarks/slow_corner.py --orders 8 40
 
+Measured at 3343793 (record benchmarks/records/slow_corner_3343793.txt, load 0.1–0.3, 0.6–0.8 CPU s per build):
+through the span 1.03–2.94, 1.08–23.8 and 3.57–159 at orders 8, 14 and 24; directly 8.58–95.8, 19.9–1.28e+03 and
+93.6–1.84e+03; every error above 10× the truth's rounding.
+
 Record: benchmarks/records/slow_corner_<commit>.txt.
 """
 
