@@ -19,9 +19,11 @@ beside the truth's rounding there (:func:`aromm.full.exact.rounding`), the greed
     OMP_NUM_THREADS=1 python benchmarks/training_box_cost.py              # default ten-axis box (≈ 400 CPU s)
     OMP_NUM_THREADS=1 python benchmarks/training_box_cost.py --bounds     # the two-axis box
 
-Measured at 3343793 (record benchmarks/records/training_box_cost_3343793.txt, load 1.1–3.2): the ten-axis box 423.5
-CPU s, 268.0 of them the greedy's bound (255.3 its 260 evaluations), tolerance missed at 10 points (bound 1.9e-3);
-the two-axis box 216.9 CPU s, 156.8 the bound, tolerance met (bound 9.7e-6).
+Measured at c1663b5 (record benchmarks/records/training_box_cost_c1663b5.txt, load 0.8–3.2): the ten-axis box 252.3
+CPU s, 157.3 of them the greedy's bound (149.2 its 260 evaluations), tolerance missed at 10 points (bound 1.9e-3);
+the two-axis box 144.1 CPU s, 105.8 the bound, tolerance met (bound 9.7e-6).  At 3343793 (record
+benchmarks/records/training_box_cost_3343793.txt and, run beside the 144.1 one, the c1663b5 record): 423.5 and 237.4
+CPU s (the Gram matrices not contiguous, the last bounds evaluated twice).
 
 Record: benchmarks/records/training_box_cost_<commit>.txt.
 """
@@ -96,7 +98,9 @@ def main() -> None:
     print(f"build {cpu:.1f} CPU s ({wall:.1f} s wall); greedy's certified bound {greedy.seconds:.1f} CPU s "
           f"({100 * greedy.seconds / cpu:.0f} %) in {greedy.calls} steps, of which its evaluations "
           f"{evaluations.seconds:.1f} CPU s ({100 * evaluations.seconds / cpu:.0f} %, {evaluations.calls} calls, "
-          f"{evaluations.seconds / max(evaluations.calls, 1):.3f} s each)")
+          f"{evaluations.seconds / max(evaluations.calls, 1):.3f} s each); the built model's certificate "
+          f"{float(rom.info.get('certify_seconds', float('nan'))):.1f} CPU s (certified(): its worst bound over the "
+          "training grid)")
     print(f"order {rom.order}, greedy points {rom.info.get('krylov_points')}, converged {rom.info.get('converged')}; "
           f"error at the scene's values {error:.3g} (truth's rounding {floor:.2g}), estimate "
           f"{float(rom.info.get('reference_error', float('nan'))):.3g}, certified bound "

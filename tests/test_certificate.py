@@ -186,6 +186,7 @@ def test_the_span_ledger_gives_the_certificates_certify_computes() -> None:
     for coefficients, psi in ((None, basis), (w, basis @ w)):
         direct = certify(engine, system, psi, reference, rtol)
         kept = ledger.certificate(coefficients)
+        assert kept.grams.flags.c_contiguous  # else every evaluation of the bound copies them
         scale = np.abs(direct.grams).max()
         np.testing.assert_allclose(kept.grams, direct.grams, rtol=0, atol=100 * rtol * scale)
         np.testing.assert_allclose(kept.vtu, direct.vtu, rtol=1e-12, atol=1e-12 * np.abs(direct.vtu).max())

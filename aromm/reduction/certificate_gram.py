@@ -103,7 +103,9 @@ class GramLedger:
     def certificate(self, coefficients: FloatArray | None = None) -> Certificate:
         """The certificate of the model on the accounted basis V, or on ``V @ coefficients`` (no solve)."""
         layout = np.argsort(self._order())  # arrival column of each term-major one
-        # one gather (np.ix_), not two fancy indexings that each copy every rung
+        # one gather (np.ix_): C-contiguous, where two fancy indexings gave another memory order, which every bound
+        # evaluation then copied (0.92 → 0.54 CPU s an evaluation on the 6×5×4 coupled scene: benchmarks/
+        # training_box_cost.py --bounds, record benchmarks/records/training_box_cost_c1663b5.txt)
         grams = self.grams[np.ix_(np.arange(len(self.sigmas)), layout, layout)]
         spread = self.spread[:, layout]
         if coefficients is None:
