@@ -100,6 +100,9 @@ class Certificate:
     summands: int | None = None
     spread: FloatArray | None = None
 
+    def __post_init__(self) -> None:  # every bound evaluation reads the Gram matrices by rows (residual_form)
+        object.__setattr__(self, "grams", np.ascontiguousarray(self.grams))
+
     def arrays(self) -> dict[str, np.ndarray]:
         extra = {} if self.scales is None else {"scales": self.scales, "summands": np.array(self.summands)}
         if self.spread is not None:
