@@ -218,6 +218,23 @@ def test_the_homogenised_moisture_transport_of_a_laminate_is_its_exact_means() -
     assert mean_moisture_capacity(scene) == pytest.approx((200.0 + 0.017) / 2, rel=1e-14)
 
 
+def test_the_fixed_value_probe_drops_the_scenes_own_conditions() -> None:
+    """The probe's other faces are adiabatic and sealed whatever the scene sets there: a moisture flux, vapour exchange
+    and face conditions of the scene (tests/petsc_moisture_cases.py's: a flux of water on z1 among them) leave the
+    matrix unchanged (the flux used to stay in the x and y probes and load them)."""
+    from dataclasses import replace as swap
+
+    import petsc_moisture_cases as cases
+
+    from aromm.homogenization.moisture_cells import moisture_transport
+
+    scene = cases.steady_scene()
+    assert scene.moisture is not None and scene.moisture.flux and scene.moisture.vapour
+    bare = swap(scene, boundary=(), moisture=swap(scene.moisture, flux={}, vapour={}, fixed_phi={}, outputs=()),
+                outputs=())
+    np.testing.assert_array_equal(moisture_transport(scene, "splu"), moisture_transport(bare, "splu"))
+
+
 def test_a_moisture_flux_gives_the_exact_steady_profile() -> None:
     """Steady bar: T = 20 °C and φ = 0.8 fixed on x0; on x1 a moisture flux g = 2e-7 kg/(m² s) enters, heat
     adiabatic.  The fluxes are uniform: no heat (q = 0) and the water g flowing back to x0, so the profile is linear

@@ -131,7 +131,8 @@ def test_cli_homogenize_on_two_ranks_gives_the_thermal_conductivity(tmp_path: Pa
                                                                     capsys: pytest.CaptureFixture[str]) -> None:
     """`aromm homogenize --engine petsc` of a coupled scene: its probes are thermal (the scene's moisture conditions
     left out), k̄ the scipy engine's flux probe's (to 1e-7 relatively, as tests/test_petsc_engine.py's), and the note
-    that the moisture transport is homogenised on the scipy engine is said once."""
+    that the petsc engine homogenises the moisture transport with --boundary temperature only (not flux, its default)
+    is said once (tests/test_petsc_moisture_homog.py: that boundary)."""
     np.save(tmp_path / "img.npy", cases.labels())
     path = tmp_path / "s.toml"
     path.write_text(SCENE, encoding="utf-8")
@@ -139,7 +140,8 @@ def test_cli_homogenize_on_two_ranks_gives_the_thermal_conductivity(tmp_path: Pa
     expected = np.asarray(json.loads(capsys.readouterr().out)["k"])
     run = mpiexec("aromm", "homogenize", str(path), "--engine", "petsc", "--json")
     assert run.returncode == 0, run.stderr[-3000:]
-    assert run.stderr.count("the moisture transport is homogenised on voxel images with the scipy engine only") == 1
+    assert run.stderr.count("the petsc engine homogenises the moisture transport with --boundary temperature "
+                            "only") == 1
     np.testing.assert_allclose(np.asarray(json.loads(run.stdout)["k"]), expected, rtol=1e-7, atol=0.0)
 
 

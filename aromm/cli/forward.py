@@ -224,7 +224,7 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
     capacities = all(ph.c is not None for ph in sc.phases)
     image = sc.geometry if engine == "scipy" and isinstance(sc.geometry, VoxelGeometry) else None
     boundary = boundary or default_boundary(sc, engine)
-    moisture = _moisture(sc, image is not None, solver, boundary) if is_root(engine) else None  # its note once
+    moisture = _moisture(sc, engine, image is not None, solver, boundary)  # collective on petsc, its notes once
     if image is None:
         result = CellResult(homogenize(sc, boundary=boundary, method=solver, engine=engine), boundary, solver)
     else:
@@ -257,16 +257,28 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
         click.echo(f"ξ̄ (kg/m³): {moisture['xi']:.6g}")
 
 
-def _moisture(sc: Any, voxels: bool, solver: str, boundary: str) -> dict[str, Any] | None:
+def _moisture(sc: Any, engine: str, voxels: bool, solver: str, boundary: str) -> dict[str, Any] | None:
     """The homogenised heat and moisture transport of a ``[moisture]`` scene (a voxel image on the scipy engine;
     :mod:`aromm.homogenization.moisture_cells`) by ``boundary``'s cell problem (periodic: Q1, the whole tensor too;
-    finite volumes take the fixed-value probe instead, said); None without moisture (said when the scene has
-    some)."""
+    finite volumes take the fixed-value probe instead, said); on the petsc engine (collective) the fixed-value probe
+    (``temperature``) only, by boxes (:func:`aromm.engines.petsc.homogenization.moisture_transport`).  None without
+    moisture, or on a boundary the petsc engine does not homogenise it with (said by the root rank)."""
     if getattr(sc, "moisture", None) is None:
         return None
+    if engine == "petsc":
+        if boundary != "temperature":
+            if is_root(engine):
+                click.echo("aromm: note: the petsc engine homogenises the moisture transport with --boundary "
+                           "temperature only (the scipy engine takes all three): k̄ and c̄ below are the thermal ones",
+                           err=True)
+            return None
+        from aromm.engines.petsc import homogenization as petsc_cells
+
+        return {"transport": petsc_cells.moisture_transport(sc, solver).tolist(),
+                "xi": petsc_cells.mean_moisture_capacity(sc), "boundary": boundary}
     if not voxels:
-        click.echo("aromm: note: the moisture transport is homogenised on voxel images with the scipy engine only: "
-                   "k̄ and c̄ below are the thermal ones", err=True)
+        click.echo("aromm: note: the moisture transport is homogenised on voxel images only: k̄ and c̄ below are the "
+                   "thermal ones", err=True)
         return None
     from aromm.homogenization.moisture_cells import mean_moisture_capacity, moisture_transport, periodic_transport
 

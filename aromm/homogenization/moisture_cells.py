@@ -4,7 +4,9 @@ effective 2 × 2 flux matrix, by the fixed-value probe of the field's convention
 Per axis i, with (T, φ) fixed on the faces i0 and i1 and the other faces adiabatic and sealed, two steady solves of
 the coupled system (the symmetrised one: its moisture row is the moisture balance times λ) give the flows through
 the fixed face i0 for a unit jump of T, then of φ: the heat flow Q and the moisture flow G = (reaction of the φ rows)
-/ λ.  The effective matrix in physical units (heat flux W/m², moisture flux kg/(m² s)) is
+/ λ (the probe: :func:`fixed_value_probe`, its other faces adiabatic and sealed whatever the scene sets there; the
+loop: :func:`fixed_value_transport`, shared with the petsc engine's distributed solves).  The effective matrix in
+physical units (heat flux W/m², moisture flux kg/(m² s)) is
 
     [[Q_T, Q_φ], [G_T, G_φ]] · L_i / A_i   ≈   [[k + L_v δ_p a, L_v δ_p p], [δ_p a, D_φ + δ_p p]]  (effective),
 
@@ -21,14 +23,16 @@ images of a few 10⁴ voxels.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
 from aromm.core.errors import InputError
 from aromm.core.observables import PHI_PREFIX
-from aromm.core.system import FloatArray
+from aromm.core.system import FloatArray, ThermalSystem
 from aromm.core.vocabulary import FaceSpec
 from aromm.fem.voxel import assemble_voxels
 from aromm.fem.voxel_grid import node_points
@@ -55,22 +59,47 @@ def moisture_transport(scene: Scene, method: str = "auto", boundary: str = "temp
         return np.stack([full[axis, axis] for axis in range(3)])
     if boundary != "temperature":
         raise InputError(f"moisture transport: boundary must be periodic, temperature or flux, got {boundary!r}")
-    moisture = _moisture(scene)
+    return fixed_value_transport(scene, lambda probe: _direct_reactions(assemble(probe), method))
+
+
+def fixed_value_probe(scene: Any, axis: int) -> Any:
+    """The probe of the fixed-value transport along ``axis`` (0, 1, 2) of a Scene or the petsc engine's VoxelProblem
+    (the same type back): (T, φ) held on the faces i0 and i1 (at the parameters ``i0.T``, ``i0.phi``, …, 0 unless
+    set), the other faces adiabatic and sealed (no heat or water flux, no vapour exchange), no outputs."""
+    moisture = require_moisture(scene)
+    fixed = {f"{AXES[axis]}0": 0.0, f"{AXES[axis]}1": 0.0}
+    return replace(scene.with_boundary(tuple(FaceSpec(face, T=0.0) for face in fixed), ()),
+                   moisture=replace(moisture, fixed_phi=fixed, vapour={}, flux={}, outputs=()))
+
+
+#: The steady solves of one probe: ``prepare(probe)`` (its assembly) gives ``solve(values)``, the reactions (W; λ ×
+#: kg/s for a φ set) through every fixed set of the probe at the parameter ``values``, keyed by the set's parameter.
+ReactionSolver = Callable[[Any], Callable[[dict[str, float]], Mapping[str, float]]]
+
+
+def fixed_value_transport(scene: Any, prepare: ReactionSolver) -> FloatArray:
+    """(3, 2, 2): :func:`moisture_transport`'s fixed-value probe (module docstring) with the steady solves of
+    ``prepare`` (direct here; distributed: :mod:`aromm.engines.petsc.homogenization`): the probes of
+    :func:`fixed_value_probe`, the flows through the face i0 for a unit jump of T, then of φ."""
+    moisture = require_moisture(scene)
     size = scene.size
     out = np.zeros((3, 2, 2))
     for axis, name in enumerate(AXES):
-        fixed = {f"{name}0": 0.0, f"{name}1": 0.0}
-        probe = replace(scene.with_boundary(tuple(FaceSpec(face, T=0.0) for face in fixed), ()),
-                        moisture=replace(moisture, fixed_phi=fixed, vapour={}, outputs=()))
-        system = assemble(probe)  # the scene's own discretisation and refusals
-        hot = {d.param: np.asarray(d.dofs) for d in system.dirichlet}
+        solve = prepare(fixed_value_probe(scene, axis))  # the scene's own discretisation and refusals
         area = float(np.prod(size)) / size[axis]
         for column, jump in enumerate(({f"{name}0.T": 1.0}, {f"{name}0.phi": 1.0})):
-            field = steady_field(system, jump, method=method)
-            heat = reaction_heat_flow(system, field, hot[f"{name}0.T"], jump)
-            water = reaction_heat_flow(system, field, hot[f"{name}0.phi"], jump) / moisture.state.weight
-            out[axis, :, column] = np.array([heat, water]) * size[axis] / area
+            flows = solve(jump)
+            out[axis, :, column] = np.array([flows[f"{name}0.T"], flows[f"{name}0.phi"] / moisture.state.weight]) \
+                * size[axis] / area
     return out
+
+
+def _direct_reactions(system: ThermalSystem, method: str) -> Callable[[dict[str, float]], Mapping[str, float]]:
+    def solve(values: dict[str, float]) -> dict[str, float]:
+        field = steady_field(system, values, method=method)
+        return {d.param: reaction_heat_flow(system, field, d.dofs, values) for d in system.dirichlet}
+
+    return solve
 
 
 def flux_transport(scene: Scene, method: str = "auto") -> FloatArray:
@@ -78,7 +107,7 @@ def flux_transport(scene: Scene, method: str = "auto") -> FloatArray:
     unit heat flux (W/m²), then a unit water flux (kg/(m² s), :func:`aromm.physics.hygrothermal.coupled`'s
     ``moisture_flux``) enters through the face i0, (T, φ) = 0 is held on i1, the other faces are adiabatic and
     sealed.  The mean jumps (T̄, φ̄ on i0) of the two solves are the columns of ``L F⁻¹``, so ``F = L M⁻¹``."""
-    moisture = _moisture(scene)
+    moisture = require_moisture(scene)
     size = scene.size
     out = np.zeros((3, 2, 2))
     for axis, name in enumerate(AXES):
@@ -108,7 +137,7 @@ def periodic_transport(scene: Scene, method: str = "auto") -> FloatArray:
     gradient g = x_j on the f block, and PᵀKP T̃ = b = −PᵀK g with T̃ periodic (one node of each field pinned: the
     constants of both fields are its null space).  The symmetrised tensor is ``S[(f,i),(h,j)] |Ω| = g_{f,i}ᵀ K g_{h,j}
     − b_{f,i}ᵀ T̃_{h,j}`` (energy identity); its moisture rows divided by λ are the physical fluxes."""
-    image, moisture = scene.geometry, _moisture(scene)
+    image, moisture = scene.geometry, require_moisture(scene)
     if not isinstance(image, VoxelGeometry) or scene.discretisation != "q1":
         raise InputError(f"{scene.where}moisture transport: the periodic cell is solved on the Q1 elements of a voxel "
                          "image (finite volumes: --boundary temperature or flux)")
@@ -139,12 +168,13 @@ def periodic_transport(scene: Scene, method: str = "auto") -> FloatArray:
 
 def mean_moisture_capacity(scene: Scene) -> float:
     """ξ̄ (kg/m³): the volume average of the phases' ξ."""
-    moisture = _moisture(scene)
+    moisture = require_moisture(scene)
     fractions = scene.volume_fractions()
     return float(sum(fractions[name] * values["xi"] for name, values in moisture.phases.items()))
 
 
-def _moisture(scene: Scene) -> MoistureScene:
+def require_moisture(scene: Any) -> MoistureScene:
+    """The scene's ``[moisture]`` part (a Scene or a VoxelProblem), refused without one."""
     if scene.moisture is None:
         raise InputError(f"{scene.where}moisture: the homogenised moisture transport needs a [moisture] section")
     return scene.moisture
