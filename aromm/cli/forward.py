@@ -260,21 +260,15 @@ def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: floa
 def _moisture(sc: Any, engine: str, voxels: bool, solver: str, boundary: str) -> dict[str, Any] | None:
     """The homogenised heat and moisture transport of a ``[moisture]`` scene (a voxel image on the scipy engine;
     :mod:`aromm.homogenization.moisture_cells`) by ``boundary``'s cell problem (periodic: Q1, the whole tensor too;
-    finite volumes take the fixed-value probe instead, said); on the petsc engine (collective) the fixed-value probe
-    (``temperature``) only, by boxes (:func:`aromm.engines.petsc.homogenization.moisture_transport`).  None without
-    moisture, or on a boundary the petsc engine does not homogenise it with (said by the root rank)."""
+    finite volumes take the fixed-value probe instead, said); on the petsc engine (collective) the probes
+    ``temperature`` and ``flux``, by boxes (:func:`aromm.engines.petsc.homogenization.moisture_transport`).  None
+    without moisture (said on a mesh scene, which has some)."""
     if getattr(sc, "moisture", None) is None:
         return None
-    if engine == "petsc":
-        if boundary != "temperature":
-            if is_root(engine):
-                click.echo("aromm: note: the petsc engine homogenises the moisture transport with --boundary "
-                           "temperature only (the scipy engine takes all three): k̄ and c̄ below are the thermal ones",
-                           err=True)
-            return None
+    if engine == "petsc":  # the probes (periodic refused, as for k̄)
         from aromm.engines.petsc import homogenization as petsc_cells
 
-        return {"transport": petsc_cells.moisture_transport(sc, solver).tolist(),
+        return {"transport": petsc_cells.moisture_transport(sc, boundary, solver).tolist(),
                 "xi": petsc_cells.mean_moisture_capacity(sc), "boundary": boundary}
     if not voxels:
         click.echo("aromm: note: the moisture transport is homogenised on voxel images only: k̄ and c̄ below are the "

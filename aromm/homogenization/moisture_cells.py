@@ -59,7 +59,7 @@ def moisture_transport(scene: Scene, method: str = "auto", boundary: str = "temp
         return np.stack([full[axis, axis] for axis in range(3)])
     if boundary != "temperature":
         raise InputError(f"moisture transport: boundary must be periodic, temperature or flux, got {boundary!r}")
-    return fixed_value_transport(scene, lambda probe: _direct_reactions(assemble(probe), method))
+    return fixed_value_transport(scene, lambda probe: _direct_solves(assemble(probe), method))
 
 
 def fixed_value_probe(scene: Any, axis: int) -> Any:
@@ -72,12 +72,14 @@ def fixed_value_probe(scene: Any, axis: int) -> Any:
                    moisture=replace(moisture, fixed_phi=fixed, vapour={}, flux={}, outputs=()))
 
 
-#: The steady solves of one probe: ``prepare(probe)`` (its assembly) gives ``solve(values)``, the reactions (W; λ ×
-#: kg/s for a φ set) through every fixed set of the probe at the parameter ``values``, keyed by the set's parameter.
-ReactionSolver = Callable[[Any], Callable[[dict[str, float]], Mapping[str, float]]]
+#: A steady solve of a probe at the parameter values given: its face means (°C, and φ as ``phi:<face>``) and the
+#: reactions (W; λ × kg/s for a φ set) through each of its fixed sets, keyed by the set's parameter.
+ProbeSolve = Callable[[dict[str, float]], tuple[Mapping[str, float], Mapping[str, float]]]
+#: ``prepare(probe)`` assembles a probe (Scene or VoxelProblem) and gives its :data:`ProbeSolve`.
+ProbeSolves = Callable[[Any], ProbeSolve]
 
 
-def fixed_value_transport(scene: Any, prepare: ReactionSolver) -> FloatArray:
+def fixed_value_transport(scene: Any, prepare: ProbeSolves) -> FloatArray:
     """(3, 2, 2): :func:`moisture_transport`'s fixed-value probe (module docstring) with the steady solves of
     ``prepare`` (direct here; distributed: :mod:`aromm.engines.petsc.homogenization`): the probes of
     :func:`fixed_value_probe`, the flows through the face i0 for a unit jump of T, then of φ."""
@@ -88,16 +90,17 @@ def fixed_value_transport(scene: Any, prepare: ReactionSolver) -> FloatArray:
         solve = prepare(fixed_value_probe(scene, axis))  # the scene's own discretisation and refusals
         area = float(np.prod(size)) / size[axis]
         for column, jump in enumerate(({f"{name}0.T": 1.0}, {f"{name}0.phi": 1.0})):
-            flows = solve(jump)
+            flows = solve(jump)[1]
             out[axis, :, column] = np.array([flows[f"{name}0.T"], flows[f"{name}0.phi"] / moisture.state.weight]) \
                 * size[axis] / area
     return out
 
 
-def _direct_reactions(system: ThermalSystem, method: str) -> Callable[[dict[str, float]], Mapping[str, float]]:
-    def solve(values: dict[str, float]) -> dict[str, float]:
+def _direct_solves(system: ThermalSystem, method: str) -> ProbeSolve:
+    def solve(values: dict[str, float]) -> tuple[dict[str, float], dict[str, float]]:
         field = steady_field(system, values, method=method)
-        return {d.param: reaction_heat_flow(system, field, d.dofs, values) for d in system.dirichlet}
+        return ({name: float(np.asarray(row @ field).ravel()[0]) for name, row in system.observation.items()},
+                {d.param: reaction_heat_flow(system, field, d.dofs, values) for d in system.dirichlet})
 
     return solve
 
@@ -106,22 +109,34 @@ def flux_transport(scene: Scene, method: str = "auto") -> FloatArray:
     """(3, 2, 2): per axis the effective flux matrix by the flux probe of [Chavez2020, eq. 13], for both fields: a
     unit heat flux (W/m²), then a unit water flux (kg/(m² s), :func:`aromm.physics.hygrothermal.coupled`'s
     ``moisture_flux``) enters through the face i0, (T, φ) = 0 is held on i1, the other faces are adiabatic and
-    sealed.  The mean jumps (T̄, φ̄ on i0) of the two solves are the columns of ``L F⁻¹``, so ``F = L M⁻¹``."""
+    sealed (:func:`flux_probe`).  The mean jumps (T̄, φ̄ on i0) of the two solves are the columns of ``L F⁻¹``, so
+    ``F = L M⁻¹`` (:func:`flux_probe_transport`)."""
+    return flux_probe_transport(scene, lambda probe: _direct_solves(assemble(probe), method))
+
+
+def flux_probe(scene: Any, axis: int) -> Any:
+    """The flux probe along ``axis`` of a Scene or a VoxelProblem (the same type back): a heat flux (parameter
+    ``i0.flux``) and a water flux (``i0.g``) on i0, its face means the outputs, (T, φ) = 0 held on i1, the other faces
+    adiabatic and sealed."""
     moisture = require_moisture(scene)
+    hot, cold = f"{AXES[axis]}0", f"{AXES[axis]}1"
+    area = float(np.prod(scene.size)) / scene.size[axis]
+    return replace(scene.with_boundary((FaceSpec(hot, flux=0.0), FaceSpec(cold, T=0.0)), (hot,)),
+                   moisture=replace(moisture, fixed_phi={cold: 0.0}, vapour={}, flux={hot: (0.0, area)},
+                                    outputs=(hot,)))
+
+
+def flux_probe_transport(scene: Any, prepare: ProbeSolves) -> FloatArray:
+    """(3, 2, 2): :func:`flux_transport` with the steady solves of ``prepare`` (direct here; distributed:
+    :mod:`aromm.engines.petsc.homogenization`) on the probes of :func:`flux_probe`."""
     size = scene.size
     out = np.zeros((3, 2, 2))
     for axis, name in enumerate(AXES):
-        hot, cold = f"{name}0", f"{name}1"
-        area = float(np.prod(size)) / size[axis]
-        probe = replace(scene.with_boundary((FaceSpec(hot, flux=0.0), FaceSpec(cold, T=0.0)), (hot,)),
-                        moisture=replace(moisture, fixed_phi={cold: 0.0}, vapour={}, flux={hot: (0.0, area)},
-                                         outputs=(hot,)))
-        system = assemble(probe)
+        solve = prepare(flux_probe(scene, axis))
         jumps = np.zeros((2, 2))
-        for column, load in enumerate(({f"{hot}.flux": 1.0}, {f"{hot}.g": 1.0})):
-            field = steady_field(system, load, method=method)
-            jumps[:, column] = [float(np.asarray(system.observation[o] @ field).ravel()[0])
-                                for o in (hot, PHI_PREFIX + hot)]
+        for column, load in enumerate(({f"{name}0.flux": 1.0}, {f"{name}0.g": 1.0})):
+            means = solve(load)[0]
+            jumps[:, column] = [means[f"{name}0"], means[PHI_PREFIX + f"{name}0"]]
         out[axis] = size[axis] * np.linalg.inv(jumps)
     return out
 

@@ -6,14 +6,13 @@ probes); this module supplies the distributed steady solve of one probe and the 
 counted box by box (for a voxel image the Q1 phase mass ``1ᵀ C_p 1`` is exactly the phase's volume).
 
 A ``[moisture]`` scene: its thermal probes leave the moisture out (:func:`as_problem`); :func:`moisture_transport` is
-the fixed-value probe of :func:`aromm.homogenization.moisture_cells.moisture_transport` (the same probes and
-formula, :func:`aromm.homogenization.moisture_cells.fixed_value_transport`) with distributed coupled steady solves,
-and :func:`mean_moisture_capacity` its ξ̄ by boxes.
+the fixed-value or the flux probe of :func:`aromm.homogenization.moisture_cells.moisture_transport` (the same probes
+and formulas, :func:`aromm.homogenization.moisture_cells.fixed_value_transport` and ``flux_probe_transport``) with
+distributed coupled steady solves, and :func:`mean_moisture_capacity` its ξ̄ by boxes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -25,9 +24,17 @@ from aromm.engines.petsc import linear, runtime
 from aromm.engines.petsc.assembly import assemble_boxes
 from aromm.engines.petsc.problem import VoxelProblem
 from aromm.engines.petsc.steady import steady
-from aromm.homogenization.moisture_cells import fixed_value_transport, require_moisture
+from aromm.homogenization.moisture_cells import (
+    ProbeSolve,
+    fixed_value_transport,
+    flux_probe_transport,
+    require_moisture,
+)
 from aromm.homogenization.properties import ProbeSolver
 from aromm.scene.scene_file import Scene
+
+#: The probes of the moisture transport the petsc engine solves (the periodic cell is the scipy engine's).
+MOISTURE_PROBES = ("temperature", "flux")
 
 
 def as_problem(scene: Scene | VoxelProblem) -> VoxelProblem:
@@ -58,24 +65,31 @@ def mean_capacity(problem: VoxelProblem, comm: Any = None) -> float:
     return _volume_average(problem, [float(ph.c) for ph in problem.phases if ph.c is not None], comm)
 
 
-def moisture_transport(scene: Scene | VoxelProblem, solver: str = "gamg", comm: Any = None) -> FloatArray:
+def moisture_transport(scene: Scene | VoxelProblem, boundary: str = "temperature", solver: str = "gamg",
+                       comm: Any = None) -> FloatArray:
     """(3, 2, 2): per axis the effective heat and moisture flux matrix (W/m², kg/(m² s)) of a ``[moisture]`` scene by
-    the fixed-value probe, as ``moisture_transport(scene, boundary="temperature")`` of
-    :mod:`aromm.homogenization.moisture_cells`, each coupled steady solve by boxes (collective)."""
+    the fixed-value probe (``temperature``) or the flux probe (``flux``), as ``moisture_transport(scene, boundary)`` of
+    :mod:`aromm.homogenization.moisture_cells` (the same probes and formulas), each coupled steady solve by boxes
+    (collective)."""
+    if boundary not in MOISTURE_PROBES:
+        raise InputError(f"{getattr(scene, 'where', '')}moisture transport: the petsc engine homogenises it by the "
+                         f"probes {' or '.join(MOISTURE_PROBES)}, got {boundary!r} (the periodic cell: --engine scipy)")
     solver = linear.check_solver(solver)
     comm = comm if comm is not None else runtime.world()
     problem = scene if isinstance(scene, VoxelProblem) else VoxelProblem.from_scene(scene)
 
-    def prepare(probe: VoxelProblem) -> Callable[[dict[str, float]], dict[str, float]]:
+    def prepare(probe: VoxelProblem) -> ProbeSolve:
         system = assemble_boxes(probe, comm)
         param = {d.name: d.param for d in system.template.dirichlet}
 
-        def solve(values: dict[str, float]) -> dict[str, float]:
-            return {param[name]: flow for name, flow in steady(system, values, solver=solver).heat_flow.items()}
+        def solve(values: dict[str, float]) -> tuple[dict[str, float], dict[str, float]]:
+            state = steady(system, values, solver=solver)
+            return state.means, {param[name]: flow for name, flow in state.heat_flow.items()}
 
         return solve
 
-    return fixed_value_transport(problem, prepare)
+    transport = fixed_value_transport if boundary == "temperature" else flux_probe_transport
+    return transport(problem, prepare)
 
 
 def mean_moisture_capacity(problem: VoxelProblem, comm: Any = None) -> float:
