@@ -41,10 +41,14 @@ class _Level:
 
 
 class BlockMultigrid:
-    """``T(B) ≈ A⁻¹ B`` for a sparse SPD ``A`` and a block ``B`` (n,) or (n, m); one V-cycle per call."""
+    """``T(B) ≈ A⁻¹ B`` for a sparse SPD ``A`` and a block ``B`` (n,) or (n, m); one V-cycle per call.
+
+    ``near_null`` (n × k) and ``blocksize``: the aggregation's candidate vectors and the unknowns per node (stored node
+    by node) of a system of several fields, pyamg's ``B`` and BSR block size (default: the constant, scalar nodes);
+    benchmarks/coupled_solvers.py measures them on the coupled heat–moisture operator."""
 
     def __init__(self, a: sp.sparray | sp.spmatrix, *, degree: int = 2, cycles: int = 1,
-                 rng: np.random.Generator) -> None:
+                 rng: np.random.Generator, near_null: FloatArray | None = None, blocksize: int = 1) -> None:
         import pyamg  # type: ignore[import-untyped]
 
         a = sp.csr_array(a)
@@ -53,7 +57,8 @@ class BlockMultigrid:
         else:
             # 'local' Jacobi weighting of the prolongation smoother: pyamg's default estimates a spectral radius
             # from a random vector of numpy's global generator (not reproducible)
-            ml = pyamg.smoothed_aggregation_solver(sp.csr_matrix(a), symmetry="symmetric", max_coarse=COARSEST,
+            fine = sp.csr_matrix(a) if blocksize == 1 else sp.bsr_matrix(a, blocksize=(blocksize, blocksize))
+            ml = pyamg.smoothed_aggregation_solver(fine, B=near_null, symmetry="symmetric", max_coarse=COARSEST,
                                                    smooth=("jacobi", {"weighting": "local"}))
             self.levels = []
             for lev in ml.levels:
