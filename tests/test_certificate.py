@@ -221,9 +221,57 @@ def test_the_greedys_last_bounds_of_the_span_are_the_ones_certify_would_compute(
         known, training = seen["finer_bounds"], seen["training"]
         assert isinstance(known, list) and isinstance(training, list) and rom.finer is not None
         assert len(known) == len(training)
+        assert any(b is not None for b in known)
         for mu, bound in zip(training, known, strict=True):
-            np.testing.assert_allclose(bound, rom.finer.error_bound(mu), rtol=1e-12)
+            if bound is not None:  # the points the greedy's last (lazy) call evaluated
+                np.testing.assert_allclose(bound, rom.finer.error_bound(mu), rtol=1e-12)
         np.testing.assert_allclose(rom.info["error_bound"], worst_bound(rom, training), rtol=1e-12)
+
+
+def test_the_greedys_bound_is_evaluated_lazily_and_fully_before_it_stops(monkeypatch: pytest.MonkeyPatch) -> None:
+    """aromm.reduction.certified.SpanBound: the first call evaluates every training point; a later one goes in
+    decreasing order of the previous bounds and stops at a point above half the tolerance whose bound is at least every
+    remaining previous one (the others keep their previous bounds); a call where no point is above evaluates them all
+    (the greedy may stop only then).  The bound itself is replaced by a table here: only the order is tested."""
+    from aromm.reduction import certified
+    from aromm.reduction.krylov import KrylovReductor
+    from aromm.reduction.scipy_engine import ScipyEngine
+
+    system = lift(body([FaceSpec("z0", flux=500.0), FaceSpec("z1", h=20.0)]), {"fibre.k": 0.3, "fibre.c": 4e6},
+                  "splu")
+    reductor = KrylovReductor.over(BOX, tolerance=1.0)  # half: 0.5
+    box = tuple((name, lo, hi) for name, (lo, hi) in BOX.items())
+    span = certified.SpanBound(ScipyEngine(system, "splu"), system, reductor, box)
+    monkeypatch.setattr(span.ledger, "extend", lambda basis: None)
+    monkeypatch.setattr(span.ledger, "certificate", lambda coefficients=None: None)
+    n = len(span.training)
+    table: dict[int, float] = {}
+    asked: list[int] = []
+
+    def fake(model: object, cert: object, mu: dict[str, float]) -> np.ndarray:
+        i = next(j for j, p in enumerate(span.training) if p == mu)
+        asked.append(i)
+        return np.array([table[i]])
+
+    monkeypatch.setattr(certified, "error_bound", fake)
+    basis = np.zeros((system.n, 3))
+    table.update({i: 1.0 + i for i in range(n)})  # all above 0.5; the last point the largest
+    first = span(basis, None)  # type: ignore[arg-type]
+    assert sorted(asked) == list(range(n)) and np.array_equal(first, [1.0 + i for i in range(n)])
+    asked.clear()
+    table[n - 1] = n - 0.5  # the largest falls a little: still ≥ every other previous bound (≤ n − 1)
+    second = span(basis, None)  # type: ignore[arg-type]
+    assert asked == [n - 1], asked  # one evaluation
+    assert second[n - 1] == n - 0.5 and np.array_equal(second[:-1], first[:-1])
+    asked.clear()
+    table.update({n - 1: 0.1, n - 2: 0.2})  # the two largest fall below; the third (n − 2) ≥ the rest's previous
+    span(basis, None)  # type: ignore[arg-type]
+    assert asked == [n - 1, n - 2, n - 3], asked
+    asked.clear()
+    table.update({i: 0.4 for i in range(n)})  # none above: all evaluated, and handed to certified() once compressed
+    final = span(basis, None)  # type: ignore[arg-type]
+    assert sorted(asked) == list(range(n)) and np.all(final == 0.4)
+    assert span.evaluations == 2 * n + 4
 
 
 def test_the_gram_matrices_of_iterative_solves_are_corrected_by_their_residuals() -> None:

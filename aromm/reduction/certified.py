@@ -83,10 +83,10 @@ def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel
               certify: bool | None, reference: Mapping[str, float], training: Sequence[Mapping[str, float]],
               rtol: float, tolerance: float | None = None, certificate: Certificate | None = None,
               after_below: int | None = None, finer: ReducedModel | None = None,
-              finer_bounds: Sequence[FloatArray] | None = None) -> tuple[ReducedModel, Info]:
+              finer_bounds: Sequence[FloatArray | None] | None = None) -> tuple[ReducedModel, Info]:
     """``rom`` (Galerkin on the basis ``psi`` of the lifted ``system``) with its certificate at the reference values
     (and the ``finer`` certified model it was compressed from, which tightens its bound; ``finer_bounds``: that
-    model's bounds at the ``training`` points when the greedy has them, :attr:`SpanBound.finer_bounds`),
+    model's bounds at the ``training`` points where the greedy has them, else None: :attr:`SpanBound.finer_bounds`),
     and what its info records: the worst bound over ``training`` (``error_bound``, °C), the CPU seconds, and
     ``converged = 0`` when that bound exceeds ``tolerance`` (issue 35, item 4); without one when :func:`wanted` says
     no (``certificate`` then says why).  A ``certificate`` given (a Krylov build's, formed from its span's Gram
@@ -108,9 +108,9 @@ def certified(engine: CertifyingEngine, system: ThermalSystem, rom: ReducedModel
 
 
 def worst_bound(rom: ReducedModel, points: Sequence[Mapping[str, float]],
-                finer_bounds: Sequence[FloatArray] | None = None) -> float:
+                finer_bounds: Sequence[FloatArray | None] | None = None) -> float:
     """The largest certified bound (°C) of a certified ``rom`` over outputs and ``points`` (``finer_bounds``: its
-    finer model's bounds there, when known)."""
+    finer model's bounds there, None where not known)."""
     known = finer_bounds if finer_bounds is not None else [None] * len(points)
     bounds = [rom.error_bound(mu, finer_bound=b) for mu, b in zip(points, known, strict=True)]
     return max(float(np.max(b)) for b in bounds if b is not None)
@@ -146,9 +146,9 @@ class SpanBound:
     """The greedy's certified bound (:class:`aromm.reduction.krylov.Bound`) over the training set, from Gram matrices
     kept along the growing span (:class:`~aromm.reduction.certificate_gram.GramLedger`); ``final`` is the compressed
     model's certificate once :meth:`compressed` has been told its coefficients, ``finer`` the span's model it was
-    compressed from and ``finer_bounds`` that model's bounds (°C, per output) at the training points when the greedy's
-    last evaluation was of the final span (:func:`certified` then does not evaluate them again: they cost as much as
-    the greedy's last step)."""
+    compressed from and ``finer_bounds`` that model's bounds (°C, per output) at the training points the greedy's last
+    call evaluated when it was of the final span (None at the others; :func:`certified` does not evaluate them again:
+    they cost as much as the greedy's last step).  ``evaluations`` counts the bound's evaluations over the greedy."""
 
     def __init__(self, engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
                  box: Box) -> None:
@@ -157,20 +157,37 @@ class SpanBound:
         self.ledger = GramLedger(engine, system, centre(box), reductor.rtol)
         self.final: Certificate | None = None
         self.finer: ReducedModel | None = None
-        self.finer_bounds: list[FloatArray] | None = None
-        self._last: tuple[int, list[FloatArray]] | None = None  # (span width, bounds) of the last evaluation
+        self.finer_bounds: list[FloatArray | None] | None = None
+        self._last: tuple[int, list[FloatArray | None]] | None = None  # (span width, bounds) of the last call
+        self._previous = np.full(len(self.training), np.inf)  # each point's latest bound (inf: none yet)
+        self.evaluations = 0  # bound evaluations over the greedy
 
     def _too_large(self, columns: int) -> bool:
         return wanted(self.system, self.reductor.certify, width(self.engine, self.system, columns)) is not None
 
     def __call__(self, basis: FloatArray, model: ReducedModel) -> FloatArray:
+        """The bound at every training point, evaluated lazily: in decreasing order of the previous span's bounds,
+        stopping at a point above the tolerance's half whose bound is at least every remaining point's previous one
+        (the others keep those: upper estimates where the bound decreases as the span grows, the lazy greedy of
+        [Minoux1978]); all of them when none is above (the greedy then stops: every point is certified)."""
         if self._too_large(basis.shape[1]):
             return np.zeros(len(self.training))  # too large to certify: the estimate decides, as without a bound
         self.ledger.extend(basis)
         cert = self.ledger.certificate()
-        bounds = [error_bound(model, cert, mu) for mu in self.training]
+        limit = self.reductor.tolerance / 2
+        out = self._previous.copy()
+        bounds: list[FloatArray | None] = [None] * len(self.training)
+        order = np.argsort(-out, kind="stable")
+        for rank, i in enumerate(order):
+            bounds[i] = error_bound(model, cert, self.training[i])
+            out[i] = float(np.max(bounds[i]))
+            later = out[order[rank + 1:]]
+            if out[i] > limit and (later.size == 0 or out[i] >= later.max()):
+                break
+        self.evaluations += sum(b is not None for b in bounds)
         self._last = (basis.shape[1], bounds)
-        return np.array([float(np.max(b)) for b in bounds])
+        self._previous = out
+        return out
 
     def compressed(self, basis: FloatArray, model: ReducedModel, coefficients: FloatArray) -> None:
         if not self._too_large(basis.shape[1]):
