@@ -19,11 +19,11 @@ beside the truth's rounding there (:func:`aromm.full.exact.rounding`), the greed
     OMP_NUM_THREADS=1 python benchmarks/training_box_cost.py              # default ten-axis box (≈ 400 CPU s)
     OMP_NUM_THREADS=1 python benchmarks/training_box_cost.py --bounds     # the two-axis box
 
-Measured at c1663b5 (record benchmarks/records/training_box_cost_c1663b5.txt, load 0.8–3.2): the ten-axis box 252.3
-CPU s, 157.3 of them the greedy's bound (149.2 its 260 evaluations), tolerance missed at 10 points (bound 1.9e-3);
-the two-axis box 144.1 CPU s, 105.8 the bound, tolerance met (bound 9.7e-6).  At 3343793 (record
-benchmarks/records/training_box_cost_3343793.txt and, run beside the 144.1 one, the c1663b5 record): 423.5 and 237.4
-CPU s (the Gram matrices not contiguous, the last bounds evaluated twice).
+Measured at f3426bf (record benchmarks/records/training_box_cost_f3426bf.txt, load 0.6–1.9): the ten-axis box 183.9
+CPU s (68 bound evaluations in the greedy), tolerance missed at 10 points (bound 1.9e-3); the two-axis box 112.2 CPU s
+(103 evaluations), tolerance met (bound 9.7e-6), against 143.6 CPU s (175) for the code before the lazy evaluation
+run beside it.  Earlier records: c1663b5 (252.3 / 144.1 CPU s), 3343793 (423.5 / 237.4: the Gram matrices not
+contiguous, the last bounds evaluated twice).
 
 Record: benchmarks/records/training_box_cost_<commit>.txt.
 """

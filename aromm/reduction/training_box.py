@@ -25,11 +25,11 @@ DEFAULT_FACTOR = 10.0
 #: Most points of the default training set (:func:`training_set`): 2⁶ = 64 corners of a six-axis box, the tensor
 #: grid's largest.  A coupled heat–moisture scene's default box has ten axes (k, c, ξ, D_φ, δ_p of two phases): on a
 #: 6×5×4 image (tests/petsc_moisture_krylov_cases.py's scene, scipy engine, defaults) its build over 65 points took
-#: 252.3 CPU s, 149.2 of them the greedy's bound evaluations at 0.57 s per point and step, and missed its tolerance
-#: at 10 greedy points; over that module's two-axis box 144.1 CPU s, met (``python benchmarks/training_box_cost.py
-#: [--bounds]``, one BLAS thread, load 0.8–3.2, record benchmarks/records/training_box_cost_c1663b5.txt; 423.5 and
-#: 237.4 CPU s before the certificate's Gram matrices were kept contiguous and certified() took the greedy's last
-#: bounds).  Its 1,024 corners would multiply the evaluations by 1,024/65 ≈ 16 (not measured).
+#: 183.9 CPU s and missed its tolerance at 10 greedy points; over that module's two-axis box 112.2 CPU s, met
+#: (``python benchmarks/training_box_cost.py [--bounds]``, one BLAS thread, load 0.6–1.9, record
+#: benchmarks/records/training_box_cost_f3426bf.txt; 423.5 and 237.4 CPU s at 3343793, before the certificate's Gram
+#: matrices were kept contiguous and the greedy's bound was evaluated lazily).  Its 1,024 corners would multiply the
+#: greedy's evaluations by about 16 (not measured).
 TRAINING_POINTS = 64  # a power of 2: the Sobol sequence's balance
 #: Most axes of the default tensor grid (2 points per axis: 2⁶ = :data:`TRAINING_POINTS`).
 GRID_AXES = 6
