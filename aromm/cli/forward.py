@@ -208,7 +208,9 @@ def simulate_cmd(*, scene: Path, model: str, order: int | None, out: Path | None
 @JSON
 def homogenize_cmd(scene: Path, *, boundary: str | None, solver: str, rtol: float, ktol: float | None, engine: str,
                    refine: int, as_json: bool) -> None:
-    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material.
+    """Effective conductivity tensor (W/(m K)) and mean capacity (J/(m³ K)) of SCENE's material; with a [moisture]
+    section also the effective heat and moisture transport (a 2 × 2 flux matrix per axis) and the mean moisture
+    capacity ξ̄ (kg/m³), by the same boundary (periodic: scipy engine, q1).
 
     Solvers: mg (geometric multigrid CG, matrix-free, ~200 B/voxel; the default above 20³ voxels), cholmod and
     splu (direct), amg (pyamg + CG); with the petsc engine gamg or mumps.
