@@ -148,7 +148,7 @@ class SpanBound:
     model's certificate once :meth:`compressed` has been told its coefficients, ``finer`` the span's model it was
     compressed from and ``finer_bounds`` that model's bounds (°C, per output) at the training points the greedy's last
     call evaluated when it was of the final span (None at the others; :func:`certified` does not evaluate them again:
-    they cost as much as the greedy's last step).  ``evaluations`` counts the bound's evaluations over the greedy."""
+    they cost as much as the greedy's last step)."""
 
     def __init__(self, engine: CertifyingEngine, system: ThermalSystem, reductor: krylov.KrylovReductor,
                  box: Box) -> None:
@@ -160,7 +160,6 @@ class SpanBound:
         self.finer_bounds: list[FloatArray | None] | None = None
         self._last: tuple[int, list[FloatArray | None]] | None = None  # (span width, bounds) of the last call
         self._previous = np.full(len(self.training), np.inf)  # each point's latest bound (inf: none yet)
-        self.evaluations = 0  # bound evaluations over the greedy
 
     def _too_large(self, columns: int) -> bool:
         return wanted(self.system, self.reductor.certify, width(self.engine, self.system, columns)) is not None
@@ -184,7 +183,6 @@ class SpanBound:
             later = out[order[rank + 1:]]
             if out[i] > limit and (later.size == 0 or out[i] >= later.max()):
                 break
-        self.evaluations += sum(b is not None for b in bounds)
         self._last = (basis.shape[1], bounds)
         self._previous = out
         return out

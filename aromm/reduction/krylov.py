@@ -291,7 +291,8 @@ def build_span(engine: ReductionEngine, reductor: KrylovReductor, box: Box, time
     """Greedy rational-Krylov span over the box (module docstring, steps 1–3).  With ``bound`` (the certified
     output error bound of a span's model at every training point, °C, :mod:`aromm.reduction.certificate`), a span
     whose estimate meets the tolerance is kept only when its bound is below half of it (the other half is the
-    compression's); else the next point is where the bound is largest."""
+    compression's); else the next point is where the bound is largest (as the bound finds it, lazily:
+    :class:`aromm.reduction.certified.SpanBound`)."""
     say_default(reductor.bounds, box)
     training = training_set(box, reductor.per_axis)
     reference = centre(box)
