@@ -31,8 +31,8 @@ DEFAULT_FACTOR = 10.0
 #: matrices were kept contiguous and the greedy's bound was evaluated lazily).  Its 1,024 corners would multiply the
 #: greedy's evaluations by about 16 (not measured).
 TRAINING_POINTS = 64  # a power of 2: the Sobol sequence's balance
-#: Most axes of the default tensor grid (2 points per axis: 2⁶ = :data:`TRAINING_POINTS`).
-GRID_AXES = 6
+#: Most axes of the default tensor grid (2 points per axis, at most :data:`TRAINING_POINTS`): 6.
+GRID_AXES = TRAINING_POINTS.bit_length() - 1
 
 
 def material_box(system: ThermalSystem, bounds: Box) -> Box:
@@ -61,15 +61,15 @@ def say_default(bounds: Box, box: Box) -> None:
 
 def training_set(box: Box, per_axis: int = 0) -> list[dict[str, float]]:
     """Tensor grid log-spaced along every axis of the box (``per_axis`` 0: by the number of axes); left to itself
-    (``per_axis`` 0) a box whose grid would exceed :data:`TRAINING_POINTS` (seven axes and more) gets that many points
-    of the unscrambled Sobol sequence instead, log-spaced (its first point is the lower corner), and the upper corner
-    [Sobol1967].
+    (``per_axis`` 0) a box of more than :data:`GRID_AXES` axes, whose corners alone would exceed
+    :data:`TRAINING_POINTS`, gets that many points of the unscrambled Sobol sequence instead, log-spaced (its first
+    point is the lower corner), and the upper corner [Sobol1967].
 
-    >>> len(training_set(tuple((f"p{i}.k", 0.1, 10.0) for i in range(10))))  # 2¹⁰ corners otherwise
-    65
+    >>> [len(training_set(tuple((f"p{i}.k", 0.1, 10.0) for i in range(d)))) for d in (2, 4, 6, 10)]  # 2¹⁰ corners
+    [25, 81, 64, 65]
     """
     count = per_axis or (5 if len(box) <= 2 else 3 if len(box) <= 4 else 2)
-    if per_axis == 0 and count ** len(box) > TRAINING_POINTS:
+    if per_axis == 0 and len(box) > GRID_AXES:
         from scipy.stats import qmc
 
         sobol = qmc.Sobol(len(box), scramble=False).random_base2(int(np.log2(TRAINING_POINTS)))
